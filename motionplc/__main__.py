@@ -1,0 +1,3 @@
+from motionplc.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,1 @@
+"""motionplc.blocks — see the project issues; filled in by later work."""

@@ -1,0 +1,1 @@
+"""motionplc.fieldbus — see the project issues; filled in by later work."""

@@ -1,0 +1,25 @@
+"""Planning core: time-optimal jerk-limited trajectories.
+
+Public API::
+
+    from motionplc.planning import State, Limits, Profile, plan, plan_velocity, PlanningError
+"""
+
+from motionplc.errors import PlanningError
+from motionplc.planning.limits import Limits
+from motionplc.planning.plan import plan, plan_velocity
+from motionplc.planning.profile import Knot, Profile, Sample, Samples, Segment
+from motionplc.planning.state import State
+
+__all__ = [
+    "Knot",
+    "Limits",
+    "PlanningError",
+    "Profile",
+    "Sample",
+    "Samples",
+    "Segment",
+    "State",
+    "plan",
+    "plan_velocity",
+]

@@ -1,0 +1,346 @@
+"""Time-optimal third-order (jerk-limited) position profiles from a state inside the limits.
+
+Structure (see seeds 003/004 and Berscheid & Kroeger 2021): a time-optimal profile is
+bang-zero-bang in jerk with at most seven phases. Its acceleration is a zig-zag of three
+ramps of slope +-J, either "up" (a0 -> P -> Q -> af with P >= Q, shape U D U, jerk
++J, -J, +J) or "down" (the mirror image). Plateaus of zero jerk sit at the corners only where
+the corner is an acceleration limit (P = a_max with duration h1, Q = a_min with duration h2),
+and a cruise of zero acceleration sits inside the middle ramp only where the velocity is at
+its limit (v = v_max for "up").
+
+Which limits are active gives the families solved here for the "up" shape (the "down" shape
+is the same code on the mirrored problem p -> -p):
+
+* VEL: cruise at v_max. The halves (v0, a0) -> (v_max, 0) and (v_max, 0) -> (vf, af) are
+  independent velocity changes in closed form; the cruise time follows from the distance.
+* NONE: P and Q free. With u = P - Q the velocity equation gives P + Q = K / (2u) and the
+  position equation a depressed quartic in u.
+* ACC0: P = a_max, plateau h1 >= 0, Q free: a quartic in Q.
+* ACC1: Q = a_min, plateau h2 >= 0, P free: a quartic in P.
+* ACC0_ACC1: both plateaus: a quadratic in h2.
+
+The polynomials were derived symbolically from the phase equations (the derivation is in
+``tools/derive_third_order.py``). Every root in the family's admissible interval is turned
+into phases, and every candidate is verified by integrating its phases: it must end at the
+target and stay within the limits. The fastest verified candidate wins.
+"""
+
+from __future__ import annotations
+
+import math
+
+from motionplc.planning.roots import quadratic_roots, quartic_roots_in
+
+# A candidate is (duration, phases) with phases a list of (duration, jerk).
+Phases = list[tuple[float, float]]
+
+_T_TOL = 1e-12  # relative tolerance on a negative phase duration from rounding
+_P_TOL = 1e-8
+_V_TOL = 1e-8
+_A_TOL = 1e-10
+_LIM_TOL = 1e-9
+
+
+def _verify(
+    phases: Phases,
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+) -> tuple[float, Phases] | None:
+    """Integrate the phases; return (duration, cleaned phases) when they reach the target
+    within tolerance and respect the limits, else None."""
+    total = 0.0
+    for dur, _ in phases:
+        total += abs(dur)
+    ttol = _T_TOL * max(1.0, total)
+    p = 0.0
+    v = v0
+    a = a0
+    t = 0.0
+    vhi = vmax + _LIM_TOL * max(1.0, abs(vmax)) if vmax != math.inf else math.inf
+    vlo = vmin - _LIM_TOL * max(1.0, abs(vmin)) if vmin != -math.inf else -math.inf
+    ahi = amax + _LIM_TOL * max(1.0, abs(amax)) if amax != math.inf else math.inf
+    alo = amin - _LIM_TOL * max(1.0, abs(amin)) if amin != -math.inf else -math.inf
+    out: Phases = []
+    for dur, j in phases:
+        if dur <= 0.0:
+            if dur < -ttol:
+                return None
+            continue
+        if j != 0.0:
+            tz = -a / j
+            if 0.0 < tz < dur:
+                vz = v + tz * (a + 0.5 * tz * j)
+                if vz > vhi or vz < vlo:
+                    return None
+        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+        v += dur * (a + 0.5 * dur * j)
+        a += dur * j
+        t += dur
+        if v > vhi or v < vlo or a > ahi or a < alo:
+            return None
+        out.append((dur, j))
+    scale = max(1.0, abs(d))
+    if abs(p - d) > _P_TOL * scale or abs(v - vf) > _V_TOL * max(1.0, abs(vf)):
+        return None
+    if abs(a - af) > _A_TOL * max(1.0, abs(af)):
+        return None
+    return t, out
+
+
+def _up_phases(
+    a0: float, af: float, P: float, h1: float, Q: float, h2: float, cruise: float, J: float
+) -> Phases:
+    if cruise > 0.0:
+        mid: Phases = [(P / J, -J), (cruise, 0.0), (-Q / J, -J)]
+    else:
+        mid = [((P - Q) / J, -J)]
+    return [((P - a0) / J, J), (h1, 0.0), *mid, (h2, 0.0), ((af - Q) / J, J)]
+
+
+def _half_up(v0: float, a0: float, v1: float, amax: float, J: float) -> tuple[float, float] | None:
+    """Velocity change (v0, a0) -> (v1, 0) with shape up-down: peak P >= max(a0, 0), plateau h."""
+    dv = v1 - v0
+    rad = J * dv + 0.5 * a0 * a0
+    if rad < 0.0:
+        return None
+    P = math.sqrt(rad)
+    if P < a0 - 1e-12 * max(1.0, abs(a0)):
+        return None
+    P = max(P, a0)
+    if P <= amax:
+        return P, 0.0
+    h = (dv - (2.0 * amax * amax - a0 * a0) / (2.0 * J)) / amax
+    return amax, max(h, 0.0)
+
+
+def _half_down_from(
+    v1: float, vf: float, af: float, amin: float, J: float
+) -> tuple[float, float] | None:
+    """Velocity change (v1, 0) -> (vf, af) with shape down-up: trough Q <= min(0, af)."""
+    dv = vf - v1
+    rad = 0.5 * af * af - J * dv
+    if rad < 0.0:
+        return None
+    Q = -math.sqrt(rad)
+    if Q > af + 1e-12 * max(1.0, abs(af)):
+        return None
+    Q = min(Q, af)
+    if Q >= amin:
+        return Q, 0.0
+    h = (dv - (af * af - 2.0 * amin * amin) / (2.0 * J)) / amin
+    return amin, max(h, 0.0)
+
+
+def _ramp_distance(v: float, a: float, phases: Phases) -> tuple[float, float, float]:
+    p = 0.0
+    for dur, j in phases:
+        if dur <= 0.0:
+            continue
+        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+        v += dur * (a + 0.5 * dur * j)
+        a += dur * j
+    return p, v, a
+
+
+def candidates_up(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    out: list[tuple[float, Phases, str]],
+) -> None:
+    """Append every verified "up"-shaped candidate (duration, phases, family) to ``out``."""
+    verify = _verify
+    # ---- VEL: cruise at v_max ------------------------------------------------------------
+    if vmax != math.inf:
+        h1r = _half_up(v0, a0, vmax, amax, J)
+        if h1r is not None:
+            h2r = _half_down_from(vmax, vf, af, amin, J)
+            if h2r is not None:
+                P, h1 = h1r
+                Q, h2 = h2r
+                first = [((P - a0) / J, J), (h1, 0.0), (P / J, -J)]
+                last = [(-Q / J, -J), (h2, 0.0), ((af - Q) / J, J)]
+                d1, _, _ = _ramp_distance(v0, a0, first)
+                d2, _, _ = _ramp_distance(vmax, 0.0, last)
+                cruise = (d - d1 - d2) / vmax
+                if cruise >= -_T_TOL * max(1.0, abs(d / vmax)):
+                    ph = [*first, (max(cruise, 0.0), 0.0), *last]
+                    r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+                    if r is not None:
+                        out.append((r[0], r[1], "vel"))
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
+    # ---- NONE: quartic in u = P - Q --------------------------------------------------------
+    B = 2.0 * J * (v0 + vf) - a0 * a0 - af * af
+    C = -(4.0 / 3.0) * (
+        3.0 * J * J * d + 3.0 * J * (a0 * v0 - af * vf) - a0 * a0 * a0 + af * af * af
+    )
+    u_hi = amax - amin if amax != math.inf else math.inf
+    for u in quartic_roots_in(0.0, 2.0 * B, C, -0.25 * K * K, 0.0, u_hi):
+        if u <= 0.0:
+            continue
+        w = K / (2.0 * u)
+        P = 0.5 * (w + u)
+        Q = 0.5 * (w - u)
+        ph = _up_phases(a0, af, P, 0.0, Q, 0.0, 0.0, J)
+        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None:
+            out.append((r[0], r[1], "none"))
+    if amax == math.inf:
+        return
+    A2 = amax * amax
+    N2 = amin * amin
+    JJ = J * J
+    # ---- ACC0: P = amax, h1 >= 0, quartic in Q --------------------------------------------
+    t2 = 2.0 * J * vf - af * af
+    c0 = (
+        -(
+            24.0 * JJ * amax * d
+            + 12.0 * JJ * (v0 * v0 - vf * vf)
+            - 12.0 * J * a0 * a0 * v0
+            + 24.0 * J * a0 * amax * v0
+            - 12.0 * J * A2 * (v0 + vf)
+            - 24.0 * J * amax * af * vf
+            + 12.0 * J * af * af * vf
+            + 3.0 * a0**4
+            - 8.0 * a0**3 * amax
+            + 6.0 * a0 * a0 * A2
+            + 6.0 * A2 * af * af
+            + 8.0 * amax * af**3
+            - 3.0 * af**4
+        )
+        / 12.0
+    )
+    for Q in quartic_roots_in(-2.0 * amax, t2 + A2, -2.0 * amax * t2, c0, amin, min(af, amax)):
+        h1 = (K - 2.0 * A2 + 2.0 * Q * Q) / (2.0 * J * amax)
+        if h1 < -_T_TOL:
+            continue
+        ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, 0.0, J)
+        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None:
+            out.append((r[0], r[1], "acc0"))
+    # ---- ACC1: Q = amin, h2 >= 0, quartic in P --------------------------------------------
+    s2 = 2.0 * J * v0 - a0 * a0
+    c0 = (
+        24.0 * JJ * amin * d
+        + 12.0 * JJ * (v0 * v0 - vf * vf)
+        - 12.0 * J * a0 * a0 * v0
+        + 24.0 * J * a0 * amin * v0
+        + 12.0 * J * N2 * (v0 + vf)
+        - 24.0 * J * amin * af * vf
+        + 12.0 * J * af * af * vf
+        + 3.0 * a0**4
+        - 8.0 * a0**3 * amin
+        - 6.0 * a0 * a0 * N2
+        - 6.0 * N2 * af * af
+        + 8.0 * amin * af**3
+        - 3.0 * af**4
+    ) / 12.0
+    for P in quartic_roots_in(-2.0 * amin, s2 + N2, -2.0 * amin * s2, c0, max(a0, amin), amax):
+        h2 = (K - 2.0 * P * P + 2.0 * N2) / (2.0 * J * amin)
+        if h2 < -_T_TOL:
+            continue
+        ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), 0.0, J)
+        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None:
+            out.append((r[0], r[1], "acc1"))
+    # ---- ACC0_ACC1: both plateaus, quadratic in h2 ----------------------------------------
+    denom = 12.0 * JJ * amin * (amax - amin)
+    b = -(2.0 * J * vf - amax * amin + 2.0 * N2 - af * af) / (J * amin)
+    c = (
+        24.0 * JJ * amax * d
+        + 12.0 * JJ * (v0 * v0 - vf * vf)
+        - 12.0 * J * a0 * a0 * v0
+        + 24.0 * J * a0 * amax * v0
+        - 12.0 * J * A2 * (v0 + vf)
+        + 48.0 * J * amax * amin * vf
+        - 24.0 * J * amax * af * vf
+        - 24.0 * J * N2 * vf
+        + 12.0 * J * af * af * vf
+        + 3.0 * a0**4
+        - 8.0 * a0**3 * amax
+        + 6.0 * a0 * a0 * A2
+        - 12.0 * A2 * N2
+        + 6.0 * A2 * af * af
+        + 24.0 * amax * amin**3
+        - 24.0 * amax * amin * af * af
+        + 8.0 * amax * af**3
+        - 12.0 * N2 * N2
+        + 12.0 * N2 * af * af
+        - 3.0 * af**4
+    ) / denom
+    for h2 in quadratic_roots(1.0, b, c):
+        if h2 < -_T_TOL:
+            continue
+        h2 = max(h2, 0.0)
+        h1 = (K - 2.0 * A2 + 2.0 * N2 - 2.0 * J * amin * h2) / (2.0 * J * amax)
+        if h1 < -_T_TOL:
+            continue
+        ph = _up_phases(a0, af, amax, max(h1, 0.0), amin, h2, 0.0, J)
+        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None:
+            out.append((r[0], r[1], "acc0_acc1"))
+
+
+def single_ramp(
+    v0: float, a0: float, d: float, vf: float, af: float, J: float
+) -> tuple[float, Phases, str] | None:
+    """The target lies on one constant-jerk ramp (or is the start itself)."""
+    if af == a0:
+        j = 0.0
+        if a0 == 0.0:
+            if v0 == 0.0:
+                return (0.0, [], "hold") if d == 0.0 else None
+            t = d / v0
+        else:
+            t = (vf - v0) / a0
+    else:
+        j = J if af > a0 else -J
+        t = (af - a0) / j
+    if t < 0.0 or not math.isfinite(t):
+        return None
+    p = t * (v0 + t * (0.5 * a0 + t * j / 6.0))
+    v = v0 + t * (a0 + 0.5 * t * j)
+    if abs(p - d) <= _P_TOL * max(1.0, abs(d)) * 0.01 and abs(v - vf) <= _V_TOL * 0.01:
+        return (t, [(t, j)] if t > 0.0 else [], "ramp")
+    return None
+
+
+def time_optimal(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+) -> tuple[float, Phases, str] | None:
+    """Fastest verified profile over both shapes, or None if no family yields one."""
+    cands: list[tuple[float, Phases, str]] = []
+    sr = single_ramp(v0, a0, d, vf, af, J)
+    if sr is not None:
+        cands.append(sr)
+    candidates_up(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, cands)
+    down: list[tuple[float, Phases, str]] = []
+    candidates_up(-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, down)
+    for t, ph, fam in down:
+        cands.append((t, [(dur, -j) for dur, j in ph], fam + "-down"))
+    if not cands:
+        return None
+    return min(cands, key=lambda c: c[0])

@@ -1,0 +1,172 @@
+"""Public single-axis planning functions: :func:`plan` and :func:`plan_velocity`."""
+
+from __future__ import annotations
+
+import math
+
+from motionplc.errors import PlanningError
+from motionplc.planning import _brake, _lower, _third, _velocity
+from motionplc.planning.limits import Limits
+from motionplc.planning.profile import Profile
+from motionplc.planning.state import State
+
+_INF = math.inf
+
+
+def _finite(name: str, value: object) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise PlanningError(f"{name} must be a finite number, got {value!r}")
+    x = float(value)
+    if not math.isfinite(x):
+        raise PlanningError(f"{name} must be a finite number, got {x!r}")
+    return x
+
+
+def _check_state(name: str, s: object) -> tuple[float, float, float]:
+    if not isinstance(s, State):
+        raise PlanningError(f"{name} must be a State(p, v, a), got {type(s).__name__}")
+    return _finite(f"{name}.p", s.p), _finite(f"{name}.v", s.v), _finite(f"{name}.a", s.a)
+
+
+def _check_limits(limits: object) -> Limits:
+    if not isinstance(limits, Limits):
+        raise PlanningError(f"limits must be a Limits(...), got {type(limits).__name__}")
+    return limits
+
+
+def _check_target_va(
+    vf: float, af: float, lim: Limits, *, check_v: bool = True, name: str = "target"
+) -> None:
+    vmax, vmin = lim.v_max, lim.v_min
+    amax, amin = lim.a_max, lim.a_min
+    if check_v and not vmin <= vf <= vmax:  # type: ignore[operator]
+        raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
+    if not amin <= af <= amax:  # type: ignore[operator]
+        raise PlanningError(f"{name}.a = {af!r} is outside the allowed range [{amin}, {amax}]")
+    J = lim.j_max
+    if J == _INF:
+        if af != 0.0:
+            raise PlanningError(
+                f"{name}.a = {af!r} must be 0 when j_max is infinite (second-order profile)"
+            )
+        return
+    if not check_v:
+        return
+    # A state reached with acceleration af < 0 was approached from a higher velocity (and
+    # af > 0 from a lower one): the least extreme velocity on the way is vf -+ af^2/(2 j_max).
+    if af < 0.0 and vf + 0.5 * af * af / J > vmax * (1.0 + 1e-12):  # type: ignore[operator]
+        raise PlanningError(
+            f"target state (v={vf!r}, a={af!r}) cannot be reached without exceeding "
+            f"v_max={vmax}: it needs v + a^2/(2 j_max) <= v_max"
+        )
+    if af > 0.0 and vf - 0.5 * af * af / J < vmin * (1.0 + 1e-12):  # type: ignore[operator]
+        raise PlanningError(
+            f"target state (v={vf!r}, a={af!r}) cannot be reached without going below "
+            f"v_min={vmin}: it needs v - a^2/(2 j_max) >= v_min"
+        )
+
+
+def plan(start: State, target: State, limits: Limits) -> Profile:
+    """Time-optimal profile from ``start`` to ``target`` (position interface).
+
+    The start may lie outside the limits: the profile then first returns inside them as fast
+    as the jerk allows. Raises :class:`PlanningError` for invalid input.
+    """
+    p0, v0, a0 = _check_state("start", start)
+    pf, vf, af = _check_state("target", target)
+    lim = _check_limits(limits)
+    vmax, vmin = lim.v_max, float(lim.v_min)  # type: ignore[arg-type]
+    amax, amin = lim.a_max, float(lim.a_min)  # type: ignore[arg-type]
+    J = lim.j_max
+    if vmax == _INF and amax == _INF and J == _INF:
+        raise PlanningError(
+            "limits: at least one of v_max, a_max, j_max must be finite for a position move"
+        )
+    _check_target_va(vf, af, lim)
+    d = pf - p0
+    start_state = State(p0, v0, a0)
+    if J == _INF:
+        if amax == _INF:
+            if vf != 0.0:
+                raise PlanningError(
+                    f"target.v = {vf!r} must be 0 when a_max and j_max are infinite "
+                    "(first-order profile)"
+                )
+            t, ph = _lower.first_order(d, vmax, vmin)
+            return Profile(start_state, ph, "first-order")
+        pre: list[tuple[float, ...]] = []
+        v = v0
+        if v > vmax:
+            t_b = (vmax - v) / amin
+            pre.append((t_b, 0.0, amin))
+            d -= t_b * (v + vmax) * 0.5
+            v = vmax
+        elif v < vmin:
+            t_b = (vmin - v) / amax
+            pre.append((t_b, 0.0, amax))
+            d -= t_b * (v + vmin) * 0.5
+            v = vmin
+        t, ph = _lower.second_order(v, d, vf, vmax, vmin, amax, amin)
+        return Profile(start_state, pre + ph, "second-order")
+    pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
+    if pre3:
+        # distance covered while braking
+        pb = 0.0
+        vb, ab = v0, a0
+        for dur, j in pre3:
+            pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
+            vb += dur * (ab + 0.5 * dur * j)
+            ab += dur * j
+        d -= pb
+    best = _third.time_optimal(v, a, d, vf, af, vmax, vmin, amax, amin, J)
+    if best is None:
+        raise PlanningError(
+            f"no time-optimal profile found from {start} to {target} within {lim} "
+            "(planner defect: please report these inputs)"
+        )
+    _, phases, family = best
+    return Profile(start_state, pre3 + phases, ("brake+" if pre3 else "") + family)
+
+
+def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float = 0.0) -> Profile:
+    """Time-optimal change of velocity (velocity interface); the position is free.
+
+    Velocity limits bound the target only; the acceleration is first brought inside
+    [a_min, a_max] with full jerk if it starts outside.
+    """
+    p0, v0, a0 = _check_state("start", start)
+    vf = _finite("v_target", v_target)
+    af = _finite("a_target", a_target)
+    lim = _check_limits(limits)
+    vmax, vmin = lim.v_max, lim.v_min
+    if not vmin <= vf <= vmax:  # type: ignore[operator]
+        raise PlanningError(f"v_target = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
+    amax, amin = lim.a_max, float(lim.a_min)  # type: ignore[arg-type]
+    if not amin <= af <= amax:
+        raise PlanningError(f"a_target = {af!r} is outside the allowed range [{amin}, {amax}]")
+    J = lim.j_max
+    start_state = State(p0, v0, a0)
+    if J == _INF:
+        if af != 0.0:
+            raise PlanningError(
+                f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
+            )
+        if amax == _INF or vf == v0:
+            return Profile(start_state, [(0.0, 0.0, 0.0, vf)], "velocity-jump")
+        acc = amax if vf > v0 else amin
+        t = (vf - v0) / acc
+        return Profile(start_state, [(t, 0.0, acc), (0.0, 0.0, 0.0)], "velocity-second-order")
+    pre: list[tuple[float, float]] = []
+    v, a = v0, a0
+    if a > amax:
+        t = (a - amax) / J
+        pre.append((t, -J))
+        v += t * (a - 0.5 * t * J)
+        a = amax
+    elif a < amin:
+        t = (amin - a) / J
+        pre.append((t, J))
+        v += t * (a + 0.5 * t * J)
+        a = amin
+    _, ph = _velocity.velocity_third(v, a, vf, af, amax, amin, J)
+    return Profile(start_state, pre + ph, "velocity")

@@ -1,0 +1,1 @@
+"""motionplc.runtime — see the project issues; filled in by later work."""

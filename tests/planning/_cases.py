@@ -1,0 +1,330 @@
+"""Random single-axis planning cases drawn like Ruckig's own test suite, plus a Ruckig oracle.
+
+Shared by the tests in this folder and by ``tools/compare_ruckig.py`` / ``tools/bench_planning.py``
+(which put the repository root on ``sys.path`` and import ``tests.planning._cases``).
+
+Distributions (Ruckig ``test/test_target.cpp``, "position-random"):
+
+* positions ~ N(0, 4);
+* v0, a0, vf, af ~ N(0, 0.8), each non-zero with probability 0.9 / 0.8 / 0.7 / 0.6
+  (or always non-zero with ``nonzero=True``);
+* v_max ~ U(0.08, 16) + |vf|, a_max ~ U(0.08, 16) + |af|, j_max ~ U(0.08, 16);
+* optionally (``asymmetric_fraction``) v_min ~ -(U(0.08, 16) + |vf|), a_min likewise.
+
+Inputs whose *target* Ruckig rejects (``validate_input(inp, False, True)``) are redrawn when
+``redraw_invalid`` is set; Ruckig's check is mirrored in pure Python by :func:`target_is_valid`
+so that generation also works without Ruckig installed.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
+from types import ModuleType
+from typing import Any, NamedTuple
+
+import numpy as np
+
+from motionplc.planning import Limits, State
+
+POSITION_SD = 4.0
+DYNAMIC_SD = 0.8
+LIMIT_LOW = 0.08
+LIMIT_HIGH = 16.0
+NONZERO_PROBABILITY = {"v0": 0.9, "a0": 0.8, "vf": 0.7, "af": 0.6}
+OUTSIDE_MODES = ("v", "a", "va", "overshoot")
+
+
+def fmt_float(x: float | None) -> str:
+    """A float literal that round-trips exactly when pasted into Python."""
+    if x is None:
+        return "None"
+    if math.isinf(x):
+        return "math.inf" if x > 0 else "-math.inf"
+    if math.isnan(x):
+        return "math.nan"
+    return repr(float(x))
+
+
+@dataclass(frozen=True, slots=True)
+class Case:
+    """One 1-DoF planning problem: start (p0, v0, a0), target (pf, vf, af) and limits."""
+
+    p0: float
+    v0: float
+    a0: float
+    pf: float
+    vf: float
+    af: float
+    v_max: float
+    a_max: float
+    j_max: float
+    v_min: float | None = None
+    a_min: float | None = None
+    tag: str = field(default="", compare=False)
+
+    # -- motionplc view ----------------------------------------------------------------------
+    def start(self) -> State:
+        return State(p=self.p0, v=self.v0, a=self.a0)
+
+    def target(self) -> State:
+        return State(p=self.pf, v=self.vf, a=self.af)
+
+    def limits(self) -> Limits:
+        return Limits(
+            v_max=self.v_max, a_max=self.a_max, j_max=self.j_max, v_min=self.v_min, a_min=self.a_min
+        )
+
+    @property
+    def lo_v(self) -> float:
+        return -self.v_max if self.v_min is None else self.v_min
+
+    @property
+    def lo_a(self) -> float:
+        return -self.a_max if self.a_min is None else self.a_min
+
+    def limits_code(self) -> str:
+        extra = ""
+        if self.v_min is not None:
+            extra += f", v_min={fmt_float(self.v_min)}"
+        if self.a_min is not None:
+            extra += f", a_min={fmt_float(self.a_min)}"
+        return (
+            f"Limits(v_max={fmt_float(self.v_max)}, a_max={fmt_float(self.a_max)}, "
+            f"j_max={fmt_float(self.j_max)}{extra})"
+        )
+
+    def code(self) -> str:
+        """A ``plan(...)`` call reproducing this case (needs ``math``, ``plan``, ``State``...)."""
+        return (
+            f"plan(State(p={fmt_float(self.p0)}, v={fmt_float(self.v0)}, a={fmt_float(self.a0)}), "
+            f"State(p={fmt_float(self.pf)}, v={fmt_float(self.vf)}, a={fmt_float(self.af)}), "
+            f"{self.limits_code()})"
+        )
+
+    def code_velocity(self) -> str:
+        """A ``plan_velocity(...)`` call reproducing this case (the target position is unused)."""
+        return (
+            f"plan_velocity(State(p={fmt_float(self.p0)}, v={fmt_float(self.v0)}, a={fmt_float(self.a0)}), "
+            f"v_target={fmt_float(self.vf)}, limits={self.limits_code()}, a_target={fmt_float(self.af)})"
+        )
+
+    def __str__(self) -> str:
+        return self.code()
+
+    # -- Ruckig view -------------------------------------------------------------------------
+    def ruckig_input(self, rk: ModuleType, *, velocity_interface: bool = False) -> Any:
+        """A 1-DoF ``ruckig.InputParameter`` without synchronisation for this case."""
+        inp = rk.InputParameter(1)
+        inp.synchronization = rk.Synchronization.No
+        if velocity_interface:
+            inp.control_interface = rk.ControlInterface.Velocity
+        inp.current_position = [self.p0]
+        inp.current_velocity = [self.v0]
+        inp.current_acceleration = [self.a0]
+        inp.target_position = [self.pf]
+        inp.target_velocity = [self.vf]
+        inp.target_acceleration = [self.af]
+        inp.max_velocity = [self.v_max]
+        inp.max_acceleration = [self.a_max]
+        inp.max_jerk = [self.j_max]
+        if self.v_min is not None:
+            inp.min_velocity = [self.v_min]
+        if self.a_min is not None:
+            inp.min_acceleration = [self.a_min]
+        return inp
+
+
+# -- inside / outside predicates -------------------------------------------------------------
+def v_at_a_zero(v: float, a: float, j_max: float) -> float:
+    """Velocity reached when a jerk of magnitude j_max brings the acceleration a to zero."""
+    if math.isinf(j_max):
+        return v
+    return v + a * abs(a) / (2.0 * j_max)
+
+
+def start_is_inside(
+    v0: float, a0: float, v_min: float, v_max: float, a_min: float, a_max: float, j_max: float
+) -> bool:
+    """v_min <= v0 <= v_max, a_min <= a0 <= a_max and no inevitable velocity overshoot."""
+    if not (v_min <= v0 <= v_max and a_min <= a0 <= a_max):
+        return False
+    return v_min <= v_at_a_zero(v0, a0, j_max) <= v_max
+
+
+def target_is_valid(
+    vf: float, af: float, v_min: float, v_max: float, a_min: float, a_max: float, j_max: float
+) -> bool:
+    """Ruckig's ``check_target_state_within_limits``: the target can be reached inside limits.
+
+    The state just before the target, reached with |jerk| = j_max, has velocity
+    ``vf - af*|af|/(2 j_max)``; it must lie within the velocity limits as well.
+    """
+    if not (v_min <= vf <= v_max and a_min <= af <= a_max):
+        return False
+    if math.isinf(j_max):
+        return True
+    return v_min <= vf - af * abs(af) / (2.0 * j_max) <= v_max
+
+
+def case_start_inside(case: Case) -> bool:
+    return start_is_inside(
+        case.v0, case.a0, case.lo_v, case.v_max, case.lo_a, case.a_max, case.j_max
+    )
+
+
+def case_target_valid(case: Case) -> bool:
+    return target_is_valid(
+        case.vf, case.af, case.lo_v, case.v_max, case.lo_a, case.a_max, case.j_max
+    )
+
+
+# -- Ruckig oracle ---------------------------------------------------------------------------
+def import_ruckig() -> ModuleType | None:
+    try:
+        import ruckig
+    except ImportError:  # pragma: no cover - ruckig is a test dependency
+        return None
+    return ruckig
+
+
+class RuckigAnswer(NamedTuple):
+    """Ruckig's minimum duration, or ``None`` with the reason it gave none."""
+
+    duration: float | None
+    error: str
+
+
+class RuckigOracle:
+    """Reusable 1-DoF Ruckig instance answering 'what is the minimum duration?'."""
+
+    def __init__(self, rk: ModuleType) -> None:
+        self.rk = rk
+        self.otg = rk.Ruckig(1)
+        self.traj = rk.Trajectory(1)
+
+    def accepts(self, case: Case) -> bool:
+        """``validate_input(inp, False, True)``: current state unchecked, target checked."""
+        try:
+            return bool(self.otg.validate_input(case.ruckig_input(self.rk), False, True))
+        except (self.rk.RuckigError, ValueError):
+            return False
+
+    def solve(self, case: Case, *, velocity_interface: bool = False) -> RuckigAnswer:
+        inp = case.ruckig_input(self.rk, velocity_interface=velocity_interface)
+        return self.solve_input(inp)
+
+    def solve_input(self, inp: Any) -> RuckigAnswer:
+        try:
+            res = self.otg.calculate(inp, self.traj)
+        except (self.rk.RuckigError, ValueError) as exc:
+            return RuckigAnswer(None, f"{type(exc).__name__}: {str(exc).strip()}")
+        if res not in (self.rk.Result.Working, self.rk.Result.Finished):
+            return RuckigAnswer(None, str(res))
+        return RuckigAnswer(float(self.traj.duration), "")
+
+
+# -- random generation -----------------------------------------------------------------------
+def _maybe(rng: np.random.Generator, p: float) -> float:
+    return float(rng.normal(0.0, DYNAMIC_SD)) if rng.random() < p else 0.0
+
+
+def draw_case(
+    rng: np.random.Generator, *, nonzero: bool = False, asymmetric: bool = False, order: int = 3
+) -> Case:
+    """One case from Ruckig's position-random distributions (see the module docstring).
+
+    ``order=2`` gives second-order cases: ``j_max = inf`` and zero start/target acceleration
+    (Ruckig's second-order planner ignores accelerations; so do these cases).
+    """
+    pr = {k: (1.0 if nonzero else v) for k, v in NONZERO_PROBABILITY.items()}
+    p0 = float(rng.normal(0.0, POSITION_SD))
+    v0 = _maybe(rng, pr["v0"])
+    a0 = _maybe(rng, pr["a0"])
+    pf = float(rng.normal(0.0, POSITION_SD))
+    vf = _maybe(rng, pr["vf"])
+    af = _maybe(rng, pr["af"])
+    v_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(vf)
+    a_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(af)
+    j_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH))
+    v_min = a_min = None
+    if asymmetric:
+        v_min = -(float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(vf))
+        a_min = -(float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(af))
+    if order == 2:
+        a0 = af = 0.0
+        j_max = math.inf
+    elif order != 3:
+        raise ValueError(f"order must be 2 or 3, got {order!r}")
+    return Case(p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min, tag="inside")
+
+
+def make_outside(rng: np.random.Generator, case: Case, mode: str | None = None) -> Case:
+    """Move the start of ``case`` outside the limits.
+
+    Modes: ``"v"`` |v0| beyond the velocity limit by a factor U(1, 2); ``"a"`` |a0| beyond the
+    acceleration limit by U(1, 2); ``"va"`` both; ``"overshoot"`` v0 and a0 inside but
+    ``v0 + a0|a0|/(2 j_max)`` beyond the velocity limit. Second-order cases (infinite jerk)
+    only use ``"v"``, since their acceleration may jump.
+    """
+    if math.isinf(case.j_max):
+        mode = "v"
+    elif mode is None:
+        mode = OUTSIDE_MODES[int(rng.integers(len(OUTSIDE_MODES)))]
+    for _ in range(100):
+        s = 1.0 if rng.random() < 0.5 else -1.0
+        lim_v = case.v_max if s > 0 else -case.lo_v
+        lim_a = case.a_max if s > 0 else -case.lo_a
+        v0, a0 = case.v0, case.a0
+        if mode in ("v", "va"):
+            v0 = s * lim_v * float(rng.uniform(1.0, 2.0))
+        if mode in ("a", "va"):
+            a0 = s * lim_a * float(rng.uniform(1.0, 2.0))
+        if mode == "overshoot":
+            a0 = s * lim_a * float(rng.uniform(0.2, 1.0))
+            brake = a0 * a0 / (2.0 * case.j_max)
+            v0 = s * (lim_v - float(rng.uniform(0.0, 1.0)) * brake)
+            v0 = min(max(v0, case.lo_v), case.v_max)
+        out = replace(case, v0=v0, a0=a0, tag=f"outside-{mode}")
+        if not case_start_inside(out):
+            return out
+    raise RuntimeError(f"could not move the start of {case} outside the limits")  # pragma: no cover
+
+
+def iter_cases(
+    seed: int,
+    *,
+    nonzero: bool = False,
+    outside_fraction: float = 0.0,
+    asymmetric_fraction: float = 0.0,
+    order: int = 3,
+    redraw_invalid: bool = True,
+    oracle: RuckigOracle | None = None,
+) -> Iterator[Case]:
+    """Endless reproducible stream of cases for ``np.random.default_rng(seed)``.
+
+    With ``redraw_invalid``, cases whose target Ruckig rejects are skipped (using ``oracle``
+    when given, else the pure-Python mirror :func:`case_target_valid`).
+    """
+    rng = np.random.default_rng(seed)
+    while True:
+        case = draw_case(
+            rng,
+            nonzero=nonzero,
+            asymmetric=rng.random() < asymmetric_fraction,
+            order=order,
+        )
+        if outside_fraction > 0.0 and rng.random() < outside_fraction:
+            case = make_outside(rng, case)
+        if redraw_invalid:
+            ok = oracle.accepts(case) if oracle is not None else case_target_valid(case)
+            if not ok:
+                continue
+        yield case
+
+
+def generate_cases(n: int, seed: int, **kwargs: Any) -> list[Case]:
+    """The first ``n`` cases of :func:`iter_cases` (same keyword arguments)."""
+    it = iter_cases(seed, **kwargs)
+    return [next(it) for _ in range(n)]
