@@ -20,22 +20,44 @@ def _advance(v: float, a: float, t: float, j: float) -> tuple[float, float]:
 
 
 def _velocity_brake_upper(
-    v: float, a: float, vmax: float, amin: float, J: float, out: Phases
+    v: float, a: float, vmax: float, vmin: float, amin: float, J: float, out: Phases
 ) -> tuple[float, float]:
-    # smallest t with v(t) = vmax on the falling side under jerk -J
-    rad = a * a + 2.0 * J * (v - vmax)
-    t_v = (a + math.sqrt(max(rad, 0.0))) / J
+    """Full negative jerk until the velocity is back at v_max on its falling side, or until
+    braking further would make an undershoot of v_min inevitable; hold a_min if it is hit."""
+    t_v = (a + math.sqrt(max(a * a + 2.0 * J * (v - vmax), 0.0))) / J
+    if vmin != -math.inf:
+        # switching point from which +J lands exactly at (v_min, 0)
+        t_l = (a + math.sqrt(max(0.5 * a * a + J * (v - vmin), 0.0))) / J
+        t_stop = max(min(t_v, t_l), 0.0)
+    else:
+        t_stop = t_v
     t_a = (a - amin) / J if amin != -math.inf else math.inf
-    if t_v <= t_a:
-        out.append((t_v, -J))
-        v, a = _advance(v, a, t_v, -J)
-        return vmax, a
-    out.append((t_a, -J))
+    if t_stop <= t_a:
+        out.append((t_stop, -J))
+        v, a = _advance(v, a, t_stop, -J)
+        if t_stop < t_v:
+            # The velocity range is too narrow for this acceleration: from this switching
+            # point only full positive jerk avoids undershooting v_min; it lands at (v_min, 0).
+            out.append((-a / J, J))
+            return vmin, 0.0
+        return v, a
+    if t_a > 0.0:
+        out.append((t_a, -J))
     v, a = _advance(v, a, t_a, -J)
+    a = amin
     t_h = (vmax - v) / amin
+    landing = False
+    if vmin != -math.inf:
+        t_hl = 0.5 * amin / J + (vmin - v) / amin
+        if t_hl < t_h:
+            t_h, landing = t_hl, True
     if t_h > 0.0:
         out.append((t_h, 0.0))
-    return vmax, amin
+        v += t_h * amin
+    if landing:
+        out.append((-amin / J, J))
+        return vmin, 0.0
+    return v, a
 
 
 def needs_upper_brake(v: float, a: float, vmax: float, J: float) -> bool:
@@ -61,11 +83,18 @@ def brake(
         out.append((t, J))
         v, a = _advance(v, a, t, J)
         a = amin
-    if needs_upper_brake(v, a, vmax, J):
-        v, a = _velocity_brake_upper(v, a, vmax, amin, J, out)
-    elif needs_lower_brake(v, a, vmin, J):
+    upper = needs_upper_brake(v, a, vmax, J)
+    lower = needs_lower_brake(v, a, vmin, J)
+    if upper and lower:
+        # e.g. above v_max but decelerating so hard that v_min will be undershot: the
+        # acceleration is the danger, so brake against it
+        upper = a > 0.0
+        lower = not upper
+    if upper:
+        v, a = _velocity_brake_upper(v, a, vmax, vmin, amin, J, out)
+    elif lower:
         mirrored: Phases = []
-        v, a = _velocity_brake_upper(-v, -a, -vmin, -amax, J, mirrored)
+        v, a = _velocity_brake_upper(-v, -a, -vmin, -vmax, -amax, J, mirrored)
         v, a = -v, -a
         out.extend((t, -j) for t, j in mirrored)
     return out, v, a

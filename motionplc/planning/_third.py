@@ -32,7 +32,9 @@ import math
 from motionplc.planning.roots import quadratic_roots, quartic_roots_in
 
 # A candidate is (duration, phases) with phases a list of (duration, jerk).
-Phases = list[tuple[float, float]]
+# (duration, jerk[, exact acceleration at the phase start[, exact velocity]]): the planner
+# passes exact plateau/cruise values so that rounding does not drift over long phases.
+Phases = list[tuple[float, ...]]
 
 _T_TOL = 1e-12  # relative tolerance on a negative phase duration from rounding
 _P_TOL = 1e-8
@@ -56,8 +58,8 @@ def _verify(
     """Integrate the phases; return (duration, cleaned phases) when they reach the target
     within tolerance and respect the limits, else None."""
     total = 0.0
-    for dur, _ in phases:
-        total += abs(dur)
+    for ph in phases:
+        total += abs(ph[0])
     ttol = _T_TOL * max(1.0, total)
     p = 0.0
     v = v0
@@ -68,11 +70,17 @@ def _verify(
     ahi = amax + _LIM_TOL * max(1.0, abs(amax)) if amax != math.inf else math.inf
     alo = amin - _LIM_TOL * max(1.0, abs(amin)) if amin != -math.inf else -math.inf
     out: Phases = []
-    for dur, j in phases:
+    for ph in phases:
+        dur = ph[0]
+        j = ph[1]
         if dur <= 0.0:
             if dur < -ttol:
                 return None
             continue
+        if len(ph) > 2:
+            a = ph[2]
+            if len(ph) > 3:
+                v = ph[3]
         if j != 0.0:
             tz = -a / j
             if 0.0 < tz < dur:
@@ -85,7 +93,7 @@ def _verify(
         t += dur
         if v > vhi or v < vlo or a > ahi or a < alo:
             return None
-        out.append((dur, j))
+        out.append(ph)
     scale = max(1.0, abs(d))
     if abs(p - d) > _P_TOL * scale or abs(v - vf) > _V_TOL * max(1.0, abs(vf)):
         return None
@@ -94,14 +102,8 @@ def _verify(
     return t, out
 
 
-def _up_phases(
-    a0: float, af: float, P: float, h1: float, Q: float, h2: float, cruise: float, J: float
-) -> Phases:
-    if cruise > 0.0:
-        mid: Phases = [(P / J, -J), (cruise, 0.0), (-Q / J, -J)]
-    else:
-        mid = [((P - Q) / J, -J)]
-    return [((P - a0) / J, J), (h1, 0.0), *mid, (h2, 0.0), ((af - Q) / J, J)]
+def _up_phases(a0: float, af: float, P: float, h1: float, Q: float, h2: float, J: float) -> Phases:
+    return [((P - a0) / J, J), (h1, 0.0, P), ((P - Q) / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
 
 
 def _half_up(v0: float, a0: float, v1: float, amax: float, J: float) -> tuple[float, float] | None:
@@ -140,7 +142,7 @@ def _half_down_from(
 
 def _ramp_distance(v: float, a: float, phases: Phases) -> tuple[float, float, float]:
     p = 0.0
-    for dur, j in phases:
+    for dur, j, *_ in phases:
         if dur <= 0.0:
             continue
         p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
@@ -172,13 +174,13 @@ def candidates_up(
             if h2r is not None:
                 P, h1 = h1r
                 Q, h2 = h2r
-                first = [((P - a0) / J, J), (h1, 0.0), (P / J, -J)]
-                last = [(-Q / J, -J), (h2, 0.0), ((af - Q) / J, J)]
+                first: Phases = [((P - a0) / J, J), (h1, 0.0, P), (P / J, -J)]
+                last: Phases = [(-Q / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
                 d1, _, _ = _ramp_distance(v0, a0, first)
                 d2, _, _ = _ramp_distance(vmax, 0.0, last)
                 cruise = (d - d1 - d2) / vmax
                 if cruise >= -_T_TOL * max(1.0, abs(d / vmax)):
-                    ph = [*first, (max(cruise, 0.0), 0.0), *last]
+                    ph = [*first, (max(cruise, 0.0), 0.0, 0.0, vmax), *last]
                     r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
                     if r is not None:
                         out.append((r[0], r[1], "vel"))
@@ -195,7 +197,7 @@ def candidates_up(
         w = K / (2.0 * u)
         P = 0.5 * (w + u)
         Q = 0.5 * (w - u)
-        ph = _up_phases(a0, af, P, 0.0, Q, 0.0, 0.0, J)
+        ph = _up_phases(a0, af, P, 0.0, Q, 0.0, J)
         r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
         if r is not None:
             out.append((r[0], r[1], "none"))
@@ -228,7 +230,7 @@ def candidates_up(
         h1 = (K - 2.0 * A2 + 2.0 * Q * Q) / (2.0 * J * amax)
         if h1 < -_T_TOL:
             continue
-        ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, 0.0, J)
+        ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, J)
         r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
         if r is not None:
             out.append((r[0], r[1], "acc0"))
@@ -253,7 +255,7 @@ def candidates_up(
         h2 = (K - 2.0 * P * P + 2.0 * N2) / (2.0 * J * amin)
         if h2 < -_T_TOL:
             continue
-        ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), 0.0, J)
+        ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), J)
         r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
         if r is not None:
             out.append((r[0], r[1], "acc1"))
@@ -289,7 +291,7 @@ def candidates_up(
         h1 = (K - 2.0 * A2 + 2.0 * N2 - 2.0 * J * amin * h2) / (2.0 * J * amax)
         if h1 < -_T_TOL:
             continue
-        ph = _up_phases(a0, af, amax, max(h1, 0.0), amin, h2, 0.0, J)
+        ph = _up_phases(a0, af, amax, max(h1, 0.0), amin, h2, J)
         r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
         if r is not None:
             out.append((r[0], r[1], "acc0_acc1"))
@@ -340,7 +342,12 @@ def time_optimal(
     down: list[tuple[float, Phases, str]] = []
     candidates_up(-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, down)
     for t, ph, fam in down:
-        cands.append((t, [(dur, -j) for dur, j in ph], fam + "-down"))
+        cands.append((t, [mirror(x) for x in ph], fam + "-down"))
     if not cands:
         return None
     return min(cands, key=lambda c: c[0])
+
+
+def mirror(ph: tuple[float, ...]) -> tuple[float, ...]:
+    """The phase of the mirrored axis (p -> -p): jerk and exact values change sign."""
+    return (ph[0], *(-x for x in ph[1:]))

@@ -125,6 +125,10 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
             "(planner defect: please report these inputs)"
         )
     _, phases, family = best
+    if pre3 and phases:
+        # continue exactly from the state the brake was designed to reach
+        first = phases[0]
+        phases = [(first[0], first[1], a, v), *phases[1:]] if len(first) < 4 else phases
     return Profile(start_state, pre3 + phases, ("brake+" if pre3 else "") + family)
 
 
