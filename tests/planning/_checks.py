@@ -75,8 +75,8 @@ def own_extrema(
     segs = prof.segments
     if first >= len(segs):
         return None
-    vs: list[float] = []
-    as_: list[float] = []
+    vs: list[float] = [prof.end.v]  # the end may follow a jump (infinite jerk/acceleration)
+    as_: list[float] = [prof.end.a]
     for k, s in zip(knots[first:], segs[first:], strict=True):
         _, v1, a1 = _integrate(k.p, k.v, k.a, s.jerk, s.duration)
         vs += [k.v, v1]
