@@ -151,7 +151,23 @@ def _ramp_distance(v: float, a: float, phases: Phases) -> tuple[float, float, fl
     return p, v, a
 
 
-def candidates_up(
+def _plateau_domain(lo: float, hi: float, m: float) -> tuple[float, float]:
+    """Hull of {x in [lo, hi] : x^2 >= m} (a plateau duration is >= 0 exactly there),
+    widened by a rounding margin; empty when lo > hi is returned."""
+    if m > 0.0:
+        r = math.sqrt(m) * (1.0 - 1e-9)
+        if lo > -r:  # the left part [lo, -r] is empty
+            lo = max(lo, r)
+        if hi < r:  # the right part [r, hi] is empty
+            hi = min(hi, -r)
+    margin = 1e-9 * (abs(lo) + abs(hi) + 1.0)
+    return lo - margin, hi + margin
+
+
+Candidate = tuple[float, Phases, str]
+
+
+def _fam_vel(
     v0: float,
     a0: float,
     d: float,
@@ -162,104 +178,53 @@ def candidates_up(
     amax: float,
     amin: float,
     J: float,
-    out: list[tuple[float, Phases, str]],
-) -> None:
-    """Append every verified "up"-shaped candidate (duration, phases, family) to ``out``."""
-    verify = _verify
-    # ---- VEL: cruise at v_max ------------------------------------------------------------
-    if vmax != math.inf:
-        h1r = _half_up(v0, a0, vmax, amax, J)
-        if h1r is not None:
-            h2r = _half_down_from(vmax, vf, af, amin, J)
-            if h2r is not None:
-                P, h1 = h1r
-                Q, h2 = h2r
-                first: Phases = [((P - a0) / J, J), (h1, 0.0, P), (P / J, -J)]
-                last: Phases = [(-Q / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
-                d1, _, _ = _ramp_distance(v0, a0, first)
-                d2, _, _ = _ramp_distance(vmax, 0.0, last)
-                cruise = (d - d1 - d2) / vmax
-                if cruise >= -_T_TOL * max(1.0, abs(d / vmax)):
-                    ph = [*first, (max(cruise, 0.0), 0.0, 0.0, vmax), *last]
-                    r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-                    if r is not None:
-                        out.append((r[0], r[1], "vel"))
-    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
-    # ---- NONE: quartic in u = P - Q --------------------------------------------------------
-    B = 2.0 * J * (v0 + vf) - a0 * a0 - af * af
-    C = -(4.0 / 3.0) * (
-        3.0 * J * J * d + 3.0 * J * (a0 * v0 - af * vf) - a0 * a0 * a0 + af * af * af
-    )
-    u_hi = amax - amin if amax != math.inf else math.inf
-    for u in quartic_roots_in(0.0, 2.0 * B, C, -0.25 * K * K, 0.0, u_hi):
-        if u <= 0.0:
-            continue
-        w = K / (2.0 * u)
-        P = 0.5 * (w + u)
-        Q = 0.5 * (w - u)
-        ph = _up_phases(a0, af, P, 0.0, Q, 0.0, J)
-        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
-            out.append((r[0], r[1], "none"))
+    t_best: float,
+) -> Candidate | None:
+    """Cruise at v_max between two closed-form velocity changes."""
+    if vmax == math.inf:
+        return None
+    h1r = _half_up(v0, a0, vmax, amax, J)
+    if h1r is None:
+        return None
+    h2r = _half_down_from(vmax, vf, af, amin, J)
+    if h2r is None:
+        return None
+    P, h1 = h1r
+    Q, h2 = h2r
+    first: Phases = [((P - a0) / J, J), (h1, 0.0, P), (P / J, -J)]
+    last: Phases = [(-Q / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
+    d1, _, _ = _ramp_distance(v0, a0, first)
+    d2, _, _ = _ramp_distance(vmax, 0.0, last)
+    cruise = (d - d1 - d2) / vmax
+    if cruise < -_T_TOL * max(1.0, abs(d / vmax)):
+        return None
+    ph = [*first, (max(cruise, 0.0), 0.0, 0.0, vmax), *last]
+    r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    if r is None or r[0] >= t_best:
+        return None
+    return r[0], r[1], "vel"
+
+
+def _fam_acc0_acc1(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    t_best: float,
+) -> Candidate | None:
+    """Plateaus at a_max and a_min: a quadratic in the second plateau duration h2."""
     if amax == math.inf:
-        return
+        return None
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
     A2 = amax * amax
     N2 = amin * amin
     JJ = J * J
-    # ---- ACC0: P = amax, h1 >= 0, quartic in Q --------------------------------------------
-    t2 = 2.0 * J * vf - af * af
-    c0 = (
-        -(
-            24.0 * JJ * amax * d
-            + 12.0 * JJ * (v0 * v0 - vf * vf)
-            - 12.0 * J * a0 * a0 * v0
-            + 24.0 * J * a0 * amax * v0
-            - 12.0 * J * A2 * (v0 + vf)
-            - 24.0 * J * amax * af * vf
-            + 12.0 * J * af * af * vf
-            + 3.0 * a0**4
-            - 8.0 * a0**3 * amax
-            + 6.0 * a0 * a0 * A2
-            + 6.0 * A2 * af * af
-            + 8.0 * amax * af**3
-            - 3.0 * af**4
-        )
-        / 12.0
-    )
-    for Q in quartic_roots_in(-2.0 * amax, t2 + A2, -2.0 * amax * t2, c0, amin, min(af, amax)):
-        h1 = (K - 2.0 * A2 + 2.0 * Q * Q) / (2.0 * J * amax)
-        if h1 < -_T_TOL:
-            continue
-        ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, J)
-        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
-            out.append((r[0], r[1], "acc0"))
-    # ---- ACC1: Q = amin, h2 >= 0, quartic in P --------------------------------------------
-    s2 = 2.0 * J * v0 - a0 * a0
-    c0 = (
-        24.0 * JJ * amin * d
-        + 12.0 * JJ * (v0 * v0 - vf * vf)
-        - 12.0 * J * a0 * a0 * v0
-        + 24.0 * J * a0 * amin * v0
-        + 12.0 * J * N2 * (v0 + vf)
-        - 24.0 * J * amin * af * vf
-        + 12.0 * J * af * af * vf
-        + 3.0 * a0**4
-        - 8.0 * a0**3 * amin
-        - 6.0 * a0 * a0 * N2
-        - 6.0 * N2 * af * af
-        + 8.0 * amin * af**3
-        - 3.0 * af**4
-    ) / 12.0
-    for P in quartic_roots_in(-2.0 * amin, s2 + N2, -2.0 * amin * s2, c0, max(a0, amin), amax):
-        h2 = (K - 2.0 * P * P + 2.0 * N2) / (2.0 * J * amin)
-        if h2 < -_T_TOL:
-            continue
-        ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), J)
-        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
-            out.append((r[0], r[1], "acc1"))
-    # ---- ACC0_ACC1: both plateaus, quadratic in h2 ----------------------------------------
     denom = 12.0 * JJ * amin * (amax - amin)
     b = -(2.0 * J * vf - amax * amin + 2.0 * N2 - af * af) / (J * amin)
     c = (
@@ -284,6 +249,8 @@ def candidates_up(
         + 12.0 * N2 * af * af
         - 3.0 * af**4
     ) / denom
+    ramps = (2.0 * amax - a0 - 2.0 * amin + af) / J
+    best: Candidate | None = None
     for h2 in quadratic_roots(1.0, b, c):
         if h2 < -_T_TOL:
             continue
@@ -291,10 +258,186 @@ def candidates_up(
         h1 = (K - 2.0 * A2 + 2.0 * N2 - 2.0 * J * amin * h2) / (2.0 * J * amax)
         if h1 < -_T_TOL:
             continue
-        ph = _up_phases(a0, af, amax, max(h1, 0.0), amin, h2, J)
-        r = verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
-            out.append((r[0], r[1], "acc0_acc1"))
+        h1 = max(h1, 0.0)
+        if ramps + h1 + h2 >= t_best:
+            continue
+        ph = _up_phases(a0, af, amax, h1, amin, h2, J)
+        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None and r[0] < t_best:
+            best = (r[0], r[1], "acc0_acc1")
+            t_best = r[0]
+    return best
+
+
+def _fam_none(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    t_best: float,
+) -> Candidate | None:
+    """No acceleration plateau: a depressed quartic in u = P - Q. The duration
+    (2u + af - a0) / J grows with u, so the smallest valid root is the family's best."""
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
+    # admissible u: P <= a_max and Q >= a_min, i.e. u^2 - 2 a_max u + K/2 <= 0 and
+    # u^2 + 2 a_min u - K/2 <= 0 (u > 0); slightly widened, the verification decides
+    u_lo = 0.0
+    u_hi = math.inf
+    if amax != math.inf:
+        r1 = amax * amax - 0.5 * K
+        r2 = amin * amin + 0.5 * K
+        if r1 < 0.0 or r2 < 0.0:
+            return None
+        s1 = math.sqrt(r1)
+        s2 = math.sqrt(r2)
+        u_lo = max(0.0, amax - s1, -amin - s2)
+        u_hi = min(amax + s1, -amin + s2)
+        u_lo -= 1e-9 * (u_hi + 1.0)
+        u_hi += 1e-9 * (u_hi + 1.0)
+        if u_hi <= 0.0:
+            return None
+    base = af - a0
+    if (2.0 * max(u_lo, 0.0) + base) / J >= t_best:
+        return None
+    B = 2.0 * J * (v0 + vf) - a0 * a0 - af * af
+    C = -(4.0 / 3.0) * (
+        3.0 * J * J * d + 3.0 * J * (a0 * v0 - af * vf) - a0 * a0 * a0 + af * af * af
+    )
+    for u in quartic_roots_in(0.0, 2.0 * B, C, -0.25 * K * K, u_lo, u_hi):
+        if u <= 0.0:
+            continue
+        if (2.0 * u + base) / J >= t_best:
+            break
+        w = K / (2.0 * u)
+        ph = _up_phases(a0, af, 0.5 * (w + u), 0.0, 0.5 * (w - u), 0.0, J)
+        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None and r[0] < t_best:
+            return r[0], r[1], "none"
+    return None
+
+
+def _fam_acc0(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    t_best: float,
+) -> Candidate | None:
+    """Plateau at P = a_max, trough Q free: a quartic in Q. The duration
+    T(Q) = const + Q^2/(J a_max) - 2Q/J falls with Q up to a_max, so the largest valid root
+    is the family's best and T(q_hi) bounds the family from below."""
+    if amax == math.inf:
+        return None
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
+    A2 = amax * amax
+    q_lo, q_hi = _plateau_domain(amin, min(af, amax), A2 - 0.5 * K)
+    if q_lo > q_hi:
+        return None
+    t_const = (2.0 * amax - a0 + af) / J + (K - 2.0 * A2) / (2.0 * J * amax)
+    qb = min(q_hi, amax)
+    if t_const + qb * qb / (J * amax) - 2.0 * qb / J >= t_best:
+        return None
+    JJ = J * J
+    t2 = 2.0 * J * vf - af * af
+    c0 = (
+        -(
+            24.0 * JJ * amax * d
+            + 12.0 * JJ * (v0 * v0 - vf * vf)
+            - 12.0 * J * a0 * a0 * v0
+            + 24.0 * J * a0 * amax * v0
+            - 12.0 * J * A2 * (v0 + vf)
+            - 24.0 * J * amax * af * vf
+            + 12.0 * J * af * af * vf
+            + 3.0 * a0**4
+            - 8.0 * a0**3 * amax
+            + 6.0 * a0 * a0 * A2
+            + 6.0 * A2 * af * af
+            + 8.0 * amax * af**3
+            - 3.0 * af**4
+        )
+        / 12.0
+    )
+    roots = quartic_roots_in(-2.0 * amax, t2 + A2, -2.0 * amax * t2, c0, q_lo, q_hi)
+    for Q in reversed(roots):
+        h1 = (K - 2.0 * A2 + 2.0 * Q * Q) / (2.0 * J * amax)
+        if h1 < -_T_TOL:
+            continue
+        ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, J)
+        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None and r[0] < t_best:
+            return r[0], r[1], "acc0"
+    return None
+
+
+def _fam_acc1(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    t_best: float,
+) -> Candidate | None:
+    """Peak P free, plateau at Q = a_min: a quartic in P. The duration
+    T(P) = const + 2P/J + P^2/(J |a_min|) grows with P >= a_min, so the smallest valid root
+    is the family's best and T(p_lo) bounds the family from below."""
+    if amax == math.inf:
+        return None
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
+    N2 = amin * amin
+    p_lo, p_hi = _plateau_domain(max(a0, amin), amax, N2 + 0.5 * K)
+    if p_lo > p_hi:
+        return None
+    t_const = (-a0 - 2.0 * amin + af) / J + (K + 2.0 * N2) / (2.0 * J * amin)
+    pb = max(p_lo, amin)
+    if t_const + 2.0 * pb / J - pb * pb / (J * amin) >= t_best:
+        return None
+    JJ = J * J
+    s2 = 2.0 * J * v0 - a0 * a0
+    c0 = (
+        24.0 * JJ * amin * d
+        + 12.0 * JJ * (v0 * v0 - vf * vf)
+        - 12.0 * J * a0 * a0 * v0
+        + 24.0 * J * a0 * amin * v0
+        + 12.0 * J * N2 * (v0 + vf)
+        - 24.0 * J * amin * af * vf
+        + 12.0 * J * af * af * vf
+        + 3.0 * a0**4
+        - 8.0 * a0**3 * amin
+        - 6.0 * a0 * a0 * N2
+        - 6.0 * N2 * af * af
+        + 8.0 * amin * af**3
+        - 3.0 * af**4
+    ) / 12.0
+    for P in quartic_roots_in(-2.0 * amin, s2 + N2, -2.0 * amin * s2, c0, p_lo, p_hi):
+        h2 = (K - 2.0 * P * P + 2.0 * N2) / (2.0 * J * amin)
+        if h2 < -_T_TOL:
+            continue
+        ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), J)
+        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if r is not None and r[0] < t_best:
+            return r[0], r[1], "acc1"
+    return None
+
+
+# Cheapest families first: their durations bound the quartic families from above.
+_FAMILIES = (_fam_vel, _fam_acc0_acc1, _fam_none, _fam_acc0, _fam_acc1)
 
 
 def single_ramp(
@@ -332,20 +475,23 @@ def time_optimal(
     amax: float,
     amin: float,
     J: float,
-) -> tuple[float, Phases, str] | None:
+) -> Candidate | None:
     """Fastest verified profile over both shapes, or None if no family yields one."""
-    cands: list[tuple[float, Phases, str]] = []
-    sr = single_ramp(v0, a0, d, vf, af, J)
-    if sr is not None:
-        cands.append(sr)
-    candidates_up(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, cands)
-    down: list[tuple[float, Phases, str]] = []
-    candidates_up(-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, down)
-    for t, ph, fam in down:
-        cands.append((t, [mirror(x) for x in ph], fam + "-down"))
-    if not cands:
-        return None
-    return min(cands, key=lambda c: c[0])
+    best = single_ramp(v0, a0, d, vf, af, J)
+    t_best = best[0] if best is not None else math.inf
+    best_down = False
+    up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
+    down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
+    for fam in _FAMILIES:
+        c = fam(*up, t_best)
+        if c is not None:
+            best, t_best, best_down = c, c[0], False
+        c = fam(*down, t_best)
+        if c is not None:
+            best, t_best, best_down = c, c[0], True
+    if best is None or not best_down:
+        return best
+    return best[0], [mirror(x) for x in best[1]], best[2] + "-down"
 
 
 def mirror(ph: tuple[float, ...]) -> tuple[float, ...]:

@@ -11,7 +11,7 @@ _INF = math.inf
 
 
 def _check_positive(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PlanningError(f"Limits.{name} must be a number in (0, inf], got {value!r}")
     value = float(value)
     if math.isnan(value) or value <= 0.0:
@@ -20,7 +20,7 @@ def _check_positive(name: str, value: float) -> float:
 
 
 def _check_negative(name: str, value: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PlanningError(f"Limits.{name} must be a number in [-inf, 0), got {value!r}")
     value = float(value)
     if math.isnan(value) or value >= 0.0:

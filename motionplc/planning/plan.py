@@ -14,7 +14,7 @@ _INF = math.inf
 
 
 def _finite(name: str, value: object) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PlanningError(f"{name} must be a finite number, got {value!r}")
     x = float(value)
     if not math.isfinite(x):

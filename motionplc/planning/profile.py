@@ -64,63 +64,63 @@ class Profile:
     Immutable: every attribute is fixed at construction.
     """
 
-    __slots__ = ("_t", "_p", "_v", "_a", "_j", "_end", "_segments", "_kind", "duration")
+    __slots__ = ("_t", "_p", "_v", "_a", "_j", "_d", "_end", "_kind", "duration")
 
     _t: tuple[float, ...]
     _p: tuple[float, ...]
     _v: tuple[float, ...]
     _a: tuple[float, ...]
     _j: tuple[float, ...]
+    _d: tuple[float, ...]
     _end: State
-    _segments: tuple[Segment, ...]
     _kind: str
     duration: float
 
     def __init__(self, start: State, phases: Iterable[Phase], kind: str = "") -> None:
-        p, v, a = float(start.p), float(start.v), float(start.a)
+        p = float(start.p)
+        v = float(start.v)
+        a = float(start.a)
         ts: list[float] = []
         ps: list[float] = []
         vs: list[float] = []
         as_: list[float] = []
         js: list[float] = []
-        segs: list[Segment] = []
+        ds: list[float] = []
         t = 0.0
         for ph in phases:
-            dur = float(ph[0])
-            j = float(ph[1])
+            dur = ph[0]
+            n = len(ph)
+            if n > 2:  # exact (or jumped) acceleration / velocity at the phase start
+                a = ph[2]
+                if n > 3:
+                    v = ph[3]
             if dur <= 0.0:
-                if len(ph) > 2:  # a jump without duration still changes the state
-                    a = float(ph[2])
-                    if len(ph) > 3:
-                        v = float(ph[3])
                 continue
-            if len(ph) > 2:
-                a = float(ph[2])
-                if len(ph) > 3:
-                    v = float(ph[3])
+            j = ph[1]
             ts.append(t)
             ps.append(p)
             vs.append(v)
             as_.append(a)
             js.append(j)
-            segs.append(Segment(dur, j))
+            ds.append(dur)
             p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
             v += dur * (a + 0.5 * dur * j)
             a += dur * j
             t += dur
-        object.__setattr__(self, "_t", tuple(ts))
-        object.__setattr__(self, "_p", tuple(ps))
-        object.__setattr__(self, "_v", tuple(vs))
-        object.__setattr__(self, "_a", tuple(as_))
-        object.__setattr__(self, "_j", tuple(js))
-        object.__setattr__(self, "_segments", tuple(segs))
-        object.__setattr__(self, "_end", State(p, v, a))
-        object.__setattr__(self, "_kind", kind)
-        object.__setattr__(self, "duration", t)
-        if not segs:  # zero-duration profile: remember the (possibly jumped) start
-            object.__setattr__(self, "_p", (p,))
-            object.__setattr__(self, "_v", (v,))
-            object.__setattr__(self, "_a", (a,))
+        if not ds:  # zero-duration profile: remember the (possibly jumped) start
+            ps.append(p)
+            vs.append(v)
+            as_.append(a)
+        setattr_ = object.__setattr__
+        setattr_(self, "_t", tuple(ts))
+        setattr_(self, "_p", tuple(ps))
+        setattr_(self, "_v", tuple(vs))
+        setattr_(self, "_a", tuple(as_))
+        setattr_(self, "_j", tuple(js))
+        setattr_(self, "_d", tuple(ds))
+        setattr_(self, "_end", State(p, v, a))
+        setattr_(self, "_kind", kind)
+        setattr_(self, "duration", t)
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError("Profile is immutable")
@@ -132,7 +132,7 @@ class Profile:
     @property
     def segments(self) -> tuple[Segment, ...]:
         """The constant-jerk pieces in time order, as ``(duration, jerk)`` pairs."""
-        return self._segments
+        return tuple(map(Segment, self._d, self._j))
 
     @property
     def knots(self) -> tuple[Knot, ...]:
@@ -212,7 +212,7 @@ class Profile:
         pl = [e.p]
         vl = [e.v]
         al = [e.a]
-        for i, (dur, j) in enumerate(self._segments):
+        for i, (dur, j) in enumerate(zip(self._d, self._j, strict=True)):
             p0, v0, a0 = self._p[i], self._v[i], self._a[i]
             pl.append(p0)
             vl.append(v0)
@@ -233,7 +233,7 @@ class Profile:
         return (min(pl), max(pl)), (min(vl), max(vl)), (min(al), max(al))
 
     def __repr__(self) -> str:
-        segs = ", ".join(f"({d:.6g}, {j:+.6g})" for d, j in self._segments)
+        segs = ", ".join(f"({d:.6g}, {j:+.6g})" for d, j in zip(self._d, self._j, strict=True))
         return f"Profile(duration={self.duration:.9g}, kind={self._kind!r}, segments=[{segs}])"
 
 

@@ -89,10 +89,14 @@ def _quartic(c3: float, c2: float, c1: float, c0: float, x: float) -> float:
 def quartic_roots_in(
     c3: float, c2: float, c1: float, c0: float, lo: float, hi: float
 ) -> list[float]:
-    """Real roots of the monic quartic x^4 + c3 x^3 + c2 x^2 + c1 x + c0 in [lo, hi].
+    """Real roots of the monic quartic x^4 + c3 x^3 + c2 x^2 + c1 x + c0 in [lo, hi], ascending.
 
-    Infinite bounds are replaced by the Cauchy bound. Roots at (or a rounding error outside)
-    the interval ends are included at the end, and near-double roots are reported once.
+    The critical and inflection points split [lo, hi] into pieces on which the quartic is
+    monotone and convex or concave; a piece whose ends differ in sign holds exactly one root,
+    which Newton's method started at the end where f * f'' > 0 reaches monotonically (Fourier's
+    condition), so it needs no bracketing. Infinite bounds are replaced by the Cauchy bound.
+    Roots at (or a rounding error beyond) the ends of [lo, hi] and near-double roots at
+    critical points are included.
     """
     bound = 1.0 + max(abs(c3), abs(c2), abs(c1), abs(c0))
     if lo < -bound:
@@ -101,58 +105,70 @@ def quartic_roots_in(
         hi = bound
     if lo > hi:
         return []
-    crit = cubic_roots(4.0, 3.0 * c3, 2.0 * c2, c1)
     pts = [lo]
-    for x in crit:
-        if lo < x < hi:
-            pts.append(x)
+    crit = cubic_roots(4.0, 3.0 * c3, 2.0 * c2, c1)
+    infl = quadratic_roots(12.0, 6.0 * c3, 2.0 * c2)
+    inner = [x for x in crit if lo < x < hi]
+    inner.extend(x for x in infl if lo < x < hi)
+    if inner:
+        inner.sort()
+        pts.extend(inner)
     pts.append(hi)
-    vals = [_quartic(c3, c2, c1, c0, x) for x in pts]
+    ac3 = abs(c3)
+    ac2 = abs(c2)
+    ac1 = abs(c1)
+    ac0 = abs(c0)
     roots: list[float] = []
-    n = len(pts)
-    for i in range(n):
-        x = pts[i]
-        f = vals[i]
-        ax = abs(x)
-        scale = (((ax + abs(c3)) * ax + abs(c2)) * ax + abs(c1)) * ax + abs(c0)
-        if abs(f) <= 1e-13 * scale:
-            # a root at an end or a (near-)double root at a critical point
-            if not roots or abs(roots[-1] - x) > 1e-12 * max(1.0, ax):
-                roots.append(x)
-            continue
-        if i + 1 < n:
-            g = vals[i + 1]
-            x1 = pts[i + 1]
-            if (f < 0.0) != (g < 0.0):
-                gx = abs(x1)
-                gscale = (((gx + abs(c3)) * gx + abs(c2)) * gx + abs(c1)) * gx + abs(c0)
-                if abs(g) <= 1e-13 * gscale:
-                    continue  # the next point is itself the root
-                r = _bracketed(c3, c2, c1, c0, x, x1, f)
-                if not roots or abs(roots[-1] - r) > 1e-12 * max(1.0, abs(r)):
-                    roots.append(r)
+    x0 = lo
+    f0 = (((x0 + c3) * x0 + c2) * x0 + c1) * x0 + c0
+    ax = abs(x0)
+    tol0 = 1e-13 * ((((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0)
+    if abs(f0) <= tol0:
+        roots.append(x0)
+        f0 = 0.0
+    for x1 in pts[1:]:
+        f1 = (((x1 + c3) * x1 + c2) * x1 + c1) * x1 + c0
+        ax = abs(x1)
+        tol1 = 1e-13 * ((((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0)
+        if abs(f1) <= tol1:
+            # a root at the end, or a (near-)double root at a critical point
+            if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
+                roots.append(x1)
+            f1 = 0.0
+        elif f0 != 0.0 and (f0 < 0.0) != (f1 < 0.0):
+            r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
+            if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
+                roots.append(r)
+        x0 = x1
+        f0 = f1
     return roots
 
 
-def _bracketed(
+def _newton_piece(
     c3: float, c2: float, c1: float, c0: float, lo: float, hi: float, flo: float
 ) -> float:
-    """The single root of the quartic in (lo, hi), where it changes sign and is monotone."""
+    """The single root in (lo, hi), where the quartic changes sign and is monotone and of one
+    convexity. Newton from the Fourier end converges monotonically; bisection guards rounding."""
+    mid = 0.5 * (lo + hi)
+    curv = (12.0 * mid + 6.0 * c3) * mid + 2.0 * c2
+    # f * f'' > 0 at the start: the end whose f has the sign of the curvature
+    x = lo if (flo > 0.0) == (curv > 0.0) else hi
     neg_lo = flo < 0.0
-    x = 0.5 * (lo + hi)
+    a = lo
+    b = hi
     for _ in range(_MAX_ITER):
         f = (((x + c3) * x + c2) * x + c1) * x + c0
         if f == 0.0:
             return x
         if (f < 0.0) == neg_lo:
-            lo = x
+            a = x
         else:
-            hi = x
+            b = x
         df = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
-        xn = x - f / df if df != 0.0 else 0.5 * (lo + hi)
-        if not lo < xn < hi:
-            xn = 0.5 * (lo + hi)
-        if abs(xn - x) <= 4.0 * _EPS * max(1.0, abs(x)) or hi - lo <= 4.0 * _EPS * max(1.0, abs(x)):
+        xn = x - f / df if df != 0.0 else 0.5 * (a + b)
+        if not a <= xn <= b:
+            xn = 0.5 * (a + b)
+        if abs(xn - x) <= 2.0 * _EPS * abs(x) or b - a <= 2.0 * _EPS * abs(x):
             return xn
         x = xn
     return x
