@@ -10,6 +10,8 @@ from motionplc.planning.limits import Limits
 from motionplc.planning.plan import plan, plan_velocity
 from motionplc.planning.profile import Knot, Profile, Sample, Samples, Segment
 from motionplc.planning.state import State
+from motionplc.planning.sync import plan_sync
+from motionplc.planning.trajectory import Trajectory, TrajectorySamples
 
 __all__ = [
     "Knot",
@@ -20,6 +22,9 @@ __all__ = [
     "Samples",
     "Segment",
     "State",
+    "Trajectory",
+    "TrajectorySamples",
     "plan",
+    "plan_sync",
     "plan_velocity",
 ]

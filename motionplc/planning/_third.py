@@ -179,6 +179,7 @@ def _fam_vel(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """Cruise at v_max between two closed-form velocity changes."""
     if vmax == math.inf:
@@ -200,9 +201,12 @@ def _fam_vel(
         return None
     ph = [*first, (max(cruise, 0.0), 0.0, 0.0, vmax), *last]
     r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-    if r is None or r[0] >= t_best:
+    if r is None:
         return None
-    return r[0], r[1], "vel"
+    cand = (r[0], r[1], "vel")
+    if out is not None:
+        out.append(cand)
+    return cand if r[0] < t_best else None
 
 
 def _fam_acc0_acc1(
@@ -217,6 +221,7 @@ def _fam_acc0_acc1(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """Plateaus at a_max and a_min: a quadratic in the second plateau duration h2."""
     if amax == math.inf:
@@ -263,9 +268,12 @@ def _fam_acc0_acc1(
             continue
         ph = _up_phases(a0, af, amax, h1, amin, h2, J)
         r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None and r[0] < t_best:
-            best = (r[0], r[1], "acc0_acc1")
-            t_best = r[0]
+        if r is not None:
+            if out is not None:
+                out.append((r[0], r[1], "acc0_acc1"))
+            if r[0] < t_best:
+                best = (r[0], r[1], "acc0_acc1")
+                t_best = r[0]
     return best
 
 
@@ -281,6 +289,7 @@ def _fam_none(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """No acceleration plateau: a depressed quartic in u = P - Q. The duration
     (2u + af - a0) / J grows with u, so the smallest valid root is the family's best."""
@@ -317,8 +326,11 @@ def _fam_none(
         w = K / (2.0 * u)
         ph = _up_phases(a0, af, 0.5 * (w + u), 0.0, 0.5 * (w - u), 0.0, J)
         r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None and r[0] < t_best:
-            return r[0], r[1], "none"
+        if r is not None:
+            if out is not None:
+                out.append((r[0], r[1], "none"))
+            elif r[0] < t_best:
+                return r[0], r[1], "none"
     return None
 
 
@@ -334,6 +346,7 @@ def _fam_acc0(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """Plateau at P = a_max, trough Q free: a quartic in Q. The duration
     T(Q) = const + Q^2/(J a_max) - 2Q/J falls with Q up to a_max, so the largest valid root
@@ -376,8 +389,11 @@ def _fam_acc0(
             continue
         ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, J)
         r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None and r[0] < t_best:
-            return r[0], r[1], "acc0"
+        if r is not None:
+            if out is not None:
+                out.append((r[0], r[1], "acc0"))
+            elif r[0] < t_best:
+                return r[0], r[1], "acc0"
     return None
 
 
@@ -393,6 +409,7 @@ def _fam_acc1(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """Peak P free, plateau at Q = a_min: a quartic in P. The duration
     T(P) = const + 2P/J + P^2/(J |a_min|) grows with P >= a_min, so the smallest valid root
@@ -431,8 +448,11 @@ def _fam_acc1(
             continue
         ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), J)
         r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None and r[0] < t_best:
-            return r[0], r[1], "acc1"
+        if r is not None:
+            if out is not None:
+                out.append((r[0], r[1], "acc1"))
+            elif r[0] < t_best:
+                return r[0], r[1], "acc1"
     return None
 
 
@@ -497,3 +517,43 @@ def time_optimal(
 def mirror(ph: tuple[float, ...]) -> tuple[float, ...]:
     """The phase of the mirrored axis (p -> -p): jerk and exact values change sign."""
     return (ph[0], *(-x for x in ph[1:]))
+
+
+def extremal_profiles(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+) -> list[Candidate]:
+    """Every verified extremal profile of both shapes, sorted by duration, near-duplicates
+    (the same profile found by two neighbouring families) removed.
+
+    The fastest is the time-optimal profile. Durations between the 2nd and 3rd (and the 4th
+    and 5th) are blocked: no profile within the limits takes them (Kroeger and Wahl 2009;
+    Berscheid and Kroeger 2021).
+    """
+    cands: list[Candidate] = []
+    sr = single_ramp(v0, a0, d, vf, af, J)
+    if sr is not None:
+        cands.append(sr)
+    up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
+    down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
+    for fam in _FAMILIES:
+        fam(*up, math.inf, cands)
+        mirrored: list[Candidate] = []
+        fam(*down, math.inf, mirrored)
+        for t, ph, name in mirrored:
+            cands.append((t, [mirror(x) for x in ph], name + "-down"))
+    cands.sort(key=lambda c: c[0])
+    unique: list[Candidate] = []
+    for c in cands:
+        if unique and c[0] - unique[-1][0] <= 1e-12 * max(1.0, c[0]):
+            continue
+        unique.append(c)
+    return unique

@@ -83,8 +83,23 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
             "limits: at least one of v_max, a_max, j_max must be finite for a position move"
         )
     _check_target_va(vf, af, lim)
-    d = pf - p0
-    start_state = State(p0, v0, a0)
+    T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
+    return Profile(State(p0, v0, a0), phases, kind)
+
+
+def position_phases(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+) -> tuple[float, list[tuple[float, ...]], str]:
+    """Time-optimal phases for validated inputs: (duration, phases, family)."""
     if J == _INF:
         if amax == _INF:
             if vf != 0.0:
@@ -93,7 +108,7 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
                     "(first-order profile)"
                 )
             t, ph = _lower.first_order(d, vmax, vmin)
-            return Profile(start_state, ph, "first-order")
+            return t, ph, "first-order"
         pre: list[tuple[float, ...]] = []
         v = v0
         if v > vmax:
@@ -107,8 +122,9 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
             d -= t_b * (v + vmin) * 0.5
             v = vmin
         t, ph = _lower.second_order(v, d, vf, vmax, vmin, amax, amin)
-        return Profile(start_state, pre + ph, "second-order")
+        return t + sum(x[0] for x in pre), pre + ph, "second-order"
     pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
+    t_brake = 0.0
     if pre3:
         # distance covered while braking
         pb = 0.0
@@ -117,19 +133,21 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
             pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
             vb += dur * (ab + 0.5 * dur * j)
             ab += dur * j
+            t_brake += dur
         d -= pb
     best = _third.time_optimal(v, a, d, vf, af, vmax, vmin, amax, amin, J)
     if best is None:
         raise PlanningError(
-            f"no time-optimal profile found from {start} to {target} within {lim} "
-            "(planner defect: please report these inputs)"
+            f"no time-optimal profile found from (v={v0!r}, a={a0!r}) over a distance {d!r} "
+            f"to (v={vf!r}, a={af!r}) with v in [{vmin}, {vmax}], a in [{amin}, {amax}], "
+            f"j_max={J} (planner defect: please report these inputs)"
         )
-    _, phases, family = best
+    t, phases, family = best
     if pre3 and phases:
         # continue exactly from the state the brake was designed to reach
         first = phases[0]
         phases = [(first[0], first[1], a, v), *phases[1:]] if len(first) < 4 else phases
-    return Profile(start_state, pre3 + phases, ("brake+" if pre3 else "") + family)
+    return t + t_brake, pre3 + phases, ("brake+" if pre3 else "") + family
 
 
 def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float = 0.0) -> Profile:
@@ -149,28 +167,36 @@ def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float
     if not amin <= af <= amax:
         raise PlanningError(f"a_target = {af!r} is outside the allowed range [{amin}, {amax}]")
     J = lim.j_max
-    start_state = State(p0, v0, a0)
+    if J == _INF and af != 0.0:
+        raise PlanningError(
+            f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
+        )
+    _, phases, kind = velocity_phases(v0, a0, vf, af, amax, amin, J)
+    return Profile(State(p0, v0, a0), phases, kind)
+
+
+def velocity_phases(
+    v0: float, a0: float, vf: float, af: float, amax: float, amin: float, J: float
+) -> tuple[float, list[tuple[float, ...]], str]:
+    """Time-optimal velocity-interface phases for validated inputs."""
     if J == _INF:
-        if af != 0.0:
-            raise PlanningError(
-                f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
-            )
         if amax == _INF or vf == v0:
-            return Profile(start_state, [(0.0, 0.0, 0.0, vf)], "velocity-jump")
+            return 0.0, [(0.0, 0.0, 0.0, vf)], "velocity-jump"
         acc = amax if vf > v0 else amin
         t = (vf - v0) / acc
-        return Profile(start_state, [(t, 0.0, acc), (0.0, 0.0, 0.0)], "velocity-second-order")
-    pre: list[tuple[float, float]] = []
+        return t, [(t, 0.0, acc), (0.0, 0.0, 0.0)], "velocity-second-order"
+    pre: list[tuple[float, ...]] = []
     v, a = v0, a0
+    t_pre = 0.0
     if a > amax:
-        t = (a - amax) / J
-        pre.append((t, -J))
-        v += t * (a - 0.5 * t * J)
+        t_pre = (a - amax) / J
+        pre.append((t_pre, -J))
+        v += t_pre * (a - 0.5 * t_pre * J)
         a = amax
     elif a < amin:
-        t = (amin - a) / J
-        pre.append((t, J))
-        v += t * (a + 0.5 * t * J)
+        t_pre = (amin - a) / J
+        pre.append((t_pre, J))
+        v += t_pre * (a + 0.5 * t_pre * J)
         a = amin
-    _, ph = _velocity.velocity_third(v, a, vf, af, amax, amin, J)
-    return Profile(start_state, pre + ph, "velocity")
+    t, ph = _velocity.velocity_third(v, a, vf, af, amax, amin, J)
+    return t + t_pre, pre + ph, "velocity"

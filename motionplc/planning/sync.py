@@ -1,0 +1,783 @@
+"""Multi-axis synchronisation: :func:`plan_sync`.
+
+Method (time synchronisation, the product's specified method after seed 004)
+--------------------------------------------------------------------------
+1. Every axis is planned time-optimally on its own, and all its *extremal* profiles are
+   collected (every verified solution of every profile family, see ``_third``). Sorted by
+   duration t1 < t2 < t3 < ..., they are 1, 3 or 5 profiles; t1 is the axis' minimum duration
+   and the open intervals (t2, t3) and (t4, t5) are *blocked*: the axis cannot take those
+   durations within its limits (non-zero target velocity or acceleration causes them).
+2. The synchronised duration is the smallest candidate -- the slowest axis' minimum duration
+   or the right end of a blocked interval above it -- that no axis has blocked; with ``dt`` it
+   is rounded up to a whole number of cycles (and skips blocked candidates the same way).
+   We never bisect on the duration itself: the set of feasible durations is not connected.
+3. Every other axis is slowed to exactly that duration:
+   * rest-to-rest axes exactly, by scaling their limits (jerk / k^3, acceleration / k^2,
+     velocity / k with k = T_sync / T_min), which scales the time of the optimal profile by k;
+   * otherwise by bisection on the jerk limit: the minimum duration T(J') is non-increasing
+     in J' (a lower jerk limit only removes profiles), so a bracket [J_lo, J_hi] with
+     T(J_lo) >= T_sync >= T(J_hi) always contains the answer where T is continuous. The
+     bracket is searched in log J' with the Illinois variant of regula falsi (a safeguarded
+     secant step that keeps the bracket), which needs a handful of plans instead of forty.
+     J' never goes below the value at which the start or target state would become unsafe
+     (an inevitable velocity overshoot), so the limits always hold;
+   * where bisection cannot land -- T(J') jumps over T_sync at a blocked interval, or no J'
+     stretches the axis far enough (an axis cruising at its start velocity is not slowed by a
+     lower jerk) -- the axis is solved exactly for the duration with a profile that cruises at
+     an intermediate velocity vp between two time-optimal velocity changes; vp is found by
+     sampling and bisection of the distance equation.
+   Termination: the candidate list is finite; the bisection stops after at most 80 plans or
+   when the bracket has collapsed; the fallback does a fixed number of evaluations.
+
+Phase synchronisation plans one profile along the straight line through the start and target
+positions with the limits of all axes projected onto it, and gives every axis a scaled copy,
+so the tool point stays on the line. It is used where the start and target velocities and
+accelerations are collinear with the move and the phase-synchronised move is not slower than
+the time-synchronised one; otherwise the trajectory falls back to time synchronisation and
+says why in ``Trajectory.note``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import NamedTuple
+
+from motionplc.errors import PlanningError
+from motionplc.planning import _brake, _third, _velocity
+from motionplc.planning.limits import Limits
+from motionplc.planning.plan import (
+    _check_limits,
+    _check_state,
+    _check_target_va,
+    position_phases,
+    velocity_phases,
+)
+from motionplc.planning.profile import Profile
+from motionplc.planning.state import State
+from motionplc.planning.trajectory import Trajectory
+
+_INF = math.inf
+_SYNC_TOL = 2e-10  # target accuracy of a synchronised duration [s] (scaled up for T > 5e4 s)
+Phases = list[tuple[float, ...]]
+
+
+class _Axis(NamedTuple):
+    """One axis' problem after validation (and after any brake for position axes)."""
+
+    velocity: bool  # velocity interface
+    p0: float
+    v0: float  # after the brake
+    a0: float
+    d: float  # remaining distance after the brake
+    vf: float
+    af: float
+    vmax: float
+    vmin: float
+    amax: float
+    amin: float
+    J: float
+    pre: tuple[tuple[float, ...], ...]  # brake phases (position) or acceleration return
+    t_pre: float
+    start: State  # the original start state
+
+
+def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int) -> _Axis:
+    p0, v0, a0 = _check_state(f"starts[{i}]", start)
+    pf, vf, af = _check_state(f"targets[{i}]", target)
+    lim = _check_limits(lim)
+    vmax, vmin = lim.v_max, float(lim.v_min)  # type: ignore[arg-type]
+    amax, amin = lim.a_max, float(lim.a_min)  # type: ignore[arg-type]
+    J = lim.j_max
+    name = f"targets[{i}]"
+    if velocity:
+        if not vmin <= vf <= vmax:
+            raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
+        _check_target_va(vf, af, lim, check_v=False, name=name)
+    else:
+        if vmax == _INF and amax == _INF and J == _INF:
+            raise PlanningError(
+                f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a "
+                "position move"
+            )
+        _check_target_va(vf, af, lim, name=name)
+    pre: Phases = []
+    d = pf - p0
+    if J != _INF:
+        if velocity:
+            if a0 > amax or a0 < amin:
+                lim_a = amax if a0 > amax else amin
+                j = -J if a0 > amax else J
+                t = (lim_a - a0) / j
+                pre.append((t, j))
+                v0 += t * (a0 + 0.5 * t * j)
+                a0 = lim_a
+        else:
+            pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
+            if pre3:
+                pb = 0.0
+                vb, ab = v0, a0
+                for dur, j in pre3:
+                    pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
+                    vb += dur * (ab + 0.5 * dur * j)
+                    ab += dur * j
+                d -= pb
+                pre.extend(pre3)
+                v0, a0 = v, a
+    t_pre = sum(x[0] for x in pre)
+    return _Axis(
+        velocity, p0, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, tuple(pre), t_pre, start
+    )
+
+
+def _optimal(ax: _Axis, J: float | None = None) -> tuple[float, Phases, str]:
+    """Time-optimal phases of the axis after its prefix (optionally with another jerk)."""
+    jj = ax.J if J is None else J
+    if ax.velocity:
+        return velocity_phases(ax.v0, ax.a0, ax.vf, ax.af, ax.amax, ax.amin, jj)
+    return position_phases(ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin, jj)
+
+
+def _extremals(ax: _Axis) -> list[tuple[float, Phases, str]]:
+    """Extremal profiles (after the prefix), fastest first; one for lower-order/velocity axes."""
+    if ax.velocity or ax.J == _INF:
+        return [_optimal(ax)]
+    ext = _third.extremal_profiles(
+        ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin, ax.J
+    )
+    if not ext:
+        return [_optimal(ax)]  # raises the planner's error if there really is no profile
+    return ext
+
+
+def _blocked(durations: Sequence[float], T: float) -> bool:
+    """Whether T lies in a blocked interval (t2, t3) or (t4, t5) of the extremal durations."""
+    n = len(durations)
+    k = 1
+    while k + 1 < n:
+        lo, hi = durations[k], durations[k + 1]
+        if lo + _SYNC_TOL < T < hi - _SYNC_TOL:
+            return True
+        k += 2
+    return False
+
+
+def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
+    """Smallest scale of the chosen limit for which start and target stay inside and safe."""
+    v0, a0, vf, af, J = ax.v0, ax.a0, ax.vf, ax.af, ax.J
+    floor = 0.0
+    if what == "j":
+        if not ax.velocity:
+            if a0 > 0.0 and ax.vmax != _INF:
+                floor = max(floor, a0 * a0 / (2.0 * max(ax.vmax - v0, 1e-300)))
+            if a0 < 0.0 and ax.vmin != -_INF:
+                floor = max(floor, a0 * a0 / (2.0 * max(v0 - ax.vmin, 1e-300)))
+            if af < 0.0 and ax.vmax != _INF:
+                floor = max(floor, af * af / (2.0 * max(ax.vmax - vf, 1e-300)))
+            if af > 0.0 and ax.vmin != -_INF:
+                floor = max(floor, af * af / (2.0 * max(vf - ax.vmin, 1e-300)))
+        return floor / J * (1.0 + 1e-9)
+    if what == "a":
+        vals = (a0, af)
+    else:
+        reach0 = v0 + a0 * abs(a0) / (2.0 * J)
+        reachf = vf - af * abs(af) / (2.0 * J)
+        vals = (v0, vf, reach0, reachf)
+    for x in vals:
+        if x > 0.0:
+            floor = max(floor, x / lim_hi)
+        elif x < 0.0:
+            floor = max(floor, x / lim_lo)
+    return floor * (1.0 + 1e-9)
+
+
+def _by_limit_bisection(
+    ax: _Axis, T: float, t_ref: float, what: str = "j", branch: int = 0
+) -> tuple[Phases, str] | None:
+    """Lower one limit (``what``: "j" jerk, "a" acceleration, "v" velocity) by a common
+    scale s until the axis' minimum duration is T (see the module docstring).
+
+    The minimum duration is non-increasing in s, because a lower limit only removes profiles.
+    ``branch`` > 0 follows the extremal profile that bounds the branch-th feasible piece of
+    durations from below (the right end of a blocked interval) instead of the fastest one.
+    The search runs in (log s, log T), where jerk-dominated profiles are straight lines of
+    slope -1/3: a secant expansion finds the bracket, Illinois steps (regula falsi that halves
+    a stale end's value) shrink it, and a jump of T(s) over T ends it early.
+    """
+    J = ax.J
+    if J == _INF or T <= 0.0 or t_ref <= 0.0:
+        return None
+    hi, lo = 0.0, 0.0
+    if what == "a":
+        hi, lo = ax.amax, ax.amin
+    elif what == "v":
+        if ax.velocity:
+            return None
+        hi, lo = ax.vmax, ax.vmin
+    if what != "j" and (hi == _INF or lo == -_INF):
+        # an infinite limit: start from the extremes of the optimal profile, which it keeps
+        t0, ph0, _ = _optimal(ax)
+        prof = Profile(State(0.0, ax.v0, ax.a0), ph0)
+        (_, _), (vl, vh), (al, ah) = prof.extrema()
+        if what == "a":
+            hi = min(hi, max(ah, 1e-300) * (1.0 + 1e-12))
+            lo = max(lo, min(al, -1e-300) * (1.0 + 1e-12))
+        else:
+            hi = min(hi, max(vh, 1e-300) * (1.0 + 1e-12))
+            lo = max(lo, min(vl, -1e-300) * (1.0 + 1e-12))
+    s_floor = _scale_floor(ax, what, hi, lo)
+    if s_floor >= 1.0:
+        return None
+    x_floor = math.log(s_floor) if s_floor > 0.0 else -80.0
+    tol = max(_SYNC_TOL, 4e-15 * T)
+    log_t = math.log(T)
+    found: list[tuple[float, Phases, str]] = []
+
+    def g(x: float) -> float | None:
+        sc = math.exp(x)
+        jj, amax, amin, vmax, vmin = J, ax.amax, ax.amin, ax.vmax, ax.vmin
+        if what == "j":
+            jj = J * sc
+        elif what == "a":
+            amax, amin = hi * sc, lo * sc
+        else:
+            vmax, vmin = hi * sc, lo * sc
+        try:
+            if ax.velocity:
+                r = velocity_phases(ax.v0, ax.a0, ax.vf, ax.af, amax, amin, jj)
+            elif branch == 0:
+                r = position_phases(ax.v0, ax.a0, ax.d, ax.vf, ax.af, vmax, vmin, amax, amin, jj)
+            else:
+                ext = _third.extremal_profiles(
+                    ax.v0, ax.a0, ax.d, ax.vf, ax.af, vmax, vmin, amax, amin, jj
+                )
+                if not ext:
+                    return None
+                r = ext[min(2 * branch, len(ext) - 1)]
+        except (PlanningError, ArithmeticError):
+            return None
+        if abs(r[0] - T) <= tol:
+            found.append(r)
+        return math.log(r[0]) - log_t if r[0] > 0.0 else -_INF
+
+    def done() -> tuple[Phases, str]:
+        r = found[0]
+        return list(r[1]), r[2] + "+" + what
+
+    # bracket: xb (T(s) <= T) at the full limit, xa (T(s) >= T) below it
+    xb, fb = 0.0, math.log(t_ref) - log_t
+    xa = max(3.0 * fb if what == "j" else 2.0 * fb, x_floor)
+    fa = g(xa)
+    if found:
+        return done()
+    x_prev, f_prev = xb, fb
+    steps = 0
+    while fa is not None and fa < 0.0:
+        if xa <= x_floor or steps > 12:
+            return None
+        slope = (fa - f_prev) / (xa - x_prev) if xa != x_prev else -1.0 / 3.0
+        step = -fa / slope if slope < 0.0 else -2.0
+        x_prev, f_prev = xa, fa
+        xb, fb = xa, fa
+        xa = max(xa + min(step * 1.5, -0.7), x_floor)
+        fa = g(xa)
+        if found:
+            return done()
+        steps += 1
+    if fa is None:
+        return None
+    side = 0
+    for it in range(60):
+        x = (xa * fb - xb * fa) / (fb - fa)
+        if not min(xa, xb) < x < max(xa, xb):
+            x = 0.5 * (xa + xb)
+        fx = g(x)
+        if found:
+            return done()
+        if fx is None:
+            return None
+        if fx > 0.0:
+            xa, fa = x, fx
+            if side == 1:
+                fb *= 0.5
+            side = 1
+        else:
+            xb, fb = x, fx
+            if side == -1:
+                fa *= 0.5
+            side = -1
+        if (it > 4 and abs(fa - fb) > 10.0 * abs(xa - xb) + 1e-6) or (
+            abs(xa - xb) <= 1e-7 * (1.0 + abs(xa)) and min(abs(fa), abs(fb)) > 1e-6
+        ):
+            # log T changes faster than any smooth family allows: T(s) jumps over T here
+            return None
+        if abs(xa - xb) <= 1e-15 * (1.0 + abs(xa)):
+            return None
+    return None
+
+
+def _velocity_change(
+    v0: float, a0: float, v1: float, a1: float, ax: _Axis
+) -> tuple[float, Phases, float]:
+    t, ph = _velocity.velocity_third(v0, a0, v1, a1, ax.amax, ax.amin, ax.J)
+    p = 0.0
+    v, a = v0, a0
+    for dur, j in ph:
+        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+        v += dur * (a + 0.5 * dur * j)
+        a += dur * j
+    return t, list(ph), p
+
+
+def _by_cruise_velocity(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Exact profile of duration T cruising at an intermediate velocity (fallback)."""
+    if ax.velocity or ax.J == _INF:
+        return None
+    v0, a0, vf, af, d = ax.v0, ax.a0, ax.vf, ax.af, ax.d
+    span = abs(v0) + abs(vf) + 4.0 * abs(d) / T + 1.0
+    lo = max(ax.vmin, -span)
+    hi = min(ax.vmax, span)
+
+    def residual(vp: float) -> tuple[float, float]:
+        t1, _, d1 = _velocity_change(v0, a0, vp, 0.0, ax)
+        t2, _, d2 = _velocity_change(vp, 0.0, vf, af, ax)
+        c = T - t1 - t2
+        return d1 + d2 + vp * c - d, c
+
+    n = 48
+    grid = [lo + (hi - lo) * k / n for k in range(n + 1)]
+    vals = [residual(vp) for vp in grid]
+    for k in range(n):
+        (f0, c0), (f1, c1) = vals[k], vals[k + 1]
+        if c0 < 0.0 or c1 < 0.0 or (f0 < 0.0) == (f1 < 0.0):
+            continue
+        a, b, fa = grid[k], grid[k + 1], f0
+        for _ in range(100):
+            m = 0.5 * (a + b)
+            fm, _cm = residual(m)
+            if (fm < 0.0) == (fa < 0.0):
+                a, fa = m, fm
+            else:
+                b = m
+            if b - a <= 1e-15 * max(1.0, abs(m)):
+                break
+        vp = 0.5 * (a + b)
+        t1, ph1, _ = _velocity_change(v0, a0, vp, 0.0, ax)
+        t2, ph2, _ = _velocity_change(vp, 0.0, vf, af, ax)
+        c = T - t1 - t2
+        if c < -1e-12:
+            continue
+        phases: Phases = [*ph1, (max(c, 0.0), 0.0, 0.0, vp), *ph2]
+        r = _third._verify(phases, v0, a0, d, vf, af, ax.vmax, ax.vmin, ax.amax, ax.amin)
+        if r is not None and abs(r[0] - T) <= 1e-9 * max(1.0, T):
+            return list(r[1]), "cruise-sync"
+    return None
+
+
+def _scan_family(
+    x_lo: float,
+    x_hi: float,
+    phases_of: object,
+    ax: _Axis,
+    T: float,
+    sign: float,
+    n: int = 40,
+) -> Phases | None:
+    """Find x in [x_lo, x_hi] where the phases built by ``phases_of(x)`` reach the target
+    distance: sample, then bisect every sign change between admissible samples."""
+    if not x_lo < x_hi:
+        return None
+    v0, a0, d = sign * ax.v0, sign * ax.a0, sign * ax.d
+    vf, af = sign * ax.vf, sign * ax.af
+
+    def resid(x: float) -> tuple[float, Phases] | None:
+        ph = phases_of(x)  # type: ignore[operator]
+        if ph is None:
+            return None
+        p, v, a = 0.0, v0, a0
+        for dur, j, *_ in ph:
+            if dur < -1e-12:
+                return None
+            if dur > 0.0:
+                p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+                v += dur * (a + 0.5 * dur * j)
+                a += dur * j
+        return p - d, ph
+
+    xs = [x_lo + (x_hi - x_lo) * (k + 0.5) / n for k in range(n)]
+    prev: tuple[float, float] | None = None
+    if sign > 0:
+        vmax, vmin, amax, amin = ax.vmax, ax.vmin, ax.amax, ax.amin
+    else:
+        vmax, vmin, amax, amin = -ax.vmin, -ax.vmax, -ax.amin, -ax.amax
+    for x in xs:
+        r = resid(x)
+        if r is None:
+            prev = None
+            continue
+        f = r[0]
+        if prev is not None and (prev[1] < 0.0) != (f < 0.0):
+            a, b, fa = prev[0], x, prev[1]
+            ok = True
+            for _ in range(100):
+                m = 0.5 * (a + b)
+                rm = resid(m)
+                if rm is None:
+                    ok = False
+                    break
+                if (rm[0] < 0.0) == (fa < 0.0):
+                    a, fa = m, rm[0]
+                else:
+                    b = m
+                if b - a <= 4e-16 * max(1.0, abs(m)):
+                    break
+            if ok:
+                rm = resid(0.5 * (a + b))
+                if rm is not None:
+                    ph = [(max(x[0], 0.0), *x[1:]) for x in rm[1]]
+                    ver = _third._verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+                    if ver is not None and abs(ver[0] - T) <= 1e-9 * max(1.0, T):
+                        out = list(ver[1])
+                        return out if sign > 0 else [_third.mirror(q) for q in out]
+        prev = (x, f)
+    return None
+
+
+def _by_free_plateau(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Exact profiles of duration T with an acceleration plateau at a free value (step 2):
+    up-down-up shapes with the plateau at the trough or at the peak, the other corner free or
+    at its limit; both orientations. Each is a one-parameter scan of the distance equation."""
+    if ax.velocity or ax.J == _INF:
+        return None
+    for sign in (1.0, -1.0):
+        r = _free_plateau_oriented(ax, T, sign)
+        if r is not None:
+            return r
+    return None
+
+
+def _free_plateau_oriented(ax: _Axis, T: float, sign: float) -> tuple[Phases, str] | None:
+    J = ax.J
+    v0, a0, vf, af = sign * ax.v0, sign * ax.a0, sign * ax.vf, sign * ax.af
+    if sign > 0:
+        amax, amin = ax.amax, ax.amin
+    else:
+        amax, amin = -ax.amin, -ax.amax
+    K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
+    W = J * T + a0 - af
+    if W > 0.0:
+        u_hi = 0.5 * W
+
+        def trough(u: float) -> Phases | None:
+            Q = (K - 2.0 * u * u) / (2.0 * W)
+            P = Q + u
+            if P < a0 - 1e-12 or Q > af + 1e-12 or P > amax or Q < amin:
+                return None
+            h2 = T - (2.0 * u + af - a0) / J
+            return [((P - a0) / J, J), ((P - Q) / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
+
+        def peak(u: float) -> Phases | None:
+            P = (K + 2.0 * u * u) / (2.0 * W)
+            Q = P - u
+            if P < a0 - 1e-12 or Q > af + 1e-12 or P > amax or Q < amin:
+                return None
+            h1 = T - (2.0 * u + af - a0) / J
+            return [((P - a0) / J, J), (h1, 0.0, P), ((P - Q) / J, -J), ((af - Q) / J, J)]
+
+        for fam, name in ((trough, "free-trough"), (peak, "free-peak")):
+            r = _scan_family(0.0, u_hi, fam, ax, T, sign)
+            if r is not None:
+                return r, name
+    if amax != _INF:
+
+        def acc0_trough(Q: float) -> Phases | None:
+            S = T - (2.0 * amax - a0 - 2.0 * Q + af) / J
+            R = (K - 2.0 * amax * amax + 2.0 * Q * Q) / (2.0 * J)
+            if amax - Q <= 0.0:
+                return None
+            h1 = (R - Q * S) / (amax - Q)
+            h2 = S - h1
+            if h1 < -1e-12 or h2 < -1e-12:
+                return None
+            return [
+                ((amax - a0) / J, J),
+                (h1, 0.0, amax),
+                ((amax - Q) / J, -J),
+                (h2, 0.0, Q),
+                ((af - Q) / J, J),
+            ]
+
+        def peak_acc1(P: float) -> Phases | None:
+            S = T - (2.0 * P - a0 - 2.0 * amin + af) / J
+            R = (K - 2.0 * P * P + 2.0 * amin * amin) / (2.0 * J)
+            if P - amin <= 0.0:
+                return None
+            h1 = (R - amin * S) / (P - amin)
+            h2 = S - h1
+            if h1 < -1e-12 or h2 < -1e-12:
+                return None
+            return [
+                ((P - a0) / J, J),
+                (h1, 0.0, P),
+                ((P - amin) / J, -J),
+                (h2, 0.0, amin),
+                ((af - amin) / J, J),
+            ]
+
+        r = _scan_family(amin, min(af, amax), acc0_trough, ax, T, sign)
+        if r is not None:
+            return r, "acc0-free-trough"
+        r = _scan_family(max(a0, amin), amax, peak_acc1, ax, T, sign)
+        if r is not None:
+            return r, "free-peak-acc1"
+    return None
+
+
+def _solve_for(
+    ax: _Axis, T: float, ext: list[tuple[float, Phases, str]]
+) -> tuple[Phases, str] | None:
+    """Phases of duration T (after the prefix) for this axis, or None."""
+    for t, ph, kind in ext:
+        if abs(t - T) <= _SYNC_TOL * max(1.0, T):
+            return ph, kind
+    t_min = ext[0][0]
+    if T < t_min:
+        return None
+    rest = ax.v0 == 0.0 and ax.a0 == 0.0 and ax.vf == 0.0 and ax.af == 0.0
+    if rest and not ax.velocity and t_min > 0.0:
+        k = T / t_min
+        ph = _scaled_rest(ax, k)
+        if ph is not None:
+            return ph
+    durs = [t for t, _, _ in ext]
+    branch = 0
+    while 2 * branch + 2 < len(durs) and T >= durs[2 * branch + 2] - _SYNC_TOL:
+        branch += 1
+    for what in ("j", "a", "v"):
+        r = _by_limit_bisection(ax, T, durs[2 * branch], what, branch)
+        if r is not None:
+            return r
+    r = _by_cruise_velocity(ax, T)
+    if r is not None:
+        return r
+    r = _by_free_plateau(ax, T)
+    if r is not None:
+        return r
+    if ax.velocity and ax.af == 0.0:
+        # reach the velocity, then hold it
+        t, ph, kind = ext[0]
+        return [*ph, (T - t, 0.0, 0.0)], kind + "+hold"
+    return None
+
+
+def _scaled_rest(ax: _Axis, k: float) -> tuple[Phases, str] | None:
+    """Rest-to-rest: the optimal profile for limits (v/k, a/k^2, j/k^3) lasts k times longer."""
+    try:
+        t, ph, kind = position_phases(
+            0.0,
+            0.0,
+            ax.d,
+            0.0,
+            0.0,
+            ax.vmax / k,
+            ax.vmin / k,
+            ax.amax / (k * k),
+            ax.amin / (k * k),
+            ax.J / (k * k * k),
+        )
+    except PlanningError:
+        return None
+    return ph, kind + "+scaled"
+
+
+def _round_up(T: float, dt: float | None) -> float:
+    if dt is None:
+        return T
+    k = math.ceil(T / dt - 1e-9)
+    return max(k, 0) * dt
+
+
+def _profile(ax: _Axis, phases: Phases, kind: str) -> Profile:
+    ph = list(phases)
+    if ax.pre and ph:
+        first = ph[0]
+        if len(first) < 4:
+            ph[0] = (first[0], first[1], ax.a0, ax.v0)
+    return Profile(ax.start, [*ax.pre, *ph], kind)
+
+
+def _time_sync(
+    axes: list[_Axis], dt: float | None
+) -> tuple[list[Profile], tuple[float, ...]] | None:
+    exts = [_extremals(ax) for ax in axes]
+    tmins = [ax.t_pre + e[0][0] for ax, e in zip(axes, exts, strict=True)]
+    t_lim = max(tmins)
+    cands = {t_lim}
+    for ax, e in zip(axes, exts, strict=True):
+        for t, _, _ in e[1:]:
+            if ax.t_pre + t > t_lim:
+                cands.add(ax.t_pre + t)
+    ordered = sorted({_round_up(t, dt) for t in cands})
+    if dt is not None:
+        # a rounded candidate may be blocked; the next cycles are candidates too
+        ordered = sorted(set(ordered) | {ordered[0] + k * dt for k in range(1, 4)})
+    for T in ordered:
+        if T < t_lim - _SYNC_TOL:
+            continue
+        profiles: list[Profile] = []
+        for ax, e in zip(axes, exts, strict=True):
+            durs = [t for t, _, _ in e]
+            if _blocked(durs, T - ax.t_pre):
+                break
+            r = _solve_for(ax, T - ax.t_pre, e)
+            if r is None:
+                break
+            profiles.append(_profile(ax, r[0], r[1]))
+        else:
+            return profiles, tuple(tmins)
+    return None
+
+
+def _phase_sync(
+    axes: list[_Axis],
+    starts: Sequence[State],
+    targets: Sequence[State],
+    t_time: float,
+    dt: float | None,
+) -> tuple[list[Profile] | None, str]:
+    """Scaled copies of one profile along the line, or (None, reason)."""
+    if any(ax.velocity for ax in axes):
+        return None, "phase synchronisation needs position interfaces on every axis"
+    if any(ax.pre for ax in axes):
+        return None, "phase synchronisation is not possible from a state outside the limits"
+    n = len(axes)
+    dp = [targets[i].p - starts[i].p for i in range(n)]
+    length = math.sqrt(sum(x * x for x in dp))
+    if length == 0.0:
+        return None, "phase synchronisation needs a non-zero move"
+    u = [x / length for x in dp]
+
+    def along(vec: list[float], what: str) -> float | None:
+        s = sum(x * ui for x, ui in zip(vec, u, strict=True))
+        scale = max(1.0, max(abs(x) for x in vec))
+        if any(abs(x - s * ui) > 1e-12 * scale for x, ui in zip(vec, u, strict=True)):
+            return None
+        return s
+
+    comps = {}
+    for what, vec in (
+        ("start velocities", [s.v for s in starts]),
+        ("start accelerations", [s.a for s in starts]),
+        ("target velocities", [t.v for t in targets]),
+        ("target accelerations", [t.a for t in targets]),
+    ):
+        s = along(vec, what)
+        if s is None:
+            return (
+                None,
+                f"phase synchronisation not possible: {what} are not collinear with the move",
+            )
+        comps[what] = s
+    vmax = amax = J = _INF
+    vmin = amin = -_INF
+    for ax, ui in zip(axes, u, strict=True):
+        if ui == 0.0:
+            continue
+        hi_v, lo_v = (ax.vmax / ui, ax.vmin / ui) if ui > 0 else (ax.vmin / ui, ax.vmax / ui)
+        hi_a, lo_a = (ax.amax / ui, ax.amin / ui) if ui > 0 else (ax.amin / ui, ax.amax / ui)
+        vmax, vmin = min(vmax, hi_v), max(vmin, lo_v)
+        amax, amin = min(amax, hi_a), max(amin, lo_a)
+        J = min(J, ax.J / abs(ui))
+    line = State(0.0, comps["start velocities"], comps["start accelerations"])
+    goal = State(length, comps["target velocities"], comps["target accelerations"])
+    try:
+        lim = Limits(v_max=vmax, a_max=amax, j_max=J, v_min=vmin, a_min=amin)
+        ax1 = _make_axis(line, goal, lim, False, 0)
+    except PlanningError as exc:
+        return None, f"phase synchronisation not possible along the line: {exc}"
+    if ax1.pre:
+        return None, "phase synchronisation not possible: the start is outside the projected limits"
+    ext = _extremals(ax1)
+    T = _round_up(max(ext[0][0], 0.0), dt)
+    if T > t_time * (1.0 + 1e-9) + 1e-9:
+        return None, (
+            f"phase synchronisation would take {T:.9g} s, longer than the time-synchronised "
+            f"{t_time:.9g} s"
+        )
+    r = _solve_for(ax1, T, ext)
+    if r is None:
+        return None, "phase synchronisation not possible for the rounded duration"
+    phases, kind = r
+    profiles = []
+    for s0, ui in zip(starts, u, strict=True):
+        scaled = [(ph[0], *(x * ui for x in ph[1:])) for ph in phases]
+        first = scaled[0] if scaled else None
+        if first is not None and len(first) < 4:
+            scaled[0] = (first[0], first[1], s0.a, s0.v)
+        profiles.append(Profile(s0, scaled, kind + "+phase"))
+    return profiles, ""
+
+
+def plan_sync(
+    starts: Sequence[State],
+    targets: Sequence[State],
+    limits: Sequence[Limits],
+    sync: str = "time",
+    dt: float | None = None,
+    interface: Sequence[str] | None = None,
+) -> Trajectory:
+    """Plan several axes together.
+
+    ``sync``: "time" (every axis ends together, as fast as the slowest allows), "phase" (a
+    straight line where the inputs are collinear, else "time" with a note) or "none" (each axis
+    time-optimal). ``dt``: round the duration up to a whole number of cycles. ``interface``: per
+    axis "position" or "velocity" (a velocity axis ignores its target position).
+    """
+    n = len(starts)
+    if len(targets) != n or len(limits) != n:
+        raise PlanningError(
+            f"starts, targets and limits must have the same length, got {n}, {len(targets)}, "
+            f"{len(limits)}"
+        )
+    if n == 0:
+        raise PlanningError("plan_sync needs at least one axis")
+    if sync not in ("time", "phase", "none"):
+        raise PlanningError(f"sync must be one of 'time', 'phase', 'none', got {sync!r}")
+    if dt is not None:
+        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not dt > 0.0:
+            raise PlanningError(f"dt must be a positive number of seconds or None, got {dt!r}")
+        if not math.isfinite(dt):
+            raise PlanningError(f"dt must be finite, got {dt!r}")
+        dt = float(dt)
+    ifaces = list(interface) if interface is not None else ["position"] * n
+    if len(ifaces) != n:
+        raise PlanningError(f"interface must have {n} entries, got {len(ifaces)}")
+    for i, kind in enumerate(ifaces):
+        if kind not in ("position", "velocity"):
+            raise PlanningError(f"interface[{i}] must be 'position' or 'velocity', got {kind!r}")
+    axes = [
+        _make_axis(starts[i], targets[i], limits[i], ifaces[i] == "velocity", i) for i in range(n)
+    ]
+    if sync == "none":
+        profiles = []
+        for ax in axes:
+            t, ph, kind = _optimal(ax)
+            if dt is not None:
+                r = _solve_for(ax, _round_up(ax.t_pre + t, dt) - ax.t_pre, _extremals(ax))
+                if r is not None:
+                    ph, kind = r
+            profiles.append(_profile(ax, ph, kind))
+        return Trajectory(profiles, "none", "", [p.duration for p in profiles])
+    res = _time_sync(axes, dt)
+    if res is None:
+        raise PlanningError(
+            "no common duration found for the axes (planner defect: please report these inputs)"
+        )
+    profiles, tmins = res
+    if sync == "phase":
+        t_time = max(p.duration for p in profiles)
+        phase, note = _phase_sync(axes, starts, targets, t_time, dt)
+        if phase is not None:
+            return Trajectory(phase, "phase", "", tmins)
+        return Trajectory(profiles, "time", note, tmins)
+    return Trajectory(profiles, "time", "", tmins)
