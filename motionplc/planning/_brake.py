@@ -61,11 +61,15 @@ def _velocity_brake_upper(
 
 
 def needs_upper_brake(v: float, a: float, vmax: float, J: float) -> bool:
-    return v > vmax or (a > 0.0 and v + 0.5 * a * a / J > vmax)
+    """Above v_max, or above it inevitably (beyond a rounding margin)."""
+    lim = vmax + 1e-12 * max(1.0, abs(vmax))
+    return v > lim or (a > 0.0 and v + 0.5 * a * a / J > lim)
 
 
 def needs_lower_brake(v: float, a: float, vmin: float, J: float) -> bool:
-    return v < vmin or (a < 0.0 and v - 0.5 * a * a / J < vmin)
+    """Below v_min, or below it inevitably (beyond a rounding margin)."""
+    lim = vmin - 1e-12 * max(1.0, abs(vmin))
+    return v < lim or (a < 0.0 and v - 0.5 * a * a / J < lim)
 
 
 def brake(
@@ -73,12 +77,12 @@ def brake(
 ) -> tuple[Phases, float, float]:
     """Phases (duration, jerk) that bring (v, a) inside the limits, and the state after them."""
     out: Phases = []
-    if a > amax:
+    if a > amax + 1e-12 * max(1.0, abs(amax)):
         t = (a - amax) / J
         out.append((t, -J))
         v, a = _advance(v, a, t, -J)
         a = amax
-    elif a < amin:
+    elif a < amin - 1e-12 * max(1.0, abs(amin)):
         t = (amin - a) / J
         out.append((t, J))
         v, a = _advance(v, a, t, J)

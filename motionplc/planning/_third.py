@@ -152,16 +152,17 @@ def _ramp_distance(v: float, a: float, phases: Phases) -> tuple[float, float, fl
 
 
 def _plateau_domain(lo: float, hi: float, m: float) -> tuple[float, float]:
-    """Hull of {x in [lo, hi] : x^2 >= m} (a plateau duration is >= 0 exactly there),
-    widened by a rounding margin; empty when lo > hi is returned."""
+    """Hull of {x in [lo, hi] : x^2 >= m} (a plateau duration is >= 0 exactly there); a bound
+    set by the plateau condition is widened by a rounding margin, the natural bounds are kept
+    exact so that a profile ending on a family boundary is found at the interval's end."""
     if m > 0.0:
-        r = math.sqrt(m) * (1.0 - 1e-9)
+        r = math.sqrt(m)
+        margin = 1e-9 * (r + 1.0)
         if lo > -r:  # the left part [lo, -r] is empty
-            lo = max(lo, r)
+            lo = max(lo, r - margin)
         if hi < r:  # the right part [r, hi] is empty
-            hi = min(hi, -r)
-    margin = 1e-9 * (abs(lo) + abs(hi) + 1.0)
-    return lo - margin, hi + margin
+            hi = min(hi, -r + margin)
+    return lo, hi
 
 
 Candidate = tuple[float, Phases, str]
@@ -271,7 +272,7 @@ def _fam_acc0_acc1(
         if r is not None:
             if out is not None:
                 out.append((r[0], r[1], "acc0_acc1"))
-            if r[0] < t_best:
+            if r[0] < t_best and out is None:
                 best = (r[0], r[1], "acc0_acc1")
                 t_best = r[0]
     return best

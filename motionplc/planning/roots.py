@@ -122,23 +122,35 @@ def quartic_roots_in(
     x0 = lo
     f0 = (((x0 + c3) * x0 + c2) * x0 + c1) * x0 + c0
     ax = abs(x0)
-    tol0 = 1e-13 * ((((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0)
-    if abs(f0) <= tol0:
+    scale = (((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0
+    if abs(f0) <= 1e-13 * scale:
         roots.append(x0)
         f0 = 0.0
-    for x1 in pts[1:]:
+    elif abs(f0) <= 1e-10 * scale:
+        # The ends of the interval are family boundaries: a near-root there is also offered
+        # (the caller's verification by integration decides), so that a state a rounding error
+        # away from a boundary gets the boundary profile and not a needless tiny extra phase.
+        # The sign is kept, so a genuine root next to it is still bracketed.
+        roots.append(x0)
+    n = len(pts)
+    for k in range(1, n):
+        x1 = pts[k]
         f1 = (((x1 + c3) * x1 + c2) * x1 + c1) * x1 + c0
         ax = abs(x1)
-        tol1 = 1e-13 * ((((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0)
-        if abs(f1) <= tol1:
+        scale = (((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0
+        if abs(f1) <= 1e-13 * scale:
             # a root at the end, or a (near-)double root at a critical point
             if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
                 roots.append(x1)
             f1 = 0.0
-        elif f0 != 0.0 and (f0 < 0.0) != (f1 < 0.0):
-            r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
-            if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
-                roots.append(r)
+        else:
+            if f0 != 0.0 and (f0 < 0.0) != (f1 < 0.0):
+                r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
+                if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
+                    roots.append(r)
+            if k == n - 1 and abs(f1) <= 1e-10 * scale:
+                if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
+                    roots.append(x1)
         x0 = x1
         f0 = f1
     return roots

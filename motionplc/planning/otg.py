@@ -1,0 +1,139 @@
+"""Online trajectory generation: one call per control cycle.
+
+:class:`OnlineGenerator` keeps the commanded state of one axis (or of a group of axes planned
+together with :func:`plan_sync`), re-plans from that state only when the target changes, and
+returns the setpoint of the next cycle. Because every plan starts from the commanded
+position, velocity *and* acceleration, a target change mid-motion continues with the same
+acceleration (no jump) and jerk within the limit. Time is injected as the cycle ``dt``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+from motionplc.errors import PlanningError
+from motionplc.planning.limits import Limits
+from motionplc.planning.plan import plan, plan_velocity
+from motionplc.planning.profile import Profile, Sample
+from motionplc.planning.state import State
+from motionplc.planning.sync import plan_sync
+from motionplc.planning.trajectory import Trajectory
+
+
+class OnlineGenerator:
+    """Cyclic setpoint generator.
+
+    ``limits``: one :class:`Limits` (single axis; targets are :class:`State`) or a sequence of
+    them (a group; targets are sequences of :class:`State`, synchronised with ``sync``).
+    ``interface``: "position" (default) or "velocity" (single axis; the target's ``v`` and
+    ``a`` are used). ``start``: the initial commanded state(s).
+    """
+
+    def __init__(
+        self,
+        limits: Limits | Sequence[Limits],
+        dt: float,
+        start: State | Sequence[State] | None = None,
+        *,
+        interface: str = "position",
+        sync: str = "time",
+    ) -> None:
+        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not dt > 0.0:
+            raise PlanningError(f"dt must be a positive number of seconds, got {dt!r}")
+        if not math.isfinite(dt):
+            raise PlanningError(f"dt must be finite, got {dt!r}")
+        if interface not in ("position", "velocity"):
+            raise PlanningError(f"interface must be 'position' or 'velocity', got {interface!r}")
+        self._group = not isinstance(limits, Limits)
+        self._limits: Limits | tuple[Limits, ...]
+        if self._group:
+            lims = tuple(limits)  # type: ignore[arg-type]
+            if not lims or not all(isinstance(x, Limits) for x in lims):
+                raise PlanningError("limits must be a Limits or a non-empty sequence of Limits")
+            if interface != "position":
+                raise PlanningError("a group generator uses the position interface")
+            self._limits = lims
+            n = len(lims)
+            if start is None:
+                start = [State() for _ in range(n)]
+            starts = tuple(start)  # type: ignore[arg-type]
+            if len(starts) != n:
+                raise PlanningError(f"start must have {n} states, got {len(starts)}")
+            self._state: State | tuple[State, ...] = starts
+        else:
+            self._limits = limits  # type: ignore[assignment]
+            self._state = State() if start is None else start  # type: ignore[assignment]
+        self.dt = float(dt)
+        self.interface = interface
+        self.sync = sync
+        self._target: object = None
+        self._plan: Profile | Trajectory | None = None
+        self._t = 0.0
+        self.replans = 0
+
+    # -- state -------------------------------------------------------------------------------
+    @property
+    def state(self) -> State | tuple[State, ...]:
+        """The commanded state after the last :meth:`update`."""
+        return self._state
+
+    @property
+    def trajectory(self) -> Profile | Trajectory | None:
+        """The plan being followed (immutable)."""
+        return self._plan
+
+    @property
+    def time(self) -> float:
+        """Time since the current plan started [s]."""
+        return self._t
+
+    @property
+    def finished(self) -> bool:
+        """The current plan has reached its end."""
+        return self._plan is not None and self._t >= self._plan.duration
+
+    def reset(self, state: State | Sequence[State]) -> None:
+        """Set the commanded state (e.g. to the measured one) and forget the plan."""
+        self._state = tuple(state) if self._group else state  # type: ignore[arg-type,assignment]
+        self._plan = None
+        self._target = None
+        self._t = 0.0
+
+    # -- cycle -------------------------------------------------------------------------------
+    def update(self, target: State | Sequence[State]) -> Sample | tuple[Sample, ...]:
+        """Advance one cycle toward ``target``; re-plans only when the target changed.
+
+        Returns the setpoint for the end of this cycle (one :class:`Sample` per axis for a
+        group). A bad target raises :class:`PlanningError` and leaves the generator as it was:
+        the motion in progress continues with the next valid call.
+        """
+        key = tuple(target) if self._group else target  # type: ignore[arg-type]
+        if self._plan is None or key != self._target:
+            self._plan = self._replan(key)
+            self._target = key
+            self._t = 0.0
+            self.replans += 1
+        self._t += self.dt
+        plan_ = self._plan
+        if self._group:
+            samples = plan_.at(self._t)  # type: ignore[union-attr]
+            self._state = tuple(State(s.p, s.v, s.a) for s in samples)  # type: ignore[union-attr]
+            return samples  # type: ignore[return-value]
+        s = plan_.at(self._t)  # type: ignore[union-attr]
+        self._state = State(s.p, s.v, s.a)  # type: ignore[union-attr]
+        return s  # type: ignore[return-value]
+
+    def _replan(self, target: object) -> Profile | Trajectory:
+        if self._group:
+            return plan_sync(
+                list(self._state),  # type: ignore[arg-type]
+                list(target),  # type: ignore[call-overload]
+                list(self._limits),  # type: ignore[arg-type]
+                sync=self.sync,
+            )
+        if not isinstance(target, State):
+            raise PlanningError(f"target must be a State, got {type(target).__name__}")
+        if self.interface == "velocity":
+            return plan_velocity(self._state, target.v, self._limits, target.a)  # type: ignore[arg-type]
+        return plan(self._state, target, self._limits)  # type: ignore[arg-type]
