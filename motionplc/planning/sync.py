@@ -405,6 +405,29 @@ def _scan_family(
         return p - d, ph
 
     xs = [x_lo + (x_hi - x_lo) * (k + 0.5) / n for k in range(n)]
+    ok = [resid(x) is not None for x in xs]
+    if sum(ok) < n // 2:
+        # the admissible part is narrow: find its edges and sample it densely instead
+        edges = [x_lo] if ok[0] else []
+        for k in range(n - 1):
+            if ok[k] != ok[k + 1]:
+                a, b = xs[k], xs[k + 1]
+                for _ in range(40):
+                    m = 0.5 * (a + b)
+                    if (resid(m) is not None) == ok[k]:
+                        a = m
+                    else:
+                        b = m
+                edges.append(a if ok[k] else b)
+        if ok[-1]:
+            edges.append(x_hi)
+        dense: list[float] = []
+        for e0, e1 in zip(edges[::2], edges[1::2], strict=False):
+            dense.extend(e0 + (e1 - e0) * k / (n - 1) for k in range(n))
+        if not dense:
+            # an admissible window narrower than the sampling step
+            return None
+        xs = dense
     prev: tuple[float, float] | None = None
     if sign > 0:
         vmax, vmin, amax, amin = ax.vmax, ax.vmin, ax.amax, ax.amin
@@ -488,6 +511,29 @@ def _free_plateau_oriented(ax: _Axis, T: float, sign: float) -> tuple[Phases, st
             r = _scan_family(0.0, u_hi, fam, ax, T, sign)
             if r is not None:
                 return r, name
+    # up-down-up-down: a0 -> P -> Q -> R -> af without plateaus. With the trough Q as the
+    # parameter, the duration and velocity equations give P + R and P^2 + R^2.
+    S0 = 0.5 * (J * T + a0 + af)
+    M0 = 0.5 * (2.0 * J * (vf - v0) + a0 * a0 + af * af)
+
+    def udud(Q: float, first_high: bool) -> Phases | None:
+        S = S0 + Q
+        M = M0 + Q * Q
+        rad = 2.0 * M - S * S
+        if rad < 0.0:
+            return None
+        w = math.sqrt(rad)
+        P, R = (0.5 * (S + w), 0.5 * (S - w)) if first_high else (0.5 * (S - w), 0.5 * (S + w))
+        if P < a0 - 1e-12 or R < af - 1e-12 or Q > min(P, R) or P > amax or R > amax:
+            return None
+        return [((P - a0) / J, J), ((P - Q) / J, -J), ((R - Q) / J, J), ((R - af) / J, -J)]
+
+    q_lo = amin if amin != -_INF else -(abs(a0) + abs(af) + J * T)
+    q_hi = min(amax, S0 + abs(a0) + abs(af)) if amax != _INF else abs(a0) + abs(af) + J * T
+    for first_high in (True, False):
+        r = _scan_family(q_lo, q_hi, lambda q, fh=first_high: udud(q, fh), ax, T, sign, n=64)
+        if r is not None:
+            return r, "udud"
     if amax != _INF:
 
         def acc0_trough(Q: float) -> Phases | None:
