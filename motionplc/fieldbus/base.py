@@ -17,6 +17,9 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+from motionplc.errors import MotionPlcError
 
 
 @dataclass(frozen=True, slots=True)
@@ -41,6 +44,25 @@ class DriveFeedback:
     error_code: int = 0  # drive-specific code (e.g. CiA 301 EMCY error code), 0 = none
     comm_ok: bool = True  # False when communication is lost (heartbeat, timeout, bus-off)
     detail: str = ""  # human-readable reason for a fault or a communication loss
+    stale: bool = False  # no fresh feedback this cycle: values are the last ones received
+
+
+class FieldbusError(MotionPlcError):
+    """I/O or configuration failure of a fieldbus backend at open/setup (never in the cycle)."""
+
+
+@runtime_checkable
+class LockstepPeer(Protocol):
+    """The other end of the wire, simulated in the runtime's process.
+
+    A backend given a peer calls ``peer.step(t)`` once per cycle after its outputs are on the
+    wire (CAN: after the SYNC; Modbus: the request itself runs the drive cycle), so in-process
+    virtual drives advance with the simulated clock and answer before the next READ INPUTS.
+    """
+
+    def step(self, t: float) -> object:
+        """Process everything received so far and run the timers up to time ``t``."""
+        ...
 
 
 class Drive(ABC):

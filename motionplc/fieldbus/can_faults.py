@@ -1,0 +1,145 @@
+"""A fault-injecting python-can bus wrapper (spec fieldbus.md §2.6, §7.3).
+
+:class:`FaultInjectingBus` sits in front of any :class:`can.BusABC` (normally a ``virtual`` bus)
+and can drop, delay, or corrupt frames, and simulate bus-off. It never touches the wall
+clock: "late" is counted in :meth:`FaultInjectingBus.tick` calls, which its owner makes once
+per cycle. The switches are plain attributes, so a test can flip them mid-run.
+"""
+
+from __future__ import annotations
+
+import random
+from collections import deque
+from dataclasses import dataclass, field
+
+import can
+from can import BusState
+
+__all__ = ["FaultInjectingBus", "FrameRecord"]
+
+
+@dataclass(frozen=True, slots=True)
+class FrameRecord:
+    """One frame seen by the wrapper (for traces and determinism checks)."""
+
+    direction: str  # "tx" or "rx"
+    tick: int
+    can_id: int
+    data: bytes
+    fate: str = "ok"  # ok, dropped, delayed, corrupted
+
+
+@dataclass
+class _Held:
+    release_tick: int
+    msg: can.Message = field(compare=False)
+
+
+class FaultInjectingBus(can.BusABC):
+    """Wraps ``inner``; every switch is off by default (a transparent wrapper)."""
+
+    def __init__(self, inner: can.BusABC, *, seed: int = 0, record: bool = False) -> None:
+        self._inner = inner
+        self._rng = random.Random(seed)
+        self.channel_info = f"faults({inner.channel_info})"
+        # switches
+        self.drop_tx_ids: set[int] = set()
+        self.drop_rx_ids: set[int] = set()
+        self.drop_tx_every: int = 0  # drop every n-th transmitted frame (0 = off)
+        self.drop_tx_probability: float = 0.0  # seeded random loss of transmitted frames
+        self.delay_tx: dict[int, int] = {}  # can_id -> ticks to hold before sending
+        self.delay_rx: dict[int, int] = {}  # can_id -> ticks to hold before delivering
+        self.corrupt_dlc_ids: set[int] = set()  # transmitted with one byte cut off
+        self.bus_off: bool = False  # send raises CanOperationError, nothing is received
+        # bookkeeping
+        self.records: list[FrameRecord] | None = [] if record else None
+        self._tick = 0
+        self._tx_count = 0
+        self._held_tx: deque[_Held] = deque()
+        self._held_rx: deque[_Held] = deque()
+        self._ready_rx: deque[can.Message] = deque()
+        super().__init__(channel=inner.channel_info)
+
+    # ----------------------------------------------------------------- state
+    @property
+    def state(self) -> BusState:
+        return BusState.ERROR if self.bus_off else self._inner.state
+
+    @state.setter
+    def state(self, new_state: BusState) -> None:
+        raise NotImplementedError("set FaultInjectingBus.bus_off instead")
+
+    @property
+    def inner(self) -> can.BusABC:
+        return self._inner
+
+    def _record(self, direction: str, msg: can.Message, fate: str) -> None:
+        if self.records is not None:
+            self.records.append(
+                FrameRecord(direction, self._tick, msg.arbitration_id, bytes(msg.data), fate)
+            )
+
+    def tick(self) -> None:
+        """One cycle has passed: release held frames that are due."""
+        self._tick += 1
+        while self._held_tx and self._held_tx[0].release_tick <= self._tick:
+            msg = self._held_tx.popleft().msg
+            if not self.bus_off:
+                self._inner.send(msg)
+        while self._held_rx and self._held_rx[0].release_tick <= self._tick:
+            self._ready_rx.append(self._held_rx.popleft().msg)
+
+    # -------------------------------------------------------------- transmit
+    def send(self, msg: can.Message, timeout: float | None = None) -> None:
+        if self.bus_off:
+            self._record("tx", msg, "bus-off")
+            raise can.CanOperationError("bus-off (injected)")
+        self._tx_count += 1
+        cid = msg.arbitration_id
+        if (
+            cid in self.drop_tx_ids
+            or (self.drop_tx_every and self._tx_count % self.drop_tx_every == 0)
+            or (self.drop_tx_probability and self._rng.random() < self.drop_tx_probability)
+        ):
+            self._record("tx", msg, "dropped")
+            return
+        if cid in self.corrupt_dlc_ids and msg.dlc > 0:
+            msg = can.Message(
+                arbitration_id=cid,
+                is_extended_id=msg.is_extended_id,
+                data=bytes(msg.data[:-1]),
+            )
+            self._record("tx", msg, "corrupted")
+        elif cid in self.delay_tx:
+            self._held_tx.append(_Held(self._tick + self.delay_tx[cid], msg))
+            self._record("tx", msg, "delayed")
+            return
+        else:
+            self._record("tx", msg, "ok")
+        self._inner.send(msg, timeout=0.1 if timeout is None else timeout)
+
+    # --------------------------------------------------------------- receive
+    def _recv_internal(self, timeout: float | None) -> tuple[can.Message | None, bool]:
+        while True:
+            if self._ready_rx:
+                return self._ready_rx.popleft(), False
+            msg = self._inner.recv(timeout=timeout)
+            if msg is None:
+                return None, False
+            if self.bus_off:
+                self._record("rx", msg, "bus-off")
+                continue
+            cid = msg.arbitration_id
+            if cid in self.drop_rx_ids:
+                self._record("rx", msg, "dropped")
+                continue
+            if cid in self.delay_rx:
+                self._held_rx.append(_Held(self._tick + self.delay_rx[cid], msg))
+                self._record("rx", msg, "delayed")
+                continue
+            self._record("rx", msg, "ok")
+            return msg, False
+
+    def shutdown(self) -> None:
+        super().shutdown()
+        self._inner.shutdown()

@@ -1,0 +1,471 @@
+"""Virtual CiA 402 servo drives on a CAN bus (canopen ``LocalNode`` based).
+
+:class:`VirtualCia402Drive` is one drive: the object dictionary comes from the EDS file shipped
+in the package (``data/motionplc_cia402.eds``), the SDO server is canopen's ``LocalNode`` with
+live objects served from the device state (canopen-python/canopen#558: LocalNode keeps SDO data
+and PDOs apart), and this module adds what LocalNode lacks:
+
+* NMT: boot-up then PRE-OPERATIONAL by itself, reset node / reset communication, PDOs only in
+  OPERATIONAL (RPDOs received in other states are ignored), PDO maps re-read at NMT start so a
+  remap through ``PdoMap.save()`` in PRE-OPERATIONAL takes effect;
+* SYNC: apply the latched RPDO (controlword, 0x607A, 0x60B1), run one CSP cycle of the plant for
+  the interpolation period 0x60C2, then send the TPDOs sampled after the cycle;
+* EMCY on every fault and on fault reset (0x0000), heartbeat producer (0x1017) and consumer
+  (0x1016, master loss -> 0x8130), SYNC loss (no SYNC for 1.5 x 0x1006 -> 0x8700), RPDO loss
+  (more than ``rpdo_loss_limit`` SYNCs without a new RPDO -> 0x8250), wrong RPDO length
+  (EMCY 0x8210, PDO ignored), following error (0x8611, from the device core).
+
+:class:`VirtualCanBus` hosts any number of drives behind **one** bus endpoint and one
+``canopen.Network`` (one deep copy per frame on the python-can virtual bus instead of one per
+drive), wrapped in a :class:`~motionplc.fieldbus.can_faults.FaultInjectingBus`. It is stepped
+with simulated time: :meth:`VirtualCanBus.step` drains the bus with ``recv(timeout=0)`` into
+``Network.notify`` and runs the time-driven services (heartbeats, supervision). Periodic
+transmissions that canopen would start in a thread (``send_periodic``) run on that simulated
+time instead. No thread, no wall clock.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Iterable, Sequence
+from importlib import resources
+from pathlib import Path
+
+import can
+import canopen
+from canopen.objectdictionary import ObjectDictionary
+from canopen.sdo import SdoAbortedError
+
+from motionplc.fieldbus.can_faults import FaultInjectingBus
+from motionplc.fieldbus.cia402 import OperationMode
+from motionplc.fieldbus.pdo_codec import PdoCodec
+from motionplc.fieldbus.plant import PlantParams
+from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device
+
+__all__ = ["EDS_NAME", "VirtualCanBus", "VirtualCia402Drive", "eds_path", "load_od"]
+
+EDS_NAME = "motionplc_cia402.eds"
+
+NMT_OPERATIONAL = 5
+NMT_PRE_OPERATIONAL = 127
+NMT_STOPPED = 4
+SYNC_COB_ID = 0x080
+
+# SDO abort codes
+ABORT_VALUE_RANGE = 0x06090030
+ABORT_DEVICE_STATE = 0x08000022
+
+
+def eds_path() -> Path:
+    """Path of the shipped EDS file of the virtual drive."""
+    return Path(str(resources.files("motionplc.fieldbus") / "data" / EDS_NAME))
+
+
+def load_od(node_id: int) -> ObjectDictionary:
+    """Object dictionary of the virtual drive for ``node_id`` (from the shipped EDS)."""
+    return canopen.import_od(str(eds_path()), node_id)
+
+
+class _SimPeriodicTask:
+    """Stands in for canopen's ``PeriodicMessageTask`` on simulated time."""
+
+    def __init__(self, network: SimulatedTimeNetwork, can_id: int, data: bytes, period: float):
+        self.network = network
+        self.can_id = can_id
+        self.data = bytes(data)
+        self.period = period
+        self.next_t = network.now + period
+        self.active = True
+
+    def stop(self) -> None:
+        self.active = False
+
+    def update(self, data: bytes) -> None:
+        self.data = bytes(data)
+
+
+class SimulatedTimeNetwork(canopen.Network):
+    """A canopen Network whose periodic transmissions follow simulated time.
+
+    ``send_periodic`` (used by canopen's NmtSlave for the heartbeat) returns a task that
+    :meth:`run_periodic` sends when simulated time reaches it. Send errors (bus-off) are
+    swallowed here: a drive whose controller is off the bus simply is not heard.
+    """
+
+    def __init__(self, bus: can.BusABC) -> None:
+        super().__init__(bus)
+        self.now = 0.0
+        self._tasks: list[_SimPeriodicTask] = []
+
+    def send_periodic(  # type: ignore[override]
+        self, can_id: int, data: bytes, period: float, remote: bool = False
+    ) -> _SimPeriodicTask:
+        task = _SimPeriodicTask(self, can_id, data, period)
+        self._tasks.append(task)
+        return task
+
+    def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        try:
+            super().send_message(can_id, data, remote)
+        except can.CanError:
+            pass
+
+    def run_periodic(self, t: float) -> None:
+        self.now = t
+        self._tasks = [task for task in self._tasks if task.active]
+        for task in self._tasks:
+            if t + 1e-12 >= task.next_t:
+                self.send_message(task.can_id, task.data)
+                task.next_t += task.period
+                if task.next_t <= t:  # fell behind (time jumped): no burst
+                    task.next_t = t + task.period
+
+
+class VirtualCia402Drive:
+    """One virtual CiA 402 drive (node ``node_id``), attached to a :class:`VirtualCanBus`."""
+
+    def __init__(
+        self,
+        node_id: int,
+        *,
+        plant: PlantParams | None = None,
+        rpdo_loss_limit: int = 2,
+        od: ObjectDictionary | None = None,
+    ) -> None:
+        if not 1 <= node_id <= 127:
+            raise ValueError(f"node_id must be in 1..127, got {node_id}")
+        self.node_id = node_id
+        self.device = Cia402Device(plant)
+        self.rpdo_loss_limit = rpdo_loss_limit
+        self.node = canopen.LocalNode(node_id, od if od is not None else load_od(node_id))
+        self.node.add_read_callback(self._on_sdo_read)
+        self.node.add_write_callback(self._on_sdo_write)
+        self.network: SimulatedTimeNetwork | None = None
+        self._reset_runtime()
+
+    def _reset_runtime(self) -> None:
+        self.interpolation_period = 0.001  # 0x60C2 (1, -3)
+        self.comm_cycle_period = 0.0  # 0x1006 in s, 0 = no SYNC supervision
+        self.consumer_heartbeat: tuple[int, float] | None = None  # (node, time s) from 0x1016
+        self._latched: dict[tuple[int, int], int] = {}
+        self._rpdo_new = False
+        self._rpdo_missed = 0
+        self._last_sync_t: float | None = None
+        self._last_master_hb_t: float | None = None
+        self._sync_count = 0
+        self.sync_received = 0  # statistics
+
+    # ------------------------------------------------------------ attachment
+    def attach(self, network: SimulatedTimeNetwork) -> None:
+        self.network = network
+        network.add_node(self.node)
+        network.subscribe(SYNC_COB_ID, self._on_sync)
+        network.subscribe(0x000, self._on_nmt)  # after LocalNode's own NMT handler
+        for pdo_map in self.node.rpdo.map.values():
+            pdo_map.add_callback(self._on_rpdo)
+        self.boot()
+
+    def boot(self) -> None:
+        """Power-up: boot-up message, then PRE-OPERATIONAL (heartbeat once 0x1017 > 0)."""
+        self.node.nmt.send_command(0x81)  # -> INITIALISING, sends boot-up [0x00]
+        self._read_pdo_config()
+        self.node.nmt.send_command(0x80)  # -> PRE-OPERATIONAL, starts the heartbeat
+
+    @property
+    def nmt_state(self) -> str:
+        return self.node.nmt.state
+
+    def _operational(self) -> bool:
+        return self.node.nmt.state == "OPERATIONAL"
+
+    def _read_pdo_config(self) -> None:
+        self.node.rpdo.read()
+        self.node.tpdo.read()
+        self._rpdo_codecs = {id(m): PdoCodec(m) for m in self.node.rpdo.map.values()}
+        self._tpdo_codecs = [
+            PdoCodec(m) for m in self.node.tpdo.map.values() if m.enabled and m.map
+        ]
+
+    # ------------------------------------------------------------------- NMT
+    def _on_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if len(data) < 2:
+            return
+        cmd, target = data[0], data[1]
+        if target not in (0, self.node_id):
+            return
+        if cmd in (0x81, 0x82):  # reset node / reset communication
+            if cmd == 0x81:
+                self.node.data_store.clear()  # application and communication back to defaults
+                self.device.reset()
+            else:
+                for index in [i for i in self.node.data_store if 0x1000 <= i <= 0x1FFF]:
+                    del self.node.data_store[index]
+            self._reset_runtime()
+            self.node.nmt.stop_heartbeat()
+            self.node.nmt._state = 0
+            self.boot()
+        elif cmd == 0x01:
+            self._read_pdo_config()
+            self._rpdo_new = False
+            self._rpdo_missed = 0
+            self._last_sync_t = None
+
+    # ------------------------------------------------------------------- SDO
+    def _on_sdo_read(self, index: int, subindex: int, od: object) -> int | None:
+        d = self.device
+        if index == 0x6041:
+            return d.statusword()
+        if index == 0x6064:
+            return d.snapshot().position
+        if index == 0x606C:
+            return d.snapshot().velocity
+        if index == 0x60F4:
+            return d.snapshot().following_error
+        if index == 0x6062:
+            return d.snapshot().demand
+        if index == 0x6077:
+            return d.snapshot().torque
+        if index == 0x603F:
+            return d.error_code
+        if index == 0x1001:
+            return d.error_register
+        if index == 0x6061:
+            return d.mode_display
+        if index == 0x6060:
+            return d.mode
+        if index == 0x6040:
+            return d.controlword
+        return None
+
+    def _on_sdo_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
+        d = self.device
+        if index == 0x6040:
+            d.apply_controlword(struct.unpack("<H", data)[0])
+        elif index == 0x6060:
+            if not d.set_mode(struct.unpack("<b", data)[0]):
+                raise SdoAbortedError(ABORT_VALUE_RANGE)
+        elif index == 0x607A:
+            d.latch(struct.unpack("<i", data)[0], d.velocity_offset)
+        elif index == 0x60B1:
+            d.latch(d.target, struct.unpack("<i", data)[0])
+        elif index == 0x6065:
+            d.following_error_window = struct.unpack("<I", data)[0]
+        elif index == 0x6066:
+            d.following_error_timeout = struct.unpack("<H", data)[0] / 1000.0
+        elif index == 0x605A:
+            d.quick_stop_option = struct.unpack("<h", data)[0]
+        elif index == 0x605E:
+            d.fault_reaction_option = struct.unpack("<h", data)[0]
+        elif index == 0x6085:
+            d.quick_stop_deceleration = float(struct.unpack("<I", data)[0])
+        elif index == 0x60C2:
+            value, exponent = self._interpolation_raw()
+            if subindex == 1:
+                value = data[0]
+            elif subindex == 2:
+                exponent = struct.unpack("<b", data)[0]
+            period = value * 10.0**exponent
+            if not (period > 0.0 and math.isfinite(period)):
+                raise SdoAbortedError(ABORT_VALUE_RANGE)
+            self.interpolation_period = period
+        elif index == 0x1006:
+            self.comm_cycle_period = struct.unpack("<I", data)[0] * 1e-6
+        elif index == 0x1016 and subindex == 1:
+            raw = struct.unpack("<I", data)[0]
+            node, ms = (raw >> 16) & 0x7F, raw & 0xFFFF
+            self.consumer_heartbeat = (node, ms / 1000.0) if node and ms else None
+            self._last_master_hb_t = None
+            if self.network is not None and self.consumer_heartbeat is not None:
+                self.network.subscribe(0x700 + node, self._on_master_heartbeat)
+        elif 0x1400 <= index <= 0x1BFF and self._operational():
+            raise SdoAbortedError(ABORT_DEVICE_STATE)  # PDO configuration only when not OP
+
+    def _interpolation_raw(self) -> tuple[int, int]:
+        store = self.node.data_store.get(0x60C2, {})
+        value = store[1][0] if 1 in store else self.node.object_dictionary[0x60C2][1].default
+        exponent = (
+            struct.unpack("<b", store[2])[0]
+            if 2 in store
+            else self.node.object_dictionary[0x60C2][2].default
+        )
+        return int(value), int(exponent)
+
+    # ------------------------------------------------------------ cyclic PDOs
+    def _on_rpdo(self, pdo_map: canopen.pdo.PdoMap) -> None:
+        if not self._operational():
+            return  # PDOs only in OPERATIONAL
+        codec = self._rpdo_codecs[id(pdo_map)]
+        values = codec.unpack(pdo_map.data)
+        if values is None:
+            self.device.pending_emcy.append(
+                (ERROR_CODES["pdo_length"], self.device.error_register | 0x10)
+            )
+            pdo_map.data = bytearray(codec.length)
+            return
+        self._latched.update(zip(codec.keys, values, strict=True))
+        self._rpdo_new = True
+
+    def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if not self._operational():
+            return
+        self.sync_received += 1
+        self._last_sync_t = timestamp
+        d = self.device
+        if self._rpdo_new:
+            self._rpdo_new = False
+            self._rpdo_missed = 0
+            latched = self._latched
+            if (0x6060, 0) in latched:
+                d.set_mode(latched[(0x6060, 0)])
+            if (0x6040, 0) in latched:
+                d.apply_controlword(latched[(0x6040, 0)])
+            d.latch(latched.get((0x607A, 0), d.target), latched.get((0x60B1, 0), d.velocity_offset))
+        elif d.following:
+            self._rpdo_missed += 1  # hold the last setpoint
+            if self._rpdo_missed > self.rpdo_loss_limit:
+                d.raise_fault(ERROR_CODES["rpdo_timeout"])
+        d.cycle(self.interpolation_period)
+        self._sync_count += 1
+        self._send_tpdos()
+        self.flush_emcy()
+
+    def _send_tpdos(self) -> None:
+        snap = self.device.snapshot()
+        values = {
+            0x6041: snap.statusword,
+            0x6064: snap.position,
+            0x606C: snap.velocity,
+            0x60F4: snap.following_error,
+            0x6077: snap.torque,
+            0x6062: snap.demand,
+            0x603F: snap.error_code,
+            0x6061: snap.mode_display,
+            0x1001: snap.error_register,
+        }
+        for codec in self._tpdo_codecs:
+            tt = codec.pdo_map.trans_type or 1
+            if 1 <= tt <= 240 and self._sync_count % tt:
+                continue
+            codec.transmit([values.get(index, 0) for index, _ in codec.keys])
+
+    def flush_emcy(self) -> None:
+        if self.node.nmt.state == "STOPPED":
+            return
+        for code, register in self.device.pop_emcy():
+            self.node.emcy.send(code, register)
+
+    # --------------------------------------------------------- time services
+    def _on_master_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self.consumer_heartbeat is not None and can_id == 0x700 + self.consumer_heartbeat[0]:
+            self._last_master_hb_t = timestamp
+
+    def advance(self, t: float) -> None:
+        """Time-driven supervision at simulated time ``t`` (after the frames of this step)."""
+        d = self.device
+        if (
+            self._operational()
+            and self.comm_cycle_period > 0.0
+            and self._last_sync_t is not None
+            and t - self._last_sync_t > 1.5 * self.comm_cycle_period + 1e-9
+        ):
+            self._last_sync_t = None  # one fault per loss
+            if d.powered:
+                d.raise_fault(ERROR_CODES["sync_loss"])
+        if self.consumer_heartbeat is not None and self._last_master_hb_t is not None:
+            if t - self._last_master_hb_t > self.consumer_heartbeat[1] + 1e-9:
+                self._last_master_hb_t = None
+                d.raise_fault(ERROR_CODES["heartbeat"])
+        self.flush_emcy()
+
+    # -------------------------------------------------------- fault injection
+    def inject_fault(self, code: int = ERROR_CODES["generic"], persistent: bool = False) -> None:
+        """A drive fault: FAULT REACTION -> FAULT, EMCY, 0x603F. ``persistent`` keeps it present
+        (fault reset fails) until :meth:`clear_fault`."""
+        if persistent:
+            self.device.persistent_fault = code
+        self.device.raise_fault(code)
+
+    def clear_fault(self) -> None:
+        self.device.persistent_fault = 0
+
+
+class VirtualCanBus:
+    """Drives behind one CAN endpoint, stepped with simulated time (thread-free).
+
+    ``bus`` is any python-can bus (normally ``can.Bus(interface="virtual", channel=...)``); it is
+    wrapped in a :class:`FaultInjectingBus` available as :attr:`faults`. The bus is owned:
+    :meth:`close` shuts it down.
+    """
+
+    def __init__(
+        self, bus: can.BusABC, drives: Iterable[VirtualCia402Drive] = (), *, seed: int = 0
+    ) -> None:
+        self.faults = (
+            bus if isinstance(bus, FaultInjectingBus) else FaultInjectingBus(bus, seed=seed)
+        )
+        self.network = SimulatedTimeNetwork(self.faults)
+        self.drives: dict[int, VirtualCia402Drive] = {}
+        self.t = 0.0
+        self._was_bus_off = False
+        for drive in drives:
+            self.add(drive)
+
+    def add(self, drive: VirtualCia402Drive) -> VirtualCia402Drive:
+        if drive.node_id in self.drives:
+            raise ValueError(f"node {drive.node_id} is already on this bus")
+        self.drives[drive.node_id] = drive
+        drive.attach(self.network)
+        return drive
+
+    def __getitem__(self, node_id: int) -> VirtualCia402Drive:
+        return self.drives[node_id]
+
+    def step(self, t: float, wait: float = 0.0) -> int:
+        """Process every frame received so far at simulated time ``t``, then the timers.
+
+        ``wait`` > 0 blocks up to that long for the first frame (only for the threaded
+        third-party-master test and the separate-process entry point). Returns the number of
+        frames processed.
+        """
+        self.t = t
+        self.network.now = t
+        self.faults.tick()
+        n = 0
+        timeout = wait
+        while (msg := self.faults.recv(timeout=timeout)) is not None:
+            timeout = 0.0
+            if msg.is_error_frame or msg.is_remote_frame:
+                continue
+            n += 1
+            self.network.notify(msg.arbitration_id, msg.data, t)
+        if self._was_bus_off and not self.faults.bus_off:
+            for drive in self.drives.values():  # recovered from bus-off
+                drive.device.pending_emcy.append(
+                    (ERROR_CODES["bus_off_recovered"], drive.device.error_register | 0x10)
+                )
+        self._was_bus_off = self.faults.bus_off
+        for drive in self.drives.values():
+            drive.advance(t)
+        self.network.run_periodic(t)
+        return n
+
+    # convenience switches (frames of one node)
+    def stop_heartbeat(self, node_id: int, stopped: bool = True) -> None:
+        """Heartbeat loss: drop the node's heartbeat frames (0x700 + node)."""
+        (self.faults.drop_tx_ids.add if stopped else self.faults.drop_tx_ids.discard)(
+            0x700 + node_id
+        )
+
+    def close(self) -> None:
+        for drive in self.drives.values():
+            drive.node.nmt.stop_heartbeat()
+        self.faults.shutdown()
+
+
+def make_drives(node_ids: Sequence[int], plant: PlantParams | None = None) -> list:
+    """Convenience: one virtual drive per node id, same plant."""
+    return [VirtualCia402Drive(n, plant=plant) for n in node_ids]
+
+
+CSP = OperationMode.CYCLIC_SYNCHRONOUS_POSITION

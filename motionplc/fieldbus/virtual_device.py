@@ -1,0 +1,318 @@
+"""Transport-independent logic of a virtual CiA 402 servo drive.
+
+:class:`Cia402Device` is what both virtual drives (CANopen in ``virtual_cia402``, Modbus in
+``virtual_modbus``) put behind their wire: the CiA 402 power state machine, cyclic synchronous
+position (CSP) following with the plant model of ``plant.py``, following-error monitoring
+(0x6065 window / 0x6066 time-out -> fault 0x8611), quick stop and fault reaction ramps, and the
+fault bookkeeping (0x603F error code, 0x1001 error register, pending EMCY messages).
+
+It knows no transport and no clock: the transport calls :meth:`Cia402Device.apply_controlword`
+when a controlword arrives (SDO or register write: at once; RPDO: at the SYNC) and
+:meth:`Cia402Device.cycle` once per SYNC / Modbus cycle with the cycle period ``dt``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from motionplc.fieldbus.cia402 import (
+    SW_DRIVE_FOLLOWS,
+    SW_FOLLOWING_ERROR,
+    SW_REMOTE,
+    SW_TARGET_REACHED,
+    SW_VOLTAGE_ENABLED,
+    SW_WARNING,
+    Cia402State,
+    OperationMode,
+    decode_command,
+    device_transition,
+    statusword_bits,
+)
+from motionplc.fieldbus.plant import PlantParams, PlantState, plant_step
+from motionplc.fieldbus.scaling import saturate_i32
+
+__all__ = ["ERROR_CODES", "Cia402Device", "DeviceSnapshot", "error_register_for"]
+
+# CiA 301 / CiA 402 error codes the virtual drives raise
+ERROR_CODES: dict[str, int] = {
+    "following_error": 0x8611,
+    "heartbeat": 0x8130,  # heartbeat / life guard (consumer time-out)
+    "bus_off_recovered": 0x8140,
+    "rpdo_timeout": 0x8250,
+    "pdo_length": 0x8210,
+    "sync_loss": 0x8700,  # drive specific: no SYNC within 1.5 communication cycles
+    "watchdog": 0x8100,  # Modbus communication watchdog
+    "over_current": 0x2310,
+    "over_voltage": 0x3210,
+    "over_temperature": 0x4210,
+    "generic": 0x1000,
+}
+
+POWERED_STATES = (
+    Cia402State.OPERATION_ENABLED,
+    Cia402State.QUICK_STOP_ACTIVE,
+    Cia402State.FAULT_REACTION_ACTIVE,
+)
+
+SUPPORTED_MODES = (OperationMode.CYCLIC_SYNCHRONOUS_POSITION,)
+
+
+def error_register_for(code: int) -> int:
+    """0x1001 bits for an error code: bit 0 generic plus the category bit."""
+    reg = 0x01
+    if code & 0xF000 == 0x2000:
+        reg |= 0x02  # current
+    elif code & 0xF000 == 0x3000:
+        reg |= 0x04  # voltage
+    elif code & 0xF000 == 0x4000:
+        reg |= 0x08  # temperature
+    elif code & 0xFF00 in (0x8100, 0x8200):
+        reg |= 0x10  # communication
+    elif code & 0xF000 in (0x8000, 0x6000):
+        reg |= 0x20  # device profile specific
+    else:
+        reg |= 0x80  # manufacturer specific
+    return reg
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceSnapshot:
+    """Live values of the device, as its objects / registers show them."""
+
+    statusword: int
+    mode_display: int
+    position: int  # 0x6064 [inc]
+    velocity: int  # 0x606C [inc/s]
+    following_error: int  # 0x60F4 [inc]
+    torque: int  # 0x6077 [‰]
+    demand: int  # 0x6062 [inc]
+    error_code: int  # 0x603F
+    error_register: int  # 0x1001
+
+
+class Cia402Device:
+    """One virtual servo axis: CiA 402 state machine + CSP follower + plant.
+
+    Parameters mirror the CiA 402 objects; transports keep them in sync with their object
+    dictionary or register map. All positions are drive increments.
+    """
+
+    def __init__(self, plant: PlantParams | None = None) -> None:
+        self.plant = plant if plant is not None else PlantParams()
+        # parameters (0x6065, 0x6066, 0x605A, 0x605E, 0x6085, 0x607D)
+        self.following_error_window: int = 10_000  # 0xFFFFFFFF = monitoring off
+        self.following_error_timeout: float = 0.010  # [s]
+        self.quick_stop_option: int = 2
+        self.fault_reaction_option: int = 2
+        self.quick_stop_deceleration: float = 2.0e8  # [inc/s²]
+        self.position_limits: tuple[int, int] | None = None  # (min, max) or None
+        # fault injection switches
+        self.stalled = False  # jammed mechanics: the motor does not move
+        self.persistent_fault: int = 0  # a fault that is present until cleared (0 = none)
+        self.standstill_velocity: float = 100.0  # [inc/s] stop ramps end below this speed
+        self.actual = PlantState(0.0, 0.0, 0.0)
+        self.reset()
+
+    # ------------------------------------------------------------------ state
+    def reset(self) -> None:
+        """Power-up / NMT reset node: transitions 0 and 1 (NOT READY -> SWITCH ON DISABLED)."""
+        self.state = Cia402State.SWITCH_ON_DISABLED
+        self.controlword = 0
+        self.mode = 0  # 0x6060
+        self.mode_display = 0  # 0x6061
+        self.target = 0  # latched 0x607A
+        self.velocity_offset = 0  # latched 0x60B1
+        self.demand_velocity = 0.0  # demand slope of the last cycle (for stop ramps)
+        self.actual = PlantState(self.actual.position, 0.0, 0.0)  # the motor stays where it is
+        self.demand = self.actual.position
+        self.error_code = 0
+        self.error_register = 0
+        self.fe_over_time = 0.0
+        self.fe_bit = False
+        self.last_transition: int | None = None
+        self.pending_emcy: list[tuple[int, int]] = []  # (code, error register)
+
+    @property
+    def powered(self) -> bool:
+        return self.state in POWERED_STATES
+
+    @property
+    def following(self) -> bool:
+        """Drive follows the command value (statusword bit 12 in CSP)."""
+        return (
+            self.state is Cia402State.OPERATION_ENABLED
+            and self.mode_display == OperationMode.CYCLIC_SYNCHRONOUS_POSITION
+        )
+
+    def statusword(self) -> int:
+        sw = statusword_bits(self.state) | SW_REMOTE
+        if self.state is not Cia402State.NOT_READY_TO_SWITCH_ON:
+            sw |= SW_VOLTAGE_ENABLED
+        if self.following:
+            sw |= SW_DRIVE_FOLLOWS
+            if abs(self.target - self.actual.position) <= 1.0 and self.actual.velocity == 0.0:
+                sw |= SW_TARGET_REACHED
+        if self.fe_bit:
+            sw |= SW_FOLLOWING_ERROR
+        if self.persistent_fault and self.state is not Cia402State.FAULT:
+            sw |= SW_WARNING
+        return sw
+
+    def snapshot(self) -> DeviceSnapshot:
+        pos = saturate_i32(self.actual.position)
+        demand = saturate_i32(self.demand)
+        return DeviceSnapshot(
+            statusword=self.statusword(),
+            mode_display=self.mode_display,
+            position=pos,
+            velocity=saturate_i32(self.actual.velocity),
+            following_error=saturate_i32(self.demand - self.actual.position)
+            if self.following
+            else 0,
+            torque=max(
+                -32768,
+                min(32767, round(self.actual.acceleration * self.plant.torque_per_acceleration)),
+            ),
+            demand=demand,
+            error_code=self.error_code,
+            error_register=self.error_register,
+        )
+
+    # -------------------------------------------------------------- commands
+    def set_mode(self, mode: int) -> bool:
+        """Write 0x6060; False if the mode is not supported (the caller rejects the write)."""
+        if mode != 0 and mode not in SUPPORTED_MODES:
+            return False
+        self.mode = mode
+        self.mode_display = mode  # switches at once
+        return True
+
+    def apply_controlword(self, controlword: int) -> int | None:
+        """Decode and apply a controlword; returns the transition number taken (or None)."""
+        command = decode_command(controlword, self.controlword)
+        self.controlword = controlword
+        new, number = device_transition(self.state, command, self.quick_stop_option)
+        if number == 15 and self.persistent_fault:
+            number = None  # the fault is still present: no reset
+            new = self.state
+        if number is not None:
+            old = self.state
+            self.state = new
+            self.last_transition = number
+            if number == 15:
+                self.error_code = 0
+                self.error_register = 0
+                self.fe_bit = False
+                self.fe_over_time = 0.0
+                self.pending_emcy.append((0x0000, 0))
+            if new is Cia402State.QUICK_STOP_ACTIVE:
+                self._start_stop_ramp()
+            if new is Cia402State.OPERATION_ENABLED and old is not Cia402State.QUICK_STOP_ACTIVE:
+                # enabling: the demand starts at the actual position (no jump)
+                self.demand = float(round(self.actual.position))
+                self.target = round(self.actual.position)
+                self.demand_velocity = 0.0
+        return number
+
+    def raise_fault(self, code: int) -> None:
+        """Transition 13: any state -> FAULT REACTION ACTIVE, EMCY, 0x603F, 0x1001."""
+        if self.state in (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE):
+            return
+        self.error_code = code
+        self.error_register = error_register_for(code)
+        self.pending_emcy.append((code, self.error_register))
+        self.last_transition = 13
+        if self.powered and self.fault_reaction_option != 0:
+            self.state = Cia402State.FAULT_REACTION_ACTIVE
+            self._start_stop_ramp()
+        else:
+            # nothing to stop (or option 0: power off, coast): reaction done at once
+            self.state = Cia402State.FAULT
+            self.last_transition = 14
+
+    def pop_emcy(self) -> list[tuple[int, int]]:
+        out, self.pending_emcy = self.pending_emcy, []
+        return out
+
+    # ----------------------------------------------------------------- cycle
+    def latch(self, target: int, velocity_offset: int = 0) -> None:
+        """Latch the setpoint of this cycle (0x607A, 0x60B1)."""
+        self.target = target
+        self.velocity_offset = velocity_offset
+
+    def _start_stop_ramp(self) -> None:
+        """A stop ramp starts from the actual motion, not from the last setpoint."""
+        self.demand = self.actual.position
+        self.demand_velocity = self.actual.velocity
+
+    def _stop_ramp(self, dt: float) -> tuple[float, bool]:
+        """Demand of a quick-stop / fault-reaction ramp; returns (demand_to, stopped)."""
+        v = self.demand_velocity
+        dv = self.quick_stop_deceleration * dt
+        v_new = 0.0 if abs(v) <= dv else v - dv * (1.0 if v > 0 else -1.0)
+        demand_to = self.demand + 0.5 * (v + v_new) * dt
+        self.demand_velocity = v_new
+        stopped = v_new == 0.0 and abs(self.actual.velocity) <= self.standstill_velocity
+        return demand_to, stopped
+
+    def cycle(self, dt: float) -> None:
+        """One SYNC / Modbus cycle of length ``dt`` [s] with the latched setpoint."""
+        if self.persistent_fault and self.state is not Cia402State.FAULT:
+            self.raise_fault(self.persistent_fault)
+        demand_from = self.demand
+        powered = self.powered
+        v_offset = 0.0
+        stopped = False
+        if self.following:
+            demand_to = float(self.target)
+            if self.position_limits is not None:
+                lo, hi = self.position_limits
+                demand_to = min(max(demand_to, float(lo)), float(hi))
+            self.demand_velocity = (demand_to - demand_from) / dt
+            v_offset = float(self.velocity_offset)
+        elif self.state is Cia402State.OPERATION_ENABLED:
+            demand_to = demand_from  # enabled in an unsupported/no mode: hold position
+            self.demand_velocity = 0.0
+        elif self.state in (Cia402State.QUICK_STOP_ACTIVE, Cia402State.FAULT_REACTION_ACTIVE):
+            demand_to, stopped = self._stop_ramp(dt)
+        else:
+            demand_to = demand_from
+        self.actual = plant_step(
+            self.plant,
+            self.actual,
+            demand_from,
+            demand_to,
+            dt,
+            powered=powered,
+            velocity_offset=v_offset,
+            stalled=self.stalled,
+        )
+        self.demand = demand_to if powered else self.actual.position
+        if not powered:
+            self.demand_velocity = 0.0
+        self._monitor_following_error(dt)
+        if stopped and self.state is Cia402State.FAULT_REACTION_ACTIVE:
+            self.state = Cia402State.FAULT  # 14
+            self.last_transition = 14
+        elif (
+            stopped
+            and self.state is Cia402State.QUICK_STOP_ACTIVE
+            and not 5 <= self.quick_stop_option <= 8
+        ):
+            self.state = Cia402State.SWITCH_ON_DISABLED  # 12 after the stop (options 0..4)
+            self.last_transition = 12
+
+    def _monitor_following_error(self, dt: float) -> None:
+        if not self.following or self.following_error_window == 0xFFFFFFFF:
+            self.fe_bit = False
+            self.fe_over_time = 0.0
+            return
+        fe = abs(self.demand - self.actual.position)
+        if fe > self.following_error_window:
+            self.fe_bit = True
+            self.fe_over_time += dt
+            if self.fe_over_time >= self.following_error_timeout - 1e-12:
+                self.raise_fault(ERROR_CODES["following_error"])
+        else:
+            self.fe_bit = False
+            self.fe_over_time = 0.0
