@@ -1,1 +1,64 @@
-"""motionplc.blocks — see the project issues; filled in by later work."""
+"""motionplc.blocks: PLCopen single-axis function blocks, the axis and its state machine.
+
+from motionplc.blocks import MC_Power, MC_MoveAbsolute, BufferMode, AxisState
+"""
+
+from motionplc.blocks.admin import (
+    MC_Power,
+    MC_ReadActualPosition,
+    MC_ReadActualVelocity,
+    MC_ReadAxisError,
+    MC_ReadMotionState,
+    MC_ReadStatus,
+    MC_Reset,
+    MC_SetOverride,
+    MC_SetPosition,
+)
+from motionplc.blocks.axis import Axis, AxisConfig, Command, Handle, Status
+from motionplc.blocks.enums import (
+    AxisState,
+    BufferMode,
+    Direction,
+    ErrorID,
+    ExecutionMode,
+    Source,
+)
+from motionplc.blocks.motion import (
+    MC_Halt,
+    MC_Home,
+    MC_MoveAbsolute,
+    MC_MoveAdditive,
+    MC_MoveRelative,
+    MC_MoveVelocity,
+    MC_Stop,
+)
+
+__all__ = [
+    "Axis",
+    "AxisConfig",
+    "AxisState",
+    "BufferMode",
+    "Command",
+    "Direction",
+    "ErrorID",
+    "ExecutionMode",
+    "Handle",
+    "MC_Halt",
+    "MC_Home",
+    "MC_MoveAbsolute",
+    "MC_MoveAdditive",
+    "MC_MoveRelative",
+    "MC_MoveVelocity",
+    "MC_Power",
+    "MC_ReadActualPosition",
+    "MC_ReadActualVelocity",
+    "MC_ReadAxisError",
+    "MC_ReadMotionState",
+    "MC_ReadStatus",
+    "MC_Reset",
+    "MC_SetOverride",
+    "MC_SetPosition",
+    "MC_Stop",
+    "Source",
+    "Status",
+]

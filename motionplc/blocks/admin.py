@@ -1,0 +1,244 @@
+"""Administrative FBs: MC_Power, MC_Reset, MC_SetPosition, MC_SetOverride and the readers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from motionplc.blocks.axis import Axis, Command, Handle
+from motionplc.blocks.base import EnableFB, ExecuteFB, InputError, check_number
+from motionplc.blocks.enums import AxisState, BufferMode, ErrorID, ExecutionMode, Source
+
+
+class MC_Power(EnableFB):
+    """Power stage on/off. ``status`` = the drive reports OPERATION ENABLED (input image).
+
+    Enable rising in scan k: the drive gets the request in scan k's output phase and reports
+    it in scan k+1, where the axis enters Standstill and ``status`` rises. Enable falling:
+    Disabled at once, moving FBs show CommandAborted.
+    """
+
+    INPUTS = ("axis", "enable", "enable_positive", "enable_negative")
+    OUTPUTS = ("status", "valid", "busy", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.enable_positive = True
+        self.enable_negative = True
+        self.status = False
+        self._powered: Axis | None = None
+        super().__init__(name, **inputs)
+
+    def _scan(self) -> None:
+        axis = self.axis
+        if axis is not None:
+            axis.set_power(
+                bool(self.enable), bool(self.enable_positive), bool(self.enable_negative)
+            )
+        super()._scan()
+
+    def _update(self, axis: Axis) -> None:
+        self.status = axis.img_enabled
+
+    def _reset_values(self) -> None:
+        self.status = False
+
+
+class MC_Reset(ExecuteFB):
+    """Leave ErrorStop: Standstill if the power is on (T4), else Disabled (T3).
+
+    Outside ErrorStop it is a no-op that reports Done. Done comes when the ErrorStop ramp has
+    ended and the drive has acknowledged the fault reset.
+    """
+
+    def _start(self, axis: Axis) -> Handle:
+        return axis.request_reset()
+
+
+class MC_SetPosition(ExecuteFB):
+    """Shift the coordinate system (set and actual position alike; no motion, no state change).
+
+    ``relative``: add ``position`` to the current position. ``execution_mode`` QUEUED applies it
+    when the queued motion before it is done.
+    """
+
+    INPUTS = ("axis", "execute", "position", "relative", "execution_mode")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.position = 0.0
+        self.relative = False
+        self.execution_mode = ExecutionMode.IMMEDIATELY
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+        mode = self.execution_mode
+        if not isinstance(mode, ExecutionMode):
+            raise InputError(
+                ErrorID.INVALID_EXECUTION_MODE,
+                f"execution_mode must be an ExecutionMode, got {mode!r}",
+            )
+        bm = BufferMode.ABORTING if mode is ExecutionMode.IMMEDIATELY else BufferMode.BUFFERED
+        return axis.submit(
+            Command(kind="setpos", mode=bm, position=pos, relative=bool(self.relative))
+        )
+
+
+class MC_SetOverride(EnableFB):
+    """Velocity/acceleration/jerk override factors (``enabled`` instead of ``valid``).
+
+    vel_factor in [0, 1] (0 stops the axis without leaving its motion state); acc_factor and
+    jerk_factor in (0, 1]. A bad factor gives ``error`` and leaves the factors unchanged. The
+    factors stay in force after Enable falls.
+    """
+
+    INPUTS = ("axis", "enable", "vel_factor", "acc_factor", "jerk_factor")
+    OUTPUTS = ("enabled", "busy", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.vel_factor = 1.0
+        self.acc_factor = 1.0
+        self.jerk_factor = 1.0
+        self.enabled = False
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        vf = check_number("vel_factor", self.vel_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0)
+        af = check_number(
+            "acc_factor", self.acc_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0, lo_open=True
+        )
+        jf = check_number(
+            "jerk_factor", self.jerk_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0, lo_open=True
+        )
+        axis.set_override(vf, af, jf)
+        self.enabled = True
+
+    def _scan(self) -> None:
+        super()._scan()
+        self.valid = False  # this FB reports ``enabled``
+        if not self.error and self.enable:
+            self.enabled = True
+
+    def _reset_values(self) -> None:
+        self.enabled = False
+
+
+def _check_comm(axis: Axis) -> None:
+    if not axis.comm_ok:
+        raise InputError(ErrorID.COMMUNICATION_LOST, f"axis {axis.name!r}: communication lost")
+
+
+class MC_ReadStatus(EnableFB):
+    """One boolean per axis state (from the axis image of this scan)."""
+
+    OUTPUTS = ("valid", "busy", "error")
+    _FLAGS = {
+        AxisState.ERROR_STOP: "error_stop",
+        AxisState.DISABLED: "disabled",
+        AxisState.STOPPING: "stopping",
+        AxisState.STANDSTILL: "standstill",
+        AxisState.HOMING: "homing",
+        AxisState.DISCRETE_MOTION: "discrete_motion",
+        AxisState.CONTINUOUS_MOTION: "continuous_motion",
+        AxisState.SYNCHRONIZED_MOTION: "synchronized_motion",
+    }
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.state: AxisState | None = None
+        for f in self._FLAGS.values():
+            setattr(self, f, False)
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        st = axis.img_state
+        self.state = st
+        for s, f in self._FLAGS.items():
+            setattr(self, f, s is st)
+
+    def _reset_values(self) -> None:
+        self.state = None
+        for f in self._FLAGS.values():
+            setattr(self, f, False)
+
+
+class MC_ReadActualPosition(EnableFB):
+    """Actual position (wrapped on modulo axes)."""
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.position = 0.0
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        _check_comm(axis)
+        self.position = axis.wrap(axis.img_act_p)
+
+    def _reset_values(self) -> None:
+        self.position = 0.0
+
+
+class MC_ReadActualVelocity(EnableFB):
+    """Actual velocity (signed)."""
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.velocity = 0.0
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        _check_comm(axis)
+        self.velocity = axis.img_act_v
+
+    def _reset_values(self) -> None:
+        self.velocity = 0.0
+
+
+class MC_ReadAxisError(EnableFB):
+    """The axis error (not FB errors): ``axis_error_id`` and a readable ``axis_error_reason``."""
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.axis_error_id = ErrorID.OK
+        self.axis_error_reason = ""
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        self.axis_error_id = axis.img_error
+        self.axis_error_reason = axis.axis_error_reason if axis.img_error else ""
+
+    def _reset_values(self) -> None:
+        self.axis_error_id = ErrorID.OK
+        self.axis_error_reason = ""
+
+
+class MC_ReadMotionState(EnableFB):
+    """Motion flags of the set values (``source`` COMMANDED/SET) or of the actual velocity."""
+
+    INPUTS = ("axis", "enable", "source")
+    _EPS = 1e-9
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.source = Source.SET_VALUE
+        self.constant_velocity = False
+        self.accelerating = False
+        self.decelerating = False
+        self.direction_positive = False
+        self.direction_negative = False
+        super().__init__(name, **inputs)
+
+    def _update(self, axis: Axis) -> None:
+        if not isinstance(self.source, Source):
+            raise InputError(
+                ErrorID.INVALID_EXECUTION_MODE, f"source must be a Source, got {self.source!r}"
+            )
+        if self.source is Source.ACTUAL_VALUE:
+            _check_comm(axis)
+            v = axis.img_act_v
+        else:
+            v = axis.img_v
+        a = axis.img_a
+        eps = self._EPS
+        self.constant_velocity = abs(a) <= eps
+        self.accelerating = a * v > eps or (abs(v) <= eps and abs(a) > eps)
+        self.decelerating = a * v < -eps
+        self.direction_positive = v > eps
+        self.direction_negative = v < -eps
+
+    def _reset_values(self) -> None:
+        self.constant_velocity = self.accelerating = self.decelerating = False
+        self.direction_positive = self.direction_negative = False

@@ -1,0 +1,1015 @@
+"""The axis (AXIS_REF): state machine, command queue and motion kernel.
+
+FBs submit commands (:meth:`Axis.submit`) and follow them through a :class:`Handle`. The axis
+is the single writer of the set values: every kernel step (:meth:`Axis.step`) resolves the
+queue (Aborting / Buffered / Blending*), samples the active profile and advances the state
+machine. Handle changes made by the kernel are seen by the FBs at their next call, one cycle
+later, which makes FB outputs independent of the call order of FB instances.
+
+Rules pinned here (the spec leaves them open):
+
+* Profiles are planned from the current set state (p, v, a): a new motion never makes the
+  acceleration jump (with a finite ``j_max``).
+* A job that ends between two cycles hands the rest of the cycle to its successor, so "Done of
+  block n" and "Active of block n+1" appear in the same cycle and no time is lost.
+* Blending: the junction velocity (min / first / second / max of the two Velocity inputs) is
+  passed at the first block's end position; the first block is (re)planned to reach it, from the
+  moment the second block is queued. If it cannot be reached without reversal or overshoot (of
+  either block), the highest reachable one is used (bisection) and reported as
+  ``Handle.end_velocity``. A junction velocity above the first block's own Velocity is reached
+  by cruising at its Velocity and accelerating just before its end (spec Appendix A, Ex. 6).
+* Blending after a MoveVelocity acts like Buffered with the velocity of the first block
+  (``blend_after_continuous="previous"``) or is an error (``"error"``).
+* MC_SetOverride scales time: the set velocity is ``f * v``; ``f`` follows the requested factor
+  along a jerk-limited ramp so the set values stay continuous. Stop, Halt, Home and the
+  ErrorStop ramp are not scaled. AccFactor/JerkFactor scale the limits of moves planned later.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import TYPE_CHECKING, Any
+
+from motionplc.blocks.axis_state import Event, allowed, next_state
+from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
+from motionplc.fieldbus.base import Drive, DriveCommand
+from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
+
+if TYPE_CHECKING:
+    from motionplc.runtime.trace import Trace
+
+_INF = math.inf
+S = AxisState
+
+
+@dataclass(frozen=True, slots=True)
+class AxisConfig:
+    """Static configuration of one axis (SI units)."""
+
+    name: str
+    v_max: float
+    a_max: float
+    j_max: float = _INF
+    modulo: float | None = None  # period of a rotary axis, positions in [0, modulo)
+    queue_depth: int = 8  # buffered commands waiting behind the active one
+    following_error_limit: float | None = None
+    sw_limit_pos: float | None = None
+    sw_limit_neg: float | None = None
+    home_switch: float | None = None  # virtual reference switch, in drive coordinates
+    home_velocity: float | None = None  # homing search velocity (default 10 % of v_max)
+    blend_after_continuous: str = "previous"  # or "error"
+
+    def __post_init__(self) -> None:
+        def pos(name: str, x: Any, inf_ok: bool = False) -> None:
+            ok = isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0
+            if not ok or (not inf_ok and not math.isfinite(x)) or math.isnan(x):
+                rng = "(0, inf]" if inf_ok else "(0, inf)"
+                raise ValueError(f"axis {self.name!r}: {name} must be in {rng}, got {x!r}")
+
+        pos("v_max", self.v_max)
+        pos("a_max", self.a_max)
+        pos("j_max", self.j_max, inf_ok=True)
+        if self.modulo is not None:
+            pos("modulo", self.modulo)
+        if self.following_error_limit is not None:
+            pos("following_error_limit", self.following_error_limit)
+        if self.home_velocity is not None:
+            pos("home_velocity", self.home_velocity)
+        if not isinstance(self.queue_depth, int) or self.queue_depth < 0:
+            raise ValueError(
+                f"axis {self.name!r}: queue_depth must be an int >= 0, got {self.queue_depth!r}"
+            )
+        if self.blend_after_continuous not in ("previous", "error"):
+            raise ValueError(
+                f"axis {self.name!r}: blend_after_continuous must be 'previous' or 'error'"
+            )
+        lo, hi = self.sw_limit_neg, self.sw_limit_pos
+        if lo is not None and hi is not None and not lo < hi:
+            raise ValueError(f"axis {self.name!r}: sw_limit_neg must be < sw_limit_pos")
+
+
+class Status(IntEnum):
+    """Life cycle of a submitted command."""
+
+    QUEUED = 0  # accepted, waiting (FB Busy)
+    ACTIVE = 1  # controls the axis (FB Busy + Active)
+    DONE = 2
+    ABORTED = 3
+    ERROR = 4
+
+
+class Handle:
+    """The axis' side of one FB command; written by the axis only."""
+
+    __slots__ = ("status", "error_id", "in_target", "end_velocity", "hold", "kind")
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
+        self.status = Status.QUEUED
+        self.error_id = ErrorID.OK
+        self.in_target = False  # InVelocity (velocity jobs)
+        self.end_velocity = 0.0  # effective velocity at the end position (blending)
+        self.hold = True  # MC_Stop: Execute still TRUE
+
+    @property
+    def terminal(self) -> bool:
+        """Done, aborted or failed."""
+        return self.status >= Status.DONE
+
+    def _finish(self, status: Status, error_id: ErrorID = ErrorID.OK) -> None:
+        if self.status < Status.DONE:
+            self.status = status
+            self.error_id = error_id
+            self.in_target = False if status is not Status.DONE else self.in_target
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """A motion request as latched by an FB (validated before submission)."""
+
+    # "absolute" | "relative" | "additive" | "velocity" | "halt" | "stop" | "home" | "setpos"
+    kind: str
+    mode: BufferMode = BufferMode.ABORTING
+    position: float = 0.0  # absolute target, distance, home/set position
+    velocity: float = 0.0  # magnitude for moves, signed for MoveVelocity
+    acceleration: float = 0.0  # 0 = axis default
+    deceleration: float = 0.0
+    jerk: float = 0.0
+    direction: Direction = Direction.POSITIVE
+    relative: bool = False  # MC_SetPosition
+
+    @property
+    def is_move(self) -> bool:
+        """Discrete move with a target position."""
+        return self.kind in ("absolute", "relative", "additive")
+
+
+_EVENTS = {
+    "absolute": Event.DISCRETE,
+    "relative": Event.DISCRETE,
+    "additive": Event.DISCRETE,
+    "halt": Event.DISCRETE,
+    "velocity": Event.CONTINUOUS,
+    "home": Event.HOME,
+    "stop": Event.STOP,
+}
+_NO_OVERRIDE = frozenset({"halt", "stop", "home", "estop"})
+
+
+class _Job:
+    """A command being executed or waiting in the queue (mutable, axis-internal)."""
+
+    __slots__ = (
+        "cmd",
+        "handle",
+        "kind",
+        "target",
+        "chain",
+        "offsets",
+        "duration",
+        "tau",
+        "shift",
+        "home_phase",
+        "no_override",
+    )
+
+    def __init__(self, cmd: Command, handle: Handle) -> None:
+        self.cmd = cmd
+        self.handle = handle
+        self.kind = cmd.kind
+        self.target: float | None = None
+        self.chain: list[Profile] = []
+        self.offsets: list[float] = []
+        self.duration = 0.0
+        self.tau = 0.0
+        self.shift = 0.0
+        self.home_phase = 0
+        self.no_override = cmd.kind in _NO_OVERRIDE
+
+    def set_chain(self, chain: list[Profile]) -> None:
+        self.chain = chain
+        offs = []
+        t = 0.0
+        for prof in chain:
+            offs.append(t)
+            t += prof.duration
+        self.offsets = offs
+        self.duration = t
+        self.tau = 0.0
+        self.shift = 0.0
+
+    def sample(self, tau: float) -> tuple[float, float, float, float]:
+        chain = self.chain
+        if tau >= self.duration:
+            e = chain[-1].end
+            # continuous motion keeps its end velocity (MoveVelocity after InVelocity)
+            return (e.p + e.v * (tau - self.duration) + self.shift, e.v, 0.0, 0.0)
+        i = len(chain) - 1
+        offs = self.offsets
+        while i > 0 and offs[i] > tau:
+            i -= 1
+        s = chain[i].at(tau - offs[i])
+        return (s.p + self.shift, s.v, s.a, s.j)
+
+    def end_state(self) -> State:
+        e = self.chain[-1].end
+        return State(e.p + self.shift, e.v, e.a)
+
+
+def _sign(x: float) -> float:
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+def _limits(v: float, acc: float, dec: float, jerk: float, s: float) -> Limits:
+    """Limits of a move in direction ``s``: Acceleration raises |v|, Deceleration lowers it."""
+    if s >= 0.0:
+        return Limits(v_max=v, a_max=acc, j_max=jerk, v_min=-v, a_min=-dec)
+    return Limits(v_max=v, a_max=dec, j_max=jerk, v_min=-v, a_min=-acc)
+
+
+def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
+    """No overshoot past ``p_limit`` in direction ``s`` and no reversal (if not already)."""
+    (pmin, pmax), (vmin, vmax), _ = prof.extrema()
+    tol = 1e-9 * (1.0 + abs(p_limit))
+    vtol = 1e-9 * (1.0 + abs(v_start))
+    if s > 0.0:
+        if pmax > p_limit + tol:
+            return False
+        return v_start < -vtol or vmin >= -vtol
+    if pmin < p_limit - tol:
+        return False
+    return v_start > vtol or vmax <= vtol
+
+
+class Axis:
+    """AXIS_REF: one axis with its drive, state machine, command queue and set values."""
+
+    def __init__(self, config: AxisConfig, drive: Drive) -> None:
+        self.cfg = config
+        self.name = config.name
+        self.drive = drive
+        self.task_name: str | None = None
+        self.fbs: list[Any] = []
+        self._fb_counts: dict[str, int] = {}
+        self.state = S.DISABLED
+        # set values (axis coordinates; unwrapped on modulo axes)
+        self.p = 0.0
+        self.v = 0.0
+        self.a = 0.0
+        self.j = 0.0
+        self.offset = 0.0  # axis position = drive position + offset
+        # feedback
+        self.act_p = 0.0
+        self.act_v = 0.0
+        self.following_error = 0.0
+        self.drive_enabled = False
+        self.drive_fault = False
+        self.comm_ok = True
+        self._was_enabled = False
+        self._sent_p = 0.0
+        # requests
+        self.power_request = False
+        self.enable_positive = True
+        self.enable_negative = True
+        self._reset_handle: Handle | None = None
+        self._reset_pulse = False
+        self._reset_sent = False
+        # errors
+        self.axis_error = ErrorID.OK
+        self.axis_error_reason = ""
+        # command queue
+        self._inbox: list[_Job] = []
+        self.active: _Job | None = None
+        self.queue: deque[_Job] = deque()
+        self._stops: list[Handle] = []
+        self.last_target: float | None = None
+        # override: factor f(t) along a ramp profile
+        self.override = (1.0, 1.0, 1.0)
+        self._f = 1.0
+        self._fd = 0.0
+        self._fdd = 0.0
+        self._f_prof: Profile | None = None
+        self._f_t = 0.0
+        # image for read FBs (refreshed in the input phase)
+        self.img_state = S.DISABLED
+        self.img_p = 0.0
+        self.img_v = 0.0
+        self.img_a = 0.0
+        self.img_act_p = 0.0
+        self.img_act_v = 0.0
+        self.img_error = ErrorID.OK
+        self.img_enabled = False
+        self.img_homed = False
+        self.homed = False
+
+    # -- helpers ---------------------------------------------------------------------------
+    def __repr__(self) -> str:
+        return f"Axis({self.name!r}, {self.state.name}, p={self.p:.6g}, v={self.v:.6g})"
+
+    def register(self, fb: Any) -> str:
+        """Called by an FB at its first call with this axis; returns its trace name."""
+        cls = type(fb).__name__
+        n = self._fb_counts.get(cls, 0) + 1
+        self._fb_counts[cls] = n
+        self.fbs.append(fb)
+        return f"{self.name}.{cls}{n}"
+
+    def wrap(self, p: float) -> float:
+        """Position as reported (in [0, modulo) on a modulo axis)."""
+        m = self.cfg.modulo
+        if m is None:
+            return p
+        w = p % m
+        return 0.0 if w >= m else w
+
+    @property
+    def position(self) -> float:
+        """Set position (wrapped on modulo axes)."""
+        return self.wrap(self.p)
+
+    @property
+    def actual_position(self) -> float:
+        """Actual position (wrapped on modulo axes)."""
+        return self.wrap(self.act_p)
+
+    def trace_values(self) -> tuple[float, ...]:
+        """One trace row part, in the order of ``runtime.trace.AXIS_FIELDS``."""
+        m = self.cfg.modulo
+        p, ap = (self.p, self.act_p) if m is None else (self.p % m, self.act_p % m)
+        return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, self.state)
+
+    def open(self) -> None:
+        """Open the drive and take its position as the initial set position."""
+        self.drive.open()
+        fb = self.drive.read_inputs(0.0)
+        self.p = self.act_p = self._sent_p = fb.position + self.offset
+        self._refresh_image()
+
+    def close(self) -> None:
+        """Close the drive."""
+        self.drive.close()
+
+    # -- input phase -----------------------------------------------------------------------
+    def read_inputs(self, t: float) -> None:
+        """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
+        fb = self.drive.read_inputs(t)
+        self.act_p = fb.position + self.offset
+        self.act_v = fb.velocity
+        self.drive_enabled = fb.enabled
+        self.drive_fault = fb.fault
+        self.comm_ok = fb.comm_ok
+        self.following_error = self._sent_p - self.act_p if fb.enabled else 0.0
+        state = self.state
+        if state is not S.ERROR_STOP:
+            if not fb.comm_ok:
+                self.raise_axis_error("COMMUNICATION_LOST", fb.detail or "communication lost")
+            elif fb.fault:
+                self.raise_axis_error(
+                    "DRIVE_FAULT", f"drive fault 0x{fb.error_code:04X}: {fb.detail}".rstrip(": ")
+                )
+            elif (
+                state is not S.DISABLED
+                and self.power_request
+                and self._was_enabled
+                and not fb.enabled
+            ):
+                self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+        self._was_enabled = fb.enabled
+        if self._reset_handle is not None and self._reset_sent:
+            self._try_finish_reset(fb.fault, fb.comm_ok)
+        if self.state is S.DISABLED:
+            if self.power_request and fb.enabled and not fb.fault:
+                self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
+            self._resync()
+        self._refresh_image()
+
+    def _resync(self) -> None:
+        self.p = self.act_p
+        self.v = self.a = self.j = 0.0
+
+    def _refresh_image(self) -> None:
+        self.img_state = self.state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = self.act_p
+        self.img_act_v = self.act_v
+        self.img_error = self.axis_error
+        self.img_enabled = self.drive_enabled
+        self.img_homed = self.homed
+
+    # -- errors and reset ------------------------------------------------------------------
+    def raise_axis_error(self, kind: str, reason: str) -> None:
+        """T1: axis error -> ErrorStop, controlled stop, every pending command fails."""
+        eid = ErrorID[kind]
+        if self.state is S.ERROR_STOP and self.axis_error is not ErrorID.OK:
+            return
+        self.axis_error = eid
+        self.axis_error_reason = reason
+        prev = self.state
+        self.state = next_state(Event.AXIS_ERROR, prev)
+        self._fail_all(ErrorID.AXIS_ERROR_STOP)
+        if prev is not S.DISABLED:
+            self._start_ramp("estop", 0.0, self.cfg.a_max, self.cfg.j_max)
+
+    def _fail_all(self, eid: ErrorID, status: Status = Status.ERROR) -> None:
+        jobs = list(self._inbox) + list(self.queue)
+        if self.active is not None:
+            jobs.append(self.active)
+        for job in jobs:
+            job.handle._finish(status, eid)
+        for h in self._stops:
+            h._finish(status, eid)
+        self._inbox.clear()
+        self.queue.clear()
+        self._stops.clear()
+        self.active = None
+        self.last_target = None
+
+    def request_reset(self) -> Handle:
+        """MC_Reset: ErrorStop -> Standstill (power on) or Disabled (power off)."""
+        h = Handle("reset")
+        if self.state is not S.ERROR_STOP:
+            h._finish(Status.DONE)  # vendor-specific: a no-op outside ErrorStop
+            return h
+        if self._reset_handle is not None:
+            self._reset_handle._finish(Status.ABORTED)
+        self._reset_handle = h
+        self._reset_pulse = True
+        self._reset_sent = False
+        h.status = Status.ACTIVE
+        return h
+
+    def _try_finish_reset(self, fault: bool, comm_ok: bool) -> None:
+        h = self._reset_handle
+        assert h is not None
+        if not comm_ok or fault:
+            h._finish(
+                Status.ERROR, ErrorID.COMMUNICATION_LOST if not comm_ok else ErrorID.DRIVE_FAULT
+            )
+            self._reset_handle = None
+            return
+        if self.active is not None:  # ErrorStop ramp still running: wait for standstill
+            return
+        self.axis_error = ErrorID.OK
+        self.axis_error_reason = ""
+        if self.power_request and self.drive_enabled:
+            self.state = next_state(Event.RESET_ENABLED, self.state)  # T4
+            self.v = self.a = self.j = 0.0
+        else:
+            self.state = next_state(Event.RESET_DISABLED, self.state)  # T3
+            self._resync()
+        h._finish(Status.DONE)
+        self._reset_handle = None
+
+    # -- power -----------------------------------------------------------------------------
+    def set_power(
+        self, enable: bool, enable_positive: bool = True, enable_negative: bool = True
+    ) -> None:
+        """MC_Power: request the power stage on/off (T2 immediately on switch-off)."""
+        self.power_request = enable
+        self.enable_positive = enable_positive
+        self.enable_negative = enable_negative
+        if not enable and self.state not in (S.DISABLED, S.ERROR_STOP):
+            self.state = next_state(Event.POWER_OFF, self.state)  # T2
+            self._fail_all(ErrorID.OK, Status.ABORTED)
+            self._resync()
+
+    # -- override --------------------------------------------------------------------------
+    def set_override(self, vel: float, acc: float, jerk: float) -> None:
+        """MC_SetOverride (validated by the FB): factors for velocity / acceleration / jerk."""
+        if (vel, acc, jerk) == self.override:
+            return
+        old_vel = self.override[0]
+        self.override = (vel, acc, jerk)
+        if vel == old_vel:
+            return
+        cfg = self.cfg
+        fa = cfg.a_max / cfg.v_max
+        fj = cfg.j_max / cfg.v_max
+        lim = Limits(v_max=_INF, a_max=fa, j_max=fj)
+        fd = self._fd if fj != _INF else 0.0
+        self._f_prof = plan_velocity(State(0.0, self._f, fd), vel, lim)
+        self._f_t = 0.0
+
+    def _advance_override(self, dt: float) -> float:
+        """Advance the factor ramp; returns the trajectory time increment for ``dt``."""
+        prof = self._f_prof
+        f0 = self._f
+        if prof is None:
+            return dt * f0
+        self._f_t += dt
+        s = prof.at(self._f_t)
+        self._f, self._fd, self._fdd = s.v, s.a, s.j
+        if self._f_t >= prof.duration:
+            self._f = prof.end.v
+            self._fd = self._fdd = 0.0
+            self._f_prof = None
+        return 0.5 * (f0 + self._f) * dt
+
+    def _tau_state(self) -> State:
+        """The set state in the (override-scaled) trajectory time of a new scalable job."""
+        f = self._f
+        if f == 1.0 and self._fd == 0.0:
+            return State(self.p, self.v, self.a)
+        if f < 1e-9:
+            return State(self.p, 0.0, 0.0)
+        vt = self.v / f
+        return State(self.p, vt, (self.a - self._fd * vt) / (f * f))
+
+    # -- submission (program phase) --------------------------------------------------------
+    def submit(self, cmd: Command) -> Handle:
+        """Accept or reject a command; the kernel executes it in this cycle's step."""
+        h = Handle(cmd.kind)
+        if cmd.kind == "setpos":
+            job = _Job(cmd, h)
+            if cmd.mode is BufferMode.ABORTING or (self.active is None and not self.queue):
+                self._shift_to(cmd)  # MC_SetPosition mcImmediately: no motion, no state change
+                h._finish(Status.DONE)
+            else:
+                self.queue.append(job)
+            return h
+        event = _EVENTS[cmd.kind]
+        state = self.state
+        if not allowed(event, state):
+            h._finish(Status.ERROR, ErrorID.for_state(state))
+            return h
+        job = _Job(cmd, h)
+        idle = self.active is None and not self.queue and not self._inbox
+        immediate = cmd.mode is BufferMode.ABORTING or cmd.kind == "stop" or idle
+        if not immediate:
+            tail = self._tail()
+            if (
+                cmd.mode >= BufferMode.BLENDING_LOW
+                and tail is not None
+                and tail.kind == "velocity"
+                and self.cfg.blend_after_continuous == "error"
+            ):
+                h._finish(Status.ERROR, ErrorID.BLENDING_NOT_SUPPORTED_BY_PREVIOUS)
+                return h
+            waiting = len(self.queue) + sum(1 for j in self._inbox if j is not self.active)
+            if waiting >= self.cfg.queue_depth:
+                h._finish(Status.ERROR, ErrorID.QUEUE_FULL)
+                return h
+        # resolve the target now when its base is known (set position or predecessor's target)
+        if cmd.is_move:
+            base: float | None
+            if immediate:
+                base = self.p
+                if (
+                    cmd.kind == "additive"
+                    and state is S.DISCRETE_MOTION
+                    and self.last_target is not None
+                ):
+                    base = self.last_target
+            else:
+                tail = self._tail()
+                base = (
+                    tail.target
+                    if tail is not None and tail.kind in ("absolute", "relative", "additive")
+                    else None
+                )
+            if base is not None:
+                err = self._resolve(job, base)
+                if err is not ErrorID.OK:
+                    h._finish(Status.ERROR, err)
+                    return h
+        if immediate:
+            self.state = next_state(event, state)
+        self._inbox.append(job)
+        if cmd.is_move and job.target is not None:
+            self.last_target = job.target
+        if cmd.kind == "stop":
+            self._stops.append(h)
+        return h
+
+    def _tail(self) -> _Job | None:
+        if self._inbox:
+            return self._inbox[-1]
+        if self.queue:
+            return self.queue[-1]
+        return self.active
+
+    def _resolve(self, job: _Job, base: float) -> ErrorID:
+        """Target of a discrete move from its base position; checks the software limits."""
+        cmd = job.cmd
+        if cmd.kind == "absolute":
+            target = cmd.position
+            m = self.cfg.modulo
+            if m is not None:
+                r = (cmd.position - base) % m
+                fwd = base + r
+                back = base - ((m - r) % m)
+                d = cmd.direction
+                if d is Direction.CURRENT:
+                    d = (
+                        Direction.POSITIVE
+                        if self.v > 0.0
+                        else (Direction.NEGATIVE if self.v < 0.0 else Direction.SHORTEST)
+                    )
+                if d is Direction.POSITIVE:
+                    target = fwd
+                elif d is Direction.NEGATIVE:
+                    target = back
+                else:  # shortest way; a tie (half a period) goes the positive way
+                    target = fwd if r <= 0.5 * m else back
+        else:
+            target = base + cmd.position
+        if self.cfg.modulo is None:
+            hi, lo = self.cfg.sw_limit_pos, self.cfg.sw_limit_neg
+            if (hi is not None and target > hi) or (lo is not None and target < lo):
+                return ErrorID.TARGET_OUTSIDE_SW_LIMITS
+        job.target = target
+        return ErrorID.OK
+
+    def _shift_to(self, cmd: Command) -> None:
+        """MC_SetPosition: shift the coordinate system (set and actual by the same amount)."""
+        d = cmd.position if cmd.relative else cmd.position - self.p
+        self.offset += d
+        self.p += d
+        self.act_p += d
+        self._sent_p += d
+        if self.last_target is not None:
+            self.last_target += d
+        jobs = ([self.active] if self.active else []) + list(self.queue) + self._inbox
+        for job in jobs:
+            job.shift += d
+            if job.target is not None:
+                job.target += d
+
+    # -- motion kernel ---------------------------------------------------------------------
+    def step(self, dt: float) -> None:
+        """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise."""
+        if self._inbox:
+            self._process_inbox()
+        state = self.state
+        if state is S.DISABLED:
+            self._resync()
+            return
+        job = self.active
+        if job is None:
+            self.v = self.a = self.j = 0.0
+        else:
+            self._advance(job, dt)
+        if self.state is S.STOPPING and self.active is None:
+            if all(not h.hold for h in self._stops):
+                self._stops.clear()
+                self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
+        if self.state is not S.ERROR_STOP:
+            lim = self.cfg.following_error_limit
+            if lim is not None and abs(self.following_error) > lim:
+                self.raise_axis_error(
+                    "FOLLOWING_ERROR",
+                    f"following error {self.following_error:.6g} exceeds {lim:.6g}",
+                )
+            elif self.cfg.modulo is None:
+                hi, lo = self.cfg.sw_limit_pos, self.cfg.sw_limit_neg
+                if (hi is not None and self.p > hi + 1e-9) or (
+                    lo is not None and self.p < lo - 1e-9
+                ):
+                    self.raise_axis_error(
+                        "SW_LIMIT", f"set position {self.p:.6g} outside the software limits"
+                    )
+
+    def _process_inbox(self) -> None:
+        inbox = self._inbox
+        self._inbox = []
+        for job in inbox:
+            if job.handle.terminal:
+                continue
+            kind = job.kind
+            if kind == "stop":
+                self._abort_motion()
+                job.handle.status = Status.ACTIVE
+                self._start_job_ramp(job, job.cmd.deceleration, job.cmd.jerk)
+                continue
+            if job.cmd.mode is BufferMode.ABORTING or self.active is None:
+                self._start(job, immediate=True)
+                continue
+            self.queue.append(job)
+            if len(self.queue) == 1 and job.cmd.mode >= BufferMode.BLENDING_LOW:
+                act = self.active
+                if act is not None and act.cmd.is_move and not act.handle.terminal:
+                    self._replan_active()
+
+    def _abort_motion(self) -> None:
+        for q in self.queue:
+            q.handle._finish(Status.ABORTED)
+        self.queue.clear()
+        if self.active is not None and self.active.kind != "stop":
+            self.active.handle._finish(Status.ABORTED)
+        self.active = None
+
+    def _start(self, job: _Job, immediate: bool) -> bool:
+        """Plan ``job`` from the current set state; abort the old motion only on success."""
+        kind = job.kind
+        try:
+            if kind == "halt":
+                self._prepare_ramp(job, 0.0, job.cmd.deceleration, job.cmd.jerk)
+            elif kind == "velocity":
+                self._prepare_velocity(job, self._tau_state())
+            elif kind == "home":
+                ok = self._prepare_home(job)
+                if not ok:
+                    return True
+            else:
+                if job.target is None:
+                    err = self._resolve(job, self.p)
+                    if err is not ErrorID.OK:
+                        job.handle._finish(Status.ERROR, err)
+                        return False
+                self._prepare_move(job, self._tau_state())
+        except PlanningError as exc:  # a defect: keep the old motion, fail the new FB
+            job.handle._finish(Status.ERROR, ErrorID.PLANNING_FAILED)
+            self.axis_error_reason = f"planner: {exc}"
+            return False
+        if immediate:
+            self._abort_motion()
+        self.active = job
+        job.handle.status = Status.ACTIVE
+        return True
+
+    def _prepare_ramp(self, job: _Job, v_target: float, dec: float, jerk: float) -> None:
+        lim = self._axis_limits(dec, dec, jerk)
+        job.set_chain([plan_velocity(State(self.p, self.v, self.a), v_target, lim)])
+
+    def _start_job_ramp(self, job: _Job, dec: float, jerk: float) -> None:
+        self._prepare_ramp(job, 0.0, dec, jerk)
+        self.active = job
+
+    def _start_ramp(self, kind: str, v_target: float, dec: float, jerk: float) -> None:
+        job = _Job(Command(kind="halt"), Handle(kind))
+        job.kind = kind
+        job.no_override = True
+        self._prepare_ramp(job, v_target, dec, jerk)
+        self.active = job
+
+    def _axis_limits(self, acc: float, dec: float, jerk: float, v: float | None = None) -> Limits:
+        cfg = self.cfg
+        af, jf = self.override[1], self.override[2]
+        acc = (acc or cfg.a_max) * af
+        dec = (dec or cfg.a_max) * af
+        jerk = (jerk or cfg.j_max) * jf
+        vv = cfg.v_max if v is None else v
+        return Limits(v_max=vv, a_max=max(acc, dec), j_max=jerk, v_min=-vv, a_min=-max(acc, dec))
+
+    def _dyn(self, cmd: Command) -> tuple[float, float, float]:
+        cfg = self.cfg
+        af, jf = self.override[1], self.override[2]
+        return (
+            (cmd.acceleration or cfg.a_max) * af,
+            (cmd.deceleration or cfg.a_max) * af,
+            (cmd.jerk or cfg.j_max) * jf,
+        )
+
+    def _prepare_velocity(self, job: _Job, start: State) -> None:
+        acc, dec, jerk = self._dyn(job.cmd)
+        v0 = start.v
+        # raising |v| uses Acceleration, lowering it Deceleration (judged at the start)
+        a_pos = acc if v0 >= 0.0 else dec
+        a_neg = acc if v0 <= 0.0 else dec
+        vm = self.cfg.v_max
+        lim = Limits(v_max=vm, a_max=a_pos, j_max=jerk, v_min=-vm, a_min=-a_neg)
+        job.set_chain([plan_velocity(start, job.cmd.velocity, lim)])
+
+    # -- discrete moves and blending -------------------------------------------------------
+    def _successor_junction(self, job: _Job) -> tuple[float, _Job | None]:
+        """Requested junction speed |v| between ``job`` and a blending successor."""
+        if not self.queue:
+            return 0.0, None
+        nxt = self.queue[0]
+        mode = nxt.cmd.mode
+        if mode < BufferMode.BLENDING_LOW or not job.cmd.is_move:
+            return 0.0, None
+        v1 = job.cmd.velocity
+        v2 = (
+            abs(nxt.cmd.velocity)
+            if nxt.kind in ("absolute", "relative", "additive", "velocity")
+            else 0.0
+        )
+        if nxt.kind not in ("absolute", "relative", "additive", "velocity", "halt"):
+            return 0.0, None
+        vj = {
+            BufferMode.BLENDING_LOW: min(v1, v2),
+            BufferMode.BLENDING_PREVIOUS: v1,
+            BufferMode.BLENDING_NEXT: v2,
+            BufferMode.BLENDING_HIGH: max(v1, v2),
+        }[mode]
+        return vj, nxt
+
+    def _move_chain(self, cmd: Command, start: State, target: float, v_end: float) -> list[Profile]:
+        acc, dec, jerk = self._dyn(cmd)
+        v = cmd.velocity
+        s = _sign(target - start.p) or _sign(v_end) or 1.0
+        if abs(v_end) <= v:
+            return [plan(start, State(target, v_end, 0.0), _limits(v, acc, dec, jerk, s))]
+        vj = abs(v_end)
+        lim_hi = _limits(vj, acc, dec, jerk, s)
+        ramp = plan_velocity(State(0.0, s * v, 0.0), v_end, lim_hi)
+        p_mid = target - ramp.end.p
+        if s * (p_mid - start.p) > 0.0:
+            first = plan(start, State(p_mid, s * v, 0.0), _limits(v, acc, dec, jerk, s))
+            if _clean(first, s, p_mid, start.v):
+                e = first.end
+                return [first, plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
+        return [plan(start, State(target, v_end, 0.0), lim_hi)]
+
+    def _junction_ok(
+        self, job: _Job, start: State, s: float, vj: float, nxt: _Job, p2: float | None
+    ) -> bool:
+        target = job.target
+        assert target is not None
+        chain = self._move_chain(job.cmd, start, target, s * vj)
+        v0 = start.v
+        for prof in chain:
+            if not _clean(prof, s, target, v0):
+                return False
+            v0 = prof.end.v
+        if p2 is None:
+            return True
+        acc, dec, jerk = self._dyn(nxt.cmd)
+        lim2 = _limits(nxt.cmd.velocity, acc, dec, jerk, s)
+        prof2 = plan(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
+        return _clean(prof2, s, p2, s * vj)
+
+    def _prepare_move(self, job: _Job, start: State) -> None:
+        target = job.target
+        assert target is not None
+        v_req, nxt = self._successor_junction(job)
+        vj = 0.0
+        s = _sign(target - start.p)
+        if nxt is not None and v_req > 0.0 and s != 0.0:
+            p2: float | None = None
+            s2 = s
+            if nxt.cmd.is_move:
+                if nxt.target is None:
+                    self._resolve(nxt, target)
+                p2 = nxt.target
+                s2 = _sign(p2 - target) if p2 is not None else 0.0
+            elif nxt.kind == "velocity":
+                s2 = _sign(nxt.cmd.velocity)
+            if s2 == s:
+                if self._junction_ok(job, start, s, v_req, nxt, p2):
+                    vj = v_req
+                else:
+                    lo, hi = 0.0, v_req
+                    for _ in range(30):
+                        mid = 0.5 * (lo + hi)
+                        if self._junction_ok(job, start, s, mid, nxt, p2):
+                            lo = mid
+                        else:
+                            hi = mid
+                        if hi - lo <= 1e-9 * v_req:
+                            break
+                    vj = lo
+        job.set_chain(self._move_chain(job.cmd, start, target, s * vj))
+        job.handle.end_velocity = s * vj
+
+    def _replan_active(self) -> None:
+        job = self.active
+        assert job is not None
+        try:
+            self._prepare_move(job, self._tau_state())
+        except PlanningError as exc:
+            self.axis_error_reason = f"planner (blending ignored): {exc}"
+
+    # -- homing ----------------------------------------------------------------------------
+    def _prepare_home(self, job: _Job) -> bool:
+        sw = self.cfg.home_switch
+        if sw is None:  # set-position homing: no motion
+            self._abort_motion()
+            self._shift_to(Command(kind="setpos", position=job.cmd.position))
+            self.homed = True
+            job.handle._finish(Status.DONE)
+            self.state = next_state(Event.HOME_DONE, self.state)  # T7
+            return False
+        drive_p = self.p - self.offset
+        s = _sign(sw - drive_p) or 1.0
+        vh = self.cfg.home_velocity or 0.1 * self.cfg.v_max
+        lim = self._axis_limits(0.0, 0.0, 0.0)
+        job.set_chain([plan_velocity(State(self.p, self.v, self.a), s * vh, lim)])
+        job.home_phase = 1
+        job.target = s  # search direction
+        return True
+
+    def _home_check(self, job: _Job) -> None:
+        sw = self.cfg.home_switch
+        assert sw is not None
+        s = job.target or 1.0
+        if job.home_phase == 1 and s * (self.act_p - self.offset - sw) >= 0.0:
+            job.home_phase = 2  # switch reached: stop (the position is set at standstill)
+            lim = self._axis_limits(0.0, 0.0, 0.0)
+            job.set_chain([plan_velocity(State(self.p, self.v, self.a), 0.0, lim)])
+
+    # -- stepping --------------------------------------------------------------------------
+    def _advance(self, job: _Job, dt: float) -> None:
+        scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
+        dtau = self._advance_override(dt) if scaled else dt
+        job.tau += dtau
+        while True:
+            tau = job.tau
+            if tau < job.duration or (job.kind == "velocity" and not self.queue):
+                if job.kind == "velocity" and tau >= job.duration:
+                    job.handle.in_target = True
+                break
+            # job finished inside this step
+            if job.kind == "home" and job.home_phase == 1:
+                break  # still searching the switch at constant velocity
+            excess = tau - job.duration
+            end = job.end_state()
+            nxt = self._finish_job(job)
+            if nxt is None:
+                self.active = None
+                self.p, self.a, self.j = end.p, 0.0, 0.0
+                self.v = end.v if job.kind == "velocity" else 0.0
+                if end.v != 0.0 and job.kind == "velocity":
+                    self.active = job
+                return
+            self.p, self.v, self.a = end.p, end.v, end.a
+            job = nxt
+            job.tau = excess
+        p, v, a, j = job.sample(job.tau)
+        if scaled:
+            f, fd, fdd = self._f, self._fd, self._fdd
+            self.p, self.v = p, f * v
+            self.a = f * f * a + fd * v
+            self.j = f * f * f * j + 3.0 * f * fd * a + fdd * v
+        else:
+            self.p, self.v, self.a, self.j = p, v, a, j
+        if job.kind == "home":
+            self._home_check(job)
+
+    def _finish_job(self, job: _Job) -> _Job | None:
+        """``job`` reached its end: report, then activate the next queued job (if any)."""
+        h = job.handle
+        kind = job.kind
+        end = job.end_state()
+        self.p, self.v, self.a = end.p, end.v, end.a
+        self.active = None
+        if kind == "velocity":
+            h._finish(Status.ABORTED)  # taken over by a buffered command at InVelocity
+        elif kind == "stop":
+            for sh in self._stops:
+                sh._finish(Status.DONE)
+            return None
+        elif kind == "estop":
+            return None
+        elif kind == "home":
+            sw = self.cfg.home_switch
+            assert sw is not None
+            # the switch is at job.cmd.position: shift so that this holds at standstill
+            self._shift_to(
+                Command(kind="setpos", position=job.cmd.position + (self.p - self.offset - sw))
+            )
+            self.homed = True
+            h._finish(Status.DONE)
+        else:
+            h._finish(Status.DONE)
+        while self.queue:
+            nxt = self.queue.popleft()
+            if nxt.kind == "setpos":
+                self._shift_to(nxt.cmd)
+                nxt.handle._finish(Status.DONE)
+                continue
+            event = _EVENTS[nxt.kind]
+            if not allowed(event, self.state):
+                nxt.handle._finish(Status.ERROR, ErrorID.for_state(self.state))
+                continue
+            if nxt.cmd.is_move and nxt.target is None:
+                err = self._resolve(nxt, self.p)
+                if err is not ErrorID.OK:  # FB runtime error: the next one takes over (2.4)
+                    nxt.handle._finish(Status.ERROR, err)
+                    continue
+            if self._start(nxt, immediate=False):
+                self.state = next_state(event, self.state)
+                if self.active is nxt:
+                    return nxt
+                continue  # homing by set position finished at once
+        if kind == "home":
+            self.state = next_state(Event.HOME_DONE, self.state)  # T7
+        elif self.state is S.DISCRETE_MOTION:
+            self.state = next_state(Event.DISCRETE_DONE, self.state)  # T9
+        return None
+
+    # -- output phase ----------------------------------------------------------------------
+    def write_outputs(self, t: float) -> None:
+        """WRITE OUTPUTS: setpoints and power/reset requests to the drive."""
+        reset = self._reset_pulse
+        if reset:
+            self._reset_pulse = False
+            self._reset_sent = True
+        self._sent_p = self.p
+        self.drive.write_outputs(
+            t, DriveCommand(self.p - self.offset, self.v, self.a, self.power_request, reset)
+        )
+
+    # -- diagnostics -----------------------------------------------------------------------
+    def emit_fb_edges(self, trace: Trace, cycle: int) -> None:
+        """Record FB output edges in the trace (called by the runtime once per cycle)."""
+        for fb in self.fbs:
+            bits = fb._out_bits()
+            if bits != fb._traced_bits:
+                fb._emit_edges(trace, cycle, bits)

@@ -1,0 +1,269 @@
+"""FB base classes: the PLCopen Execute/Enable interface rules, implemented once.
+
+Calling convention (IEC semantics): ``fb(axis=x, execute=True, position=1.0)`` updates the given
+inputs (an omitted input keeps its previous value; an unknown keyword raises ``TypeError``),
+runs one scan and returns the FB. Outputs are attributes.
+
+Execute FBs (spec 2.1, Fig. 7/8):
+
+* inputs are latched on the rising edge of ``execute``;
+* while ``execute`` is TRUE exactly one of busy/done/error/command_aborted is TRUE;
+* done/error/command_aborted are held while ``execute`` stays TRUE and reset in the scan in
+  which it falls; if ``execute`` is already FALSE when they occur they are shown for exactly
+  one scan;
+* a rising edge while busy re-triggers: the new command takes over and the old one gives no
+  feedback (``retrigger_ignored=True`` selects the Beckhoff behaviour: the edge is ignored).
+
+Enable FBs: ``valid`` (or ``enabled``) and ``error`` are mutually exclusive and are computed in
+the same scan as ``enable`` (Valid rises in the scan of Enable's rising edge); everything is
+reset in the scan in which ``enable`` falls. Errors of Enable FBs clear by themselves when the
+condition disappears (busy stays TRUE meanwhile).
+
+Timing: the motion kernel runs after the program, so changes it makes (Active, Done, ...)
+appear at the FB's next call. A command rejected at submission (bad input, state violation,
+queue full) shows ``error`` in the calling scan.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from motionplc.blocks.axis import Axis, Handle, Status
+from motionplc.blocks.enums import ErrorID
+
+if TYPE_CHECKING:
+    from motionplc.runtime.trace import Trace
+
+
+class FunctionBlock:
+    """Common machinery: persistent inputs, keyword calls, output edges for the trace."""
+
+    INPUTS: ClassVar[tuple[str, ...]] = ("axis",)
+    OUTPUTS: ClassVar[tuple[str, ...]] = ()  # boolean outputs (traced as edges)
+    _input_set: ClassVar[frozenset[str]] = frozenset()
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        cls._input_set = frozenset(cls.INPUTS)
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.axis: Axis | None = None
+        self.name = name
+        self._registered: Axis | None = None
+        self._traced_bits = 0
+        self.error = False
+        self.error_id = ErrorID.OK
+        self.error_text = ""
+        self._set_inputs(inputs)
+
+    def _set_inputs(self, kw: dict[str, Any]) -> None:
+        allowed = self._input_set
+        for k, v in kw.items():
+            if k not in allowed:
+                raise TypeError(
+                    f"{type(self).__name__}() got an unknown input {k!r}; "
+                    f"inputs: {', '.join(self.INPUTS)}"
+                )
+            setattr(self, k, v)
+
+    def __call__(self, **inputs: Any) -> Any:
+        if inputs:
+            self._set_inputs(inputs)
+        axis = self.axis
+        if axis is not self._registered and axis is not None:
+            if not isinstance(axis, Axis):
+                raise TypeError(f"{type(self).__name__}: axis must be an Axis, got {axis!r}")
+            trace_name = axis.register(self)
+            if self.name is None:
+                self.name = trace_name
+            self._registered = axis
+        self._scan()
+        return self
+
+    def _scan(self) -> None:
+        raise NotImplementedError
+
+    # -- trace support ---------------------------------------------------------------------
+    def _out_bits(self) -> int:
+        bits = 0
+        for i, n in enumerate(self.OUTPUTS):
+            if getattr(self, n):
+                bits |= 1 << i
+        return bits
+
+    def _emit_edges(self, trace: Trace, cycle: int, bits: int) -> None:
+        changed = bits ^ self._traced_bits
+        for i, n in enumerate(self.OUTPUTS):
+            if changed >> i & 1:
+                trace.event(cycle, self.name or type(self).__name__, n, bool(bits >> i & 1))
+        self._traced_bits = bits
+
+
+def _failed(error_id: ErrorID) -> Handle:
+    h = Handle("rejected")
+    h._finish(Status.ERROR, error_id)
+    return h
+
+
+class InputError(Exception):
+    """A bad FB input found by validation (becomes ``error``/``error_id``)."""
+
+    def __init__(self, error_id: ErrorID, text: str) -> None:
+        super().__init__(text)
+        self.error_id = error_id
+
+
+def check_number(
+    name: str,
+    value: Any,
+    error_id: ErrorID,
+    lo: float = -math.inf,
+    hi: float = math.inf,
+    lo_open: bool = False,
+) -> float:
+    """Validate a numeric FB input; raises :class:`InputError` naming it and its range."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    x = float(value) if ok else math.nan
+    if not ok or math.isnan(x) or (math.isinf(x) and math.isfinite(hi if x > 0 else lo)):
+        ok = False
+    elif lo_open and not x > lo or not lo_open and not x >= lo or x > hi:
+        ok = False
+    if not ok or not math.isfinite(x):
+        rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+        raise InputError(error_id, f"{name} must be a finite number in {rng}, got {value!r}")
+    return x
+
+
+class ExecuteFB(FunctionBlock):
+    """Execute/Done FBs (one-shot): done, busy, error, error_id."""
+
+    INPUTS = ("axis", "execute")
+    OUTPUTS = ("busy", "done", "error")
+    _TERMINAL_OUT = True
+
+    def __init__(
+        self, name: str | None = None, *, retrigger_ignored: bool = False, **inputs: Any
+    ) -> None:
+        self.execute = False
+        self.busy = False
+        self.done = False
+        self.active = False
+        self.command_aborted = False
+        self.retrigger_ignored = retrigger_ignored
+        self._prev_execute = False
+        self._handle: Handle | None = None
+        self._seen = False
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        """Latch the inputs and submit the command (subclasses)."""
+        raise NotImplementedError
+
+    def _start_checked(self) -> Handle:
+        axis = self.axis
+        self.error_text = ""
+        if axis is None:
+            self.error_text = "axis input is not connected"
+            return _failed(ErrorID.INVALID_AXIS)
+        try:
+            return self._start(axis)
+        except InputError as exc:
+            self.error_text = str(exc)
+            return _failed(exc.error_id)
+
+    def _scan(self) -> None:
+        ex = bool(self.execute)
+        if ex and not self._prev_execute:
+            if not (self.retrigger_ignored and self.busy):
+                self._handle = self._start_checked()
+                self._seen = False
+        self._prev_execute = ex
+        self._before_outputs(ex)
+        h = self._handle
+        if h is None:
+            self._clear()
+            return
+        st = h.status
+        if st >= Status.DONE:
+            if ex or not self._seen:
+                self._seen = True
+                self.busy = self.active = False
+                self.done = st is Status.DONE
+                self.error = st is Status.ERROR
+                self.command_aborted = st is Status.ABORTED
+                self.error_id = h.error_id if self.error else ErrorID.OK
+                self._terminal_outputs(h)
+            else:
+                self._handle = None
+                self._clear()
+        else:
+            self.busy = True
+            self.active = st is Status.ACTIVE
+            self.done = self.error = self.command_aborted = False
+            self.error_id = ErrorID.OK
+            self._busy_outputs(h)
+
+    def _before_outputs(self, execute: bool) -> None:
+        """Hook run every scan before the outputs are computed."""
+
+    def _clear(self) -> None:
+        self.busy = self.active = self.done = self.error = self.command_aborted = False
+        self.error_id = ErrorID.OK
+
+    def _terminal_outputs(self, h: Handle) -> None:
+        """Extra outputs when the command ended (subclasses)."""
+
+    def _busy_outputs(self, h: Handle) -> None:
+        """Extra outputs while busy (subclasses)."""
+
+
+class MotionFB(ExecuteFB):
+    """Execute FBs that control the axis: adds active and command_aborted."""
+
+    OUTPUTS = ("busy", "active", "done", "command_aborted", "error")
+
+
+class EnableFB(FunctionBlock):
+    """Enable/Valid FBs: valid, busy, error, error_id."""
+
+    INPUTS = ("axis", "enable")
+    OUTPUTS = ("valid", "busy", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.enable = False
+        self.valid = False
+        self.busy = False
+        super().__init__(name, **inputs)
+
+    def _scan(self) -> None:
+        if not self.enable:
+            self.valid = self.busy = self.error = False
+            self.error_id = ErrorID.OK
+            self.error_text = ""
+            self._reset_values()
+            return
+        self.busy = True
+        axis = self.axis
+        try:
+            if axis is None:
+                raise InputError(ErrorID.INVALID_AXIS, "axis input is not connected")
+            self._update(axis)
+        except InputError as exc:
+            self.valid = False
+            self.error = True
+            self.error_id = exc.error_id
+            self.error_text = str(exc)
+            self._reset_values()
+            return
+        self.valid = True
+        self.error = False
+        self.error_id = ErrorID.OK
+        self.error_text = ""
+
+    def _update(self, axis: Axis) -> None:
+        """Compute the values (subclasses); raise InputError for a (recoverable) error."""
+        raise NotImplementedError
+
+    def _reset_values(self) -> None:
+        """Reset the value outputs (subclasses)."""

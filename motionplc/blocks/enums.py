@@ -1,0 +1,100 @@
+"""PLCopen vocabulary: axis states, BufferMode, Direction, ErrorID values."""
+
+from __future__ import annotations
+
+from enum import Enum, IntEnum
+
+
+class AxisState(IntEnum):
+    """The eight states of the PLCopen single-axis diagram (values used in traces)."""
+
+    DISABLED = 0
+    STANDSTILL = 1
+    HOMING = 2
+    DISCRETE_MOTION = 3
+    CONTINUOUS_MOTION = 4
+    SYNCHRONIZED_MOTION = 5
+    STOPPING = 6
+    ERROR_STOP = 7
+
+
+class BufferMode(IntEnum):
+    """MC_BUFFER_MODE with the spec's values (Table 3)."""
+
+    ABORTING = 0
+    BUFFERED = 1
+    BLENDING_LOW = 2
+    BLENDING_PREVIOUS = 3
+    BLENDING_NEXT = 4
+    BLENDING_HIGH = 5
+
+
+class Direction(Enum):
+    """MC_DIRECTION (the spec gives no numeric values)."""
+
+    POSITIVE = "positive"
+    NEGATIVE = "negative"
+    SHORTEST = "shortest"
+    CURRENT = "current"
+
+
+class ExecutionMode(Enum):
+    """MC_EXECUTION_MODE."""
+
+    IMMEDIATELY = "immediately"
+    QUEUED = "queued"
+
+
+class Source(Enum):
+    """MC_SOURCE for MC_ReadMotionState."""
+
+    COMMANDED_VALUE = "commanded"
+    SET_VALUE = "set"
+    ACTUAL_VALUE = "actual"
+
+
+class ErrorID(IntEnum):
+    """FB ErrorID values (WORD compatible), grouped as in the spec notes 5.6.
+
+    0x1xxx parameter errors (one per input), 0x2xxx state-machine violations (0x2000 + the axis
+    state), 0x3xxx buffer/queue errors, 0x4xxx axis errors mirrored into FBs, 0x5xxx runtime.
+    The same 0x4xxx values are the AxisErrorID of MC_ReadAxisError.
+    """
+
+    OK = 0x0000
+    INVALID_AXIS = 0x1000
+    INVALID_POSITION = 0x1001
+    INVALID_DISTANCE = 0x1002
+    INVALID_VELOCITY = 0x1003
+    INVALID_ACCELERATION = 0x1004
+    INVALID_DECELERATION = 0x1005
+    INVALID_JERK = 0x1006
+    INVALID_DIRECTION = 0x1007
+    INVALID_BUFFER_MODE = 0x1008
+    INVALID_OVERRIDE = 0x1009
+    INVALID_EXECUTION_MODE = 0x100A
+    TARGET_OUTSIDE_SW_LIMITS = 0x100B
+    STATE_DISABLED = 0x2000
+    STATE_STANDSTILL = 0x2001
+    STATE_HOMING = 0x2002
+    STATE_DISCRETE_MOTION = 0x2003
+    STATE_CONTINUOUS_MOTION = 0x2004
+    STATE_SYNCHRONIZED_MOTION = 0x2005
+    STATE_STOPPING = 0x2006
+    STATE_ERROR_STOP = 0x2007
+    QUEUE_FULL = 0x3001
+    BLENDING_NOT_SUPPORTED_BY_PREVIOUS = 0x3002
+    AXIS_ERROR_STOP = 0x4000  # the axis went to ErrorStop while this FB was busy
+    DRIVE_FAULT = 0x4001
+    FOLLOWING_ERROR = 0x4002
+    SW_LIMIT = 0x4003
+    COMMUNICATION_LOST = 0x4004
+    WATCHDOG = 0x4005
+    POWER_LOST = 0x4006
+    HOMING_FAILED = 0x4007
+    PLANNING_FAILED = 0x5001
+
+    @staticmethod
+    def for_state(state: AxisState) -> ErrorID:
+        """The state-violation ErrorID of a command rejected in ``state``."""
+        return ErrorID(0x2000 + int(state))

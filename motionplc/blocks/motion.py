@@ -1,0 +1,305 @@
+"""Single-axis motion FBs: MC_MoveAbsolute/Relative/Additive, MC_MoveVelocity, MC_Halt,
+MC_Stop and MC_Home.
+
+Rules pinned for motionplc (spec 1.4 leaves them open):
+
+* Acceleration, Deceleration or Jerk = 0 means "the axis' configured limit" (``a_max`` /
+  ``j_max``; ``j_max = inf`` gives trapezoidal profiles). Inputs above the axis' limits, negative
+  values, NaN or infinities give ``error`` with the input's ErrorID (never a silent clamp).
+* Velocity of a move must be in (0, v_max]; MC_MoveVelocity accepts [-v_max, v_max] and applies
+  Direction (negative Velocity x NEGATIVE = positive motion; CURRENT keeps the sign of the
+  current set velocity; SHORTEST is an error).
+* On modulo axes Position must be in [0, modulo); Direction picks the way (SHORTEST: a tie at
+  half a period goes the positive way; CURRENT: the sign of the set velocity, SHORTEST at rest).
+  Direction is ignored on linear axes.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from motionplc.blocks.axis import Axis, Command, Handle
+from motionplc.blocks.base import InputError, MotionFB, check_number
+from motionplc.blocks.enums import BufferMode, Direction, ErrorID
+
+
+def _buffer_mode(value: Any) -> BufferMode:
+    try:
+        return BufferMode(value)
+    except ValueError:
+        raise InputError(
+            ErrorID.INVALID_BUFFER_MODE, f"buffer_mode must be a BufferMode, got {value!r}"
+        ) from None
+
+
+def _dynamics(fb: Any, axis: Axis) -> tuple[float, float, float]:
+    cfg = axis.cfg
+    acc = check_number(
+        "acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, 0.0, cfg.a_max
+    )
+    dec = check_number(
+        "deceleration", fb.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
+    )
+    jerk = check_number("jerk", fb.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
+    return acc, dec, jerk
+
+
+class _MoveFB(MotionFB):
+    """Common pins of the discrete moves."""
+
+    OUTPUTS = ("busy", "active", "done", "command_aborted", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.continuous_update = False
+        self.velocity = 0.0
+        self.acceleration = 0.0
+        self.deceleration = 0.0
+        self.jerk = 0.0
+        self.buffer_mode = BufferMode.ABORTING
+        self.end_velocity = 0.0  # effective velocity at the end position (blending)
+        super().__init__(name, **inputs)
+
+    def _terminal_outputs(self, h: Handle) -> None:
+        self.end_velocity = h.end_velocity
+
+    def _busy_outputs(self, h: Handle) -> None:
+        self.end_velocity = h.end_velocity
+
+    def _move_command(self, axis: Axis, kind: str, position: float, direction: Direction) -> Handle:
+        v = check_number(
+            "velocity", self.velocity, ErrorID.INVALID_VELOCITY, 0.0, axis.cfg.v_max, lo_open=True
+        )
+        acc, dec, jerk = _dynamics(self, axis)
+        mode = _buffer_mode(self.buffer_mode)
+        return axis.submit(
+            Command(
+                kind=kind,
+                mode=mode,
+                position=position,
+                velocity=v,
+                acceleration=acc,
+                deceleration=dec,
+                jerk=jerk,
+                direction=direction,
+            )
+        )
+
+
+class MC_MoveAbsolute(_MoveFB):
+    """Move to an absolute position; ends at v = 0 unless a blending command follows."""
+
+    INPUTS = (
+        "axis",
+        "execute",
+        "continuous_update",
+        "position",
+        "velocity",
+        "acceleration",
+        "deceleration",
+        "jerk",
+        "direction",
+        "buffer_mode",
+    )
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.position = 0.0
+        self.direction = Direction.SHORTEST
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        m = axis.cfg.modulo
+        if m is None:
+            pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+        else:
+            pos = check_number("position", self.position, ErrorID.INVALID_POSITION, 0.0, m)
+            if pos >= m:
+                raise InputError(
+                    ErrorID.INVALID_POSITION, f"position must be in [0, {m:g}) on a modulo axis"
+                )
+        if not isinstance(self.direction, Direction):
+            raise InputError(
+                ErrorID.INVALID_DIRECTION, f"direction must be a Direction, got {self.direction!r}"
+            )
+        return self._move_command(axis, "absolute", pos, self.direction)
+
+
+class MC_MoveRelative(_MoveFB):
+    """Move by a distance from the set position at execution (from the previous target when
+    buffered)."""
+
+    INPUTS = (
+        "axis",
+        "execute",
+        "continuous_update",
+        "distance",
+        "velocity",
+        "acceleration",
+        "deceleration",
+        "jerk",
+        "buffer_mode",
+    )
+    _KIND = "relative"
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.distance = 0.0
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        d = check_number("distance", self.distance, ErrorID.INVALID_DISTANCE)
+        return self._move_command(axis, self._KIND, d, Direction.POSITIVE)
+
+
+class MC_MoveAdditive(MC_MoveRelative):
+    """Add a distance to the last commanded target (in DiscreteMotion), else to the set
+    position."""
+
+    _KIND = "additive"
+
+
+class MC_MoveVelocity(MotionFB):
+    """Endless motion at a velocity; ``in_velocity`` once the set velocity reaches it."""
+
+    INPUTS = (
+        "axis",
+        "execute",
+        "continuous_update",
+        "velocity",
+        "acceleration",
+        "deceleration",
+        "jerk",
+        "direction",
+        "buffer_mode",
+    )
+    OUTPUTS = ("busy", "active", "in_velocity", "command_aborted", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.continuous_update = False
+        self.velocity = 0.0
+        self.acceleration = 0.0
+        self.deceleration = 0.0
+        self.jerk = 0.0
+        self.direction = Direction.POSITIVE
+        self.buffer_mode = BufferMode.ABORTING
+        self.in_velocity = False
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        vm = axis.cfg.v_max
+        v = check_number("velocity", self.velocity, ErrorID.INVALID_VELOCITY, -vm, vm)
+        d = self.direction
+        if d is Direction.POSITIVE:
+            pass
+        elif d is Direction.NEGATIVE:
+            v = -v
+        elif d is Direction.CURRENT:
+            v = abs(v) * (-1.0 if axis.v < 0.0 else 1.0)
+        else:
+            raise InputError(
+                ErrorID.INVALID_DIRECTION,
+                f"direction must be POSITIVE, NEGATIVE or CURRENT for MC_MoveVelocity, got {d!r}",
+            )
+        acc, dec, jerk = _dynamics(self, axis)
+        return axis.submit(
+            Command(
+                kind="velocity",
+                mode=_buffer_mode(self.buffer_mode),
+                velocity=v,
+                acceleration=acc,
+                deceleration=dec,
+                jerk=jerk,
+            )
+        )
+
+    def _clear(self) -> None:
+        super()._clear()
+        self.in_velocity = False
+
+    def _terminal_outputs(self, h: Handle) -> None:
+        self.in_velocity = False
+
+    def _busy_outputs(self, h: Handle) -> None:
+        self.in_velocity = h.in_target and self.active
+
+
+class MC_Halt(MotionFB):
+    """Stop for normal operation (DiscreteMotion until v = 0); can be aborted."""
+
+    INPUTS = ("axis", "execute", "deceleration", "jerk", "buffer_mode")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.deceleration = 0.0
+        self.jerk = 0.0
+        self.buffer_mode = BufferMode.ABORTING
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        cfg = axis.cfg
+        dec = check_number(
+            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
+        )
+        jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
+        return axis.submit(
+            Command(kind="halt", mode=_buffer_mode(self.buffer_mode), deceleration=dec, jerk=jerk)
+        )
+
+
+class MC_Stop(MotionFB):
+    """Controlled stop; the axis stays in Stopping while ``execute`` is TRUE.
+
+    Aborted only by switching the power off. Has no ``active`` output (always FALSE).
+    """
+
+    INPUTS = ("axis", "execute", "deceleration", "jerk")
+    OUTPUTS = ("busy", "done", "command_aborted", "error")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.deceleration = 0.0
+        self.jerk = 0.0
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        cfg = axis.cfg
+        dec = check_number(
+            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
+        )
+        jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
+        return axis.submit(Command(kind="stop", deceleration=dec, jerk=jerk))
+
+    def _before_outputs(self, execute: bool) -> None:
+        if self._handle is not None:
+            self._handle.hold = execute
+
+    def _busy_outputs(self, h: Handle) -> None:
+        self.active = False
+
+
+class MC_Home(MotionFB):
+    """Homing: set-position homing (no reference switch configured) or a homing move to the
+    axis' virtual reference switch, then the switch position becomes ``position``."""
+
+    INPUTS = ("axis", "execute", "position", "buffer_mode")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.position = 0.0
+        self.buffer_mode = BufferMode.ABORTING
+        super().__init__(name, **inputs)
+
+    def _start(self, axis: Axis) -> Handle:
+        pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+        m = axis.cfg.modulo
+        if m is not None and not 0.0 <= pos < m:
+            raise InputError(
+                ErrorID.INVALID_POSITION, f"position must be in [0, {m:g}) on a modulo axis"
+            )
+        return axis.submit(Command(kind="home", mode=_buffer_mode(self.buffer_mode), position=pos))
+
+
+__all__ = [
+    "MC_Halt",
+    "MC_Home",
+    "MC_MoveAbsolute",
+    "MC_MoveAdditive",
+    "MC_MoveRelative",
+    "MC_MoveVelocity",
+    "MC_Stop",
+]

@@ -1,0 +1,87 @@
+"""In-process ideal drive: the actual values are the last commanded ones.
+
+``enabled`` follows the enable request one cycle later (the request written in cycle k is
+reported in cycle k+1, like a real drive answering over a bus). For tests it can be told to
+fault (:meth:`IdealDrive.inject_fault`) or to lose communication; a fault stays until a
+``fault_reset`` request arrives (unless it is ``persistent``). While faulted it reports
+``enabled=False`` but keeps following the setpoints as long as enable is requested (an ideal
+fault reaction, so the controller's jerk-limited stop ramp is executed).
+"""
+
+from __future__ import annotations
+
+from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback
+
+
+class IdealDrive(Drive):
+    """Perfect follower: actual position/velocity = commanded position/velocity."""
+
+    def __init__(self, name: str = "ideal", position: float = 0.0) -> None:
+        self.name = name
+        self._position = float(position)
+        self._velocity = 0.0
+        self._enabled = False
+        self._fault = False
+        self._fault_code = 0
+        self._fault_detail = ""
+        self._persistent = False
+        self._comm_ok = True
+        self._feedback = DriveFeedback(self._position, 0.0, False)
+        self.commands_written = 0
+
+    # -- fault injection (tests) -------------------------------------------------------------
+    def inject_fault(
+        self, code: int = 0x5400, detail: str = "injected fault", *, persistent: bool = False
+    ) -> None:
+        """Go to FAULT now: reported at the next ``read_inputs``; the power stage switches off."""
+        self._fault = True
+        self._fault_code = code
+        self._fault_detail = detail
+        self._persistent = persistent
+        self._enabled = False
+        self._refresh()
+
+    def clear_fault(self) -> None:
+        """Remove a persistent fault condition (a fault reset is still needed)."""
+        self._persistent = False
+
+    def set_comm_ok(self, ok: bool) -> None:
+        """Simulate a communication loss (``ok=False``) or its recovery."""
+        self._comm_ok = ok
+        self._refresh()
+
+    @property
+    def faulted(self) -> bool:
+        """True while the drive is in FAULT."""
+        return self._fault
+
+    # -- Drive interface -----------------------------------------------------------------------
+    def _refresh(self) -> None:
+        self._feedback = DriveFeedback(
+            self._position,
+            self._velocity,
+            self._enabled,
+            self._fault,
+            self._fault_code if self._fault else 0,
+            self._comm_ok,
+            self._fault_detail if self._fault else ("" if self._comm_ok else "communication lost"),
+        )
+
+    def read_inputs(self, t: float) -> DriveFeedback:
+        return self._feedback
+
+    def write_outputs(self, t: float, command: DriveCommand) -> None:
+        self.commands_written += 1
+        if not self._comm_ok:
+            return
+        if self._fault and command.fault_reset and not self._persistent:
+            self._fault = False
+        self._enabled = command.enable and not self._fault
+        # Ideal fault reaction: while the controller still requests enable, the drive follows
+        # its (stop) ramp; without the enable request the power stage holds its position.
+        if command.enable:
+            self._position = command.position
+            self._velocity = command.velocity
+        else:
+            self._velocity = 0.0
+        self._refresh()

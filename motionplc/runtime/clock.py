@@ -1,0 +1,90 @@
+"""The two clocks of the scheduler behind one interface.
+
+* :class:`SimClock` - virtual time: waiting returns at once, the time is exactly the deadline
+  (plus whatever a program declared with ``ctx.spend``). Same inputs give the same trace.
+* :class:`RealtimeClock` - sleeps to absolute deadlines on the monotonic clock (no drift), with a
+  short busy-wait before each deadline to cut the wake-up latency of ``time.sleep``.
+
+This is the only module of motionplc that reads the clock or sleeps.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Protocol
+
+
+class Clock(Protocol):
+    """Time source of the scheduler. All times are integer nanoseconds since :meth:`start`."""
+
+    realtime: bool
+
+    def start(self) -> None:
+        """Set time zero (called once before the first cycle)."""
+
+    def wait_until(self, deadline_ns: int) -> int:
+        """Block until ``deadline_ns``; return the time at which the wait ended."""
+
+    def now_ns(self) -> int:
+        """Current time."""
+
+    def spend(self, ns: int) -> None:
+        """Virtual clocks: advance time by ``ns`` (simulated CPU time); real clocks ignore it."""
+
+
+class SimClock:
+    """Virtual time; never sleeps."""
+
+    realtime = False
+
+    def __init__(self) -> None:
+        self._now = 0
+
+    def start(self) -> None:
+        self._now = 0
+
+    def wait_until(self, deadline_ns: int) -> int:
+        if deadline_ns > self._now:
+            self._now = deadline_ns
+        return self._now
+
+    def now_ns(self) -> int:
+        return self._now
+
+    def spend(self, ns: int) -> None:
+        if ns > 0:
+            self._now += ns
+
+
+class RealtimeClock:
+    """Wall-clock time: sleeps to absolute deadlines of ``time.monotonic_ns``.
+
+    ``spin_ns``: the last part of each wait is a busy loop (the OS sleep typically wakes 50-100
+    us late). A larger value lowers lateness and costs CPU.
+    """
+
+    realtime = True
+
+    def __init__(self, spin_ns: int = 200_000) -> None:
+        self.spin_ns = spin_ns
+        self._t0 = 0
+
+    def start(self) -> None:
+        self._t0 = time.monotonic_ns()  # noqa: TID251 - the one place that reads the clock
+
+    def now_ns(self) -> int:
+        return time.monotonic_ns() - self._t0  # noqa: TID251
+
+    def wait_until(self, deadline_ns: int) -> int:
+        target = self._t0 + deadline_ns
+        mono = time.monotonic_ns  # noqa: TID251
+        remaining = target - mono()
+        if remaining > self.spin_ns:
+            time.sleep((remaining - self.spin_ns) * 1e-9)  # noqa: TID251
+        now = mono()
+        while now < target:
+            now = mono()
+        return now - self._t0
+
+    def spend(self, ns: int) -> None:
+        """Real time cannot be faked: ignored."""

@@ -1,0 +1,146 @@
+"""Per-cycle conformance invariants (spec notes section 11, groups A, B, C and H).
+
+Installed by ``Runtime(check_invariants=True)``; raises :class:`InvariantError` (an
+``AssertionError``) naming the cycle, the FB or axis and the rule.
+
+* A1-A5: FB output exclusivity (every FB instance that was called with an axis).
+* B: Execute/Done timing: terminal outputs are held while Execute is TRUE, reset in the scan
+  Execute falls, shown exactly one scan after a pulse; done/error/command_aborted only rise from
+  busy (or at the edge that started the command); busy only rises at a rising edge.
+* C: the axis state changes only along the diagram's arrows (at most two per cycle: an input
+  phase event plus a program/kernel one); set values: |v| <= v_max, |a| <= a_max (without
+  override), no position jump, v continuous within a_max * dt, a continuous within
+  j_max * dt for finite j_max; zero velocity in Standstill and Disabled.
+* H: tasks of a tick ran in (priority, declaration) order; virtual time t = k * cycle; in
+  virtual time without injected overruns all latencies are 0.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+from motionplc.blocks.axis_state import EDGES
+from motionplc.blocks.base import EnableFB, ExecuteFB
+from motionplc.blocks.enums import AxisState
+
+if TYPE_CHECKING:
+    from motionplc.runtime.runtime import Runtime
+
+S = AxisState
+_EDGES2 = frozenset(EDGES | {(a, c) for (a, b) in EDGES for (b2, c) in EDGES if b == b2})
+
+
+class InvariantError(AssertionError):
+    """A conformance invariant failed."""
+
+
+def _fail(cycle: int, who: str, rule: str, detail: str) -> None:
+    raise InvariantError(f"cycle {cycle}: {who}: {rule}: {detail}")
+
+
+class InvariantChecker:
+    """Stateful per-cycle checker (history per FB and axis)."""
+
+    def __init__(self) -> None:
+        self._fb_prev: dict[int, tuple[bool, bool, bool, bool, bool]] = {}
+        self._ax_prev: dict[str, tuple[Any, ...]] = {}
+        self.cycles_checked = 0
+
+    def __call__(self, rt: Runtime, cycle: int) -> None:
+        self.cycles_checked += 1
+        self._check_h(rt, cycle)
+        for ax in rt.axes.values():
+            active = []
+            for fb in ax.fbs:
+                if isinstance(fb, ExecuteFB):
+                    self._check_execute(fb, cycle)
+                    if fb.active:
+                        active.append(fb.name)
+                elif isinstance(fb, EnableFB):
+                    valid = fb.valid or getattr(fb, "enabled", False)
+                    if valid and fb.error:
+                        _fail(cycle, str(fb.name), "A3", "valid and error both TRUE")
+            if len(active) > 1:
+                _fail(cycle, ax.name, "A4", f"more than one active FB: {active}")
+            self._check_axis(rt, ax, cycle)
+
+    # -- A and B -----------------------------------------------------------------------------
+    def _check_execute(self, fb: ExecuteFB, cycle: int) -> None:
+        name = str(fb.name)
+        ex = bool(fb.execute)
+        busy, done, err, ab = fb.busy, fb.done, fb.error, fb.command_aborted
+        n = busy + done + err + ab
+        if ex and n != 1:
+            _fail(cycle, name, "A1", f"execute TRUE and {n} of busy/done/error/aborted TRUE")
+        if not ex and n > 1:
+            _fail(cycle, name, "A1", f"execute FALSE and {n} of busy/done/error/aborted TRUE")
+        if fb.active + done + err + ab > 1:
+            _fail(cycle, name, "A2", "more than one of active/done/error/command_aborted")
+        if done and err:
+            _fail(cycle, name, "A5", "done and error")
+        if err and getattr(fb, "in_velocity", False):
+            _fail(cycle, name, "A5", "in_velocity and error")
+        prev = self._fb_prev.get(id(fb))
+        self._fb_prev[id(fb)] = (ex, busy, done, err, ab)
+        if prev is None:
+            return
+        pex, pbusy, pdone, perr, pab = prev
+        rising = ex and not pex
+        for label, was, now in (("done", pdone, done), ("error", perr, err), ("aborted", pab, ab)):
+            if was and now and not ex and not rising:
+                _fail(cycle, name, "B1/B2", f"{label} still TRUE with execute FALSE")
+            if now and not was and not (pbusy or rising):
+                _fail(cycle, name, "B", f"{label} rose without busy or a rising edge")
+        if busy and not pbusy and not rising:
+            _fail(cycle, name, "B", "busy rose without a rising edge of execute")
+
+    # -- C -----------------------------------------------------------------------------------
+    def _check_axis(self, rt: Runtime, ax: Any, cycle: int) -> None:
+        cfg = ax.cfg
+        state = ax.state
+        cur = (state, ax.p, ax.v, ax.a, ax.offset, ax._f == 1.0 and ax._f_prof is None, cycle)
+        prev = self._ax_prev.get(ax.name)
+        self._ax_prev[ax.name] = cur
+        who = f"axis {ax.name}"
+        tol_v = 1e-9 * cfg.v_max + 1e-12
+        if state in (S.STANDSTILL, S.DISABLED) and abs(ax.v) > tol_v:
+            _fail(cycle, who, "C", f"velocity {ax.v!r} in {state.name}")
+        if abs(ax.v) > cfg.v_max * (1 + 1e-9) + 1e-12:
+            _fail(cycle, who, "C", f"|v| = {abs(ax.v)!r} > v_max {cfg.v_max}")
+        no_override = cur[5]
+        if no_override and abs(ax.a) > cfg.a_max * (1 + 1e-9) + 1e-9:
+            _fail(cycle, who, "C", f"|a| = {abs(ax.a)!r} > a_max {cfg.a_max}")
+        if prev is None:
+            return
+        pstate, pp, pv, pa, poff, pno, pcycle = prev
+        if (pstate, state) not in _EDGES2:
+            _fail(cycle, who, "C", f"transition {pstate.name} -> {state.name} not in the diagram")
+        if S.DISABLED in (state, pstate) or poff != ax.offset:
+            return  # power off / coordinate shift: no continuity requirement
+        dt = rt.cycle * (cycle - pcycle)  # ticks may have been skipped after an overrun
+        amax = cfg.a_max * (1.0 if no_override and pno else 4.0)
+        dp_max = max(abs(pv), abs(ax.v)) * dt + amax * dt * dt + 1e-9 * (1 + abs(ax.p))
+        if abs(ax.p - pp) > dp_max:
+            _fail(cycle, who, "C", f"position jump {ax.p - pp!r} > {dp_max!r}")
+        dv_max = amax * dt * (1 + 1e-6) + 1e-9
+        if abs(ax.v - pv) > dv_max:
+            _fail(cycle, who, "C", f"velocity jump {ax.v - pv!r} > {dv_max!r}")
+        if math.isfinite(cfg.j_max) and no_override and pno:
+            da_max = cfg.j_max * dt * (1 + 1e-6) + 1e-6 * cfg.a_max
+            if abs(ax.a - pa) > da_max:
+                _fail(cycle, who, "C", f"acceleration jump {ax.a - pa!r} > {da_max!r}")
+
+    # -- H -----------------------------------------------------------------------------------
+    def _check_h(self, rt: Runtime, cycle: int) -> None:
+        order = [t for t in rt.tasks if t.name in rt.last_due]
+        expect = [t.name for t in sorted(order, key=lambda t: t.sort_key)]
+        if rt.last_due != expect:
+            _fail(cycle, "scheduler", "H2", f"ran {rt.last_due}, expected {expect}")
+        if not rt.clock.realtime:
+            t = rt.trace.last("t")
+            if t != cycle * rt.cycle:
+                _fail(cycle, "scheduler", "H1", f"virtual time {t!r} != {cycle} * cycle")
+            for task in rt.tasks:
+                if task.overruns == 0 and task.lat_max_ns != 0:
+                    _fail(cycle, task.name, "H6", "non-zero latency in virtual time")

@@ -1,0 +1,305 @@
+"""The soft-PLC runtime: axes, cyclic tasks, the scheduler loop and the trace.
+
+Per base tick ``k`` (virtual time ``t = k * cycle``), for every task due in that tick, in the
+order (priority, declaration):
+
+1. READ INPUTS   - latch the I/O image; every axis of the task reads its drive feedback;
+2. PROGRAM       - ``program(ctx)`` calls the FB instances (they submit commands to the axes);
+3. MOTION KERNEL - every axis of the task steps its command queue and samples its profile;
+4. WRITE OUTPUTS - every axis writes its setpoints to its drive; the output image is published;
+5. STATISTICS    - execution time, lateness, overruns, watchdog.
+
+Then the trace records one row (all axes) and the per-cycle hooks (invariant checks) run.
+Kernel events of step 3 are seen by the FBs at their next call, so FB outputs do not depend on
+the order in which a program calls its FB instances.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from motionplc.runtime.clock import Clock, SimClock
+from motionplc.runtime.context import CycleContext, ProcessImage
+from motionplc.runtime.task import Program, Task, TaskStats
+from motionplc.runtime.trace import AXIS_FIELDS, Trace
+
+if TYPE_CHECKING:
+    from motionplc.blocks.axis import Axis
+    from motionplc.fieldbus.base import Drive
+
+CycleHook = Callable[["Runtime", int], None]
+
+OVERRUN_POLICIES = ("skip", "catch_up")
+
+
+def _ticks(name: str, seconds: float, tick_ns: int) -> int:
+    if not (isinstance(seconds, (int, float)) and math.isfinite(seconds) and seconds > 0):
+        raise ValueError(f"{name} must be a positive number of seconds, got {seconds!r}")
+    ns = round(seconds * 1e9)
+    n = round(ns / tick_ns)
+    if n < 1 or abs(n * tick_ns - ns) > 1:
+        raise ValueError(
+            f"{name} = {seconds!r} s must be a multiple of the base cycle {tick_ns * 1e-9!r} s"
+        )
+    return n
+
+
+class Runtime:
+    """A soft PLC: ``add_axis``, ``add_task``, then ``run``.
+
+    ``cycle``: base tick [s]. ``clock``: :class:`SimClock` (default; deterministic virtual time)
+    or :class:`RealtimeClock`. ``overrun_policy``: ``"skip"`` (a late cycle realigns to the tick
+    grid and the missed cycles are counted as omitted) or ``"catch_up"`` (missed cycles run back
+    to back). ``check_invariants`` runs the conformance invariants of the PLCopen spec notes
+    (groups A, B, C, H) after every cycle and raises on a violation (used by the test suite).
+    """
+
+    def __init__(
+        self,
+        cycle: float = 0.001,
+        clock: Clock | None = None,
+        *,
+        trace_capacity: int = 500_000,
+        trace_edges: bool = True,
+        overrun_policy: str = "skip",
+        check_invariants: bool = False,
+        queue_depth: int = 8,
+    ) -> None:
+        if not (isinstance(cycle, (int, float)) and math.isfinite(cycle) and cycle > 0):
+            raise ValueError(f"cycle must be a positive number of seconds, got {cycle!r}")
+        if overrun_policy not in OVERRUN_POLICIES:
+            raise ValueError(
+                f"overrun_policy must be one of {OVERRUN_POLICIES}, got {overrun_policy!r}"
+            )
+        self.tick_ns = round(cycle * 1e9)
+        if self.tick_ns < 1000:
+            raise ValueError(f"cycle must be >= 1 us, got {cycle!r}")
+        self.cycle = self.tick_ns * 1e-9
+        self.clock: Clock = clock if clock is not None else SimClock()
+        self.image = ProcessImage()
+        self.trace = Trace(capacity=trace_capacity)
+        self.trace_edges = trace_edges
+        self.overrun_policy = overrun_policy
+        self.queue_depth = queue_depth
+        self.axes: dict[str, Axis] = {}
+        self.tasks: list[Task] = []
+        self._order: list[Task] = []
+        self.tick = 0  # next base tick to run
+        self._started = False
+        self._hooks: list[CycleHook] = []
+        self._last_run_tick: dict[str, int] = {}
+        self.last_due: list[str] = []  # names of the tasks run in the last tick, in run order
+        self.error_reason = ""  # set when a watchdog tripped (runtime state ERROR)
+        if check_invariants:
+            from motionplc.runtime.invariants import InvariantChecker
+
+            self._hooks.append(InvariantChecker())
+
+    # -- configuration -----------------------------------------------------------------------
+    def add_axis(
+        self,
+        name: str,
+        v_max: float,
+        a_max: float,
+        j_max: float = math.inf,
+        *,
+        drive: Drive | None = None,
+        task: str | None = None,
+        **options: Any,
+    ) -> Axis:
+        """Create an axis (AXIS_REF) with its drive (an ideal in-process drive by default).
+
+        ``task``: name of the task whose cycle steps this axis (default: the first task
+        declared). ``options`` are :class:`~motionplc.blocks.axis.AxisConfig` fields
+        (``modulo``, ``following_error_limit``, ``sw_limit_pos``, ``sw_limit_neg``,
+        ``home_switch``, ``home_velocity``, ``queue_depth``, ``blend_after_continuous``).
+        """
+        from motionplc.blocks.axis import Axis, AxisConfig
+        from motionplc.fieldbus.ideal import IdealDrive
+
+        if self._started:
+            raise RuntimeError("axes must be added before the first run")
+        if not isinstance(name, str) or not name or "." in name or name in self.axes:
+            raise ValueError(f"axis name must be a new non-empty string without '.', got {name!r}")
+        options.setdefault("queue_depth", self.queue_depth)
+        cfg = AxisConfig(name=name, v_max=v_max, a_max=a_max, j_max=j_max, **options)
+        ax = Axis(cfg, drive if drive is not None else IdealDrive(name))
+        ax.task_name = task
+        self.axes[name] = ax
+        self.trace.add_columns([f"{name}.{f}" for f in AXIS_FIELDS])
+        from motionplc.blocks.enums import AxisState
+
+        self.trace.set_formatter(f"{name}.state", lambda x: AxisState(int(x)).name)
+        return ax
+
+    def add_task(
+        self,
+        name: str,
+        program: Program,
+        period: float | None = None,
+        priority: int = 0,
+        *,
+        watchdog_time: float | None = None,
+        watchdog_sensitivity: int = 1,
+    ) -> Task:
+        """Declare a cyclic task calling ``program(ctx)`` every ``period`` seconds.
+
+        ``period`` defaults to the base cycle and must be a multiple of it.
+        """
+        if self._started:
+            raise RuntimeError("tasks must be added before the first run")
+        if any(t.name == name for t in self.tasks):
+            raise ValueError(f"duplicate task name {name!r}")
+        if not callable(program):
+            raise TypeError(f"task {name!r}: program must be callable(ctx)")
+        n = 1 if period is None else _ticks(f"task {name!r} period", period, self.tick_ns)
+        task = Task(
+            name,
+            program,
+            n,
+            n * self.cycle,
+            priority,
+            len(self.tasks),
+            watchdog_time,
+            watchdog_sensitivity,
+        )
+        self.tasks.append(task)
+        return task
+
+    def add_cycle_hook(self, hook: CycleHook) -> None:
+        """Call ``hook(runtime, cycle)`` after every base tick (after the trace row)."""
+        self._hooks.append(hook)
+
+    def _start(self) -> None:
+        if self._started:
+            return
+        names = {t.name for t in self.tasks}
+        for ax in self.axes.values():
+            if ax.task_name is None:
+                if not self.tasks:
+                    raise RuntimeError(f"axis {ax.name!r} has no task: add a task first")
+                ax.task_name = self.tasks[0].name
+            elif ax.task_name not in names:
+                raise ValueError(f"axis {ax.name!r}: unknown task {ax.task_name!r}")
+            task = next(t for t in self.tasks if t.name == ax.task_name)
+            task.axes.append(ax)
+            ax.open()
+        self._order = sorted(self.tasks, key=lambda t: t.sort_key)
+        self._started = True
+
+    # -- running -----------------------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Virtual time of the next tick [s]."""
+        return self.tick * self.cycle
+
+    def run(self, seconds: float | None = None, cycles: int | None = None) -> None:
+        """Run ``cycles`` base ticks, or ``seconds`` of (virtual or real) time."""
+        if (seconds is None) == (cycles is None):
+            raise TypeError("run() takes exactly one of seconds= or cycles=")
+        n = round(seconds / self.cycle) if seconds is not None else int(cycles)  # type: ignore[arg-type]
+        if n < 0:
+            raise ValueError("run() needs a non-negative duration")
+        self._loop(self.tick + n, None)
+
+    def run_until(self, predicate: Callable[..., bool], max_seconds: float = 3600.0) -> bool:
+        """Run until ``predicate()`` (or ``predicate(runtime)``) is true after a tick.
+
+        Returns False if ``max_seconds`` elapsed first.
+        """
+        try:
+            nparams = len(inspect.signature(predicate).parameters)
+        except (TypeError, ValueError):
+            nparams = 0
+        pred = (lambda: predicate(self)) if nparams >= 1 else predicate
+        return self._loop(self.tick + round(max_seconds / self.cycle), pred)
+
+    def _loop(self, end_tick: int, pred: Callable[[], bool] | None) -> bool:
+        self._start()
+        clock = self.clock
+        tick_ns = self.tick_ns
+        base = self.tick
+        clock.start()
+        while self.tick < end_tick:
+            k = self.tick
+            deadline = (k - base) * tick_ns
+            start = clock.wait_until(deadline)
+            self._run_tick(k, deadline, start)
+            self.tick = k + 1
+            for hook in self._hooks:
+                hook(self, k)
+            if clock.realtime or self.overrun_policy == "skip":
+                now = clock.now_ns()
+                nxt = (self.tick - base) * tick_ns
+                if now > nxt and self.overrun_policy == "skip":
+                    # realign to the first grid point not yet passed; count omitted cycles
+                    k_new = base + -(-now // tick_ns)
+                    for task in self.tasks:
+                        pt = task.period_ticks
+                        skipped = (k_new - 1) // pt - (self.tick - 1) // pt
+                        task.omitted_cycles += max(0, skipped)
+                    self.tick = min(k_new, end_tick)
+            if pred is not None and pred():
+                return True
+        return pred is None
+
+    def _run_tick(self, k: int, deadline: int, start: int) -> None:
+        clock = self.clock
+        image = self.image
+        due = [t for t in self._order if k % t.period_ticks == 0]
+        self.last_due = [t.name for t in due]
+        t_virtual = k * self.cycle
+        for task in due:
+            t0 = clock.now_ns()
+            lateness = t0 - deadline
+            prev = self._last_run_tick.get(task.name)
+            dt = task.period if prev is None else (k - prev) * self.cycle
+            self._last_run_tick[task.name] = k
+            ctx = CycleContext(k, t_virtual, dt, task.name, image, self._spend)
+            image.latch_inputs()
+            axes = task.axes
+            for ax in axes:
+                ax.read_inputs(t_virtual)
+            task.program(ctx)
+            for ax in axes:
+                ax.step(dt)
+            for ax in axes:
+                ax.write_outputs(t_virtual)
+            image.publish_outputs()
+            t1 = clock.now_ns()
+            overrun = t1 > deadline + task.period_ticks * self.tick_ns
+            reason = task.record(lateness, t1 - t0, overrun)
+            if reason is not None:
+                self.error_reason = reason
+                for ax in axes:
+                    ax.raise_axis_error("WATCHDOG", reason)
+        row: list[float] = [k, t_virtual]
+        edges = self.trace_edges
+        trace = self.trace
+        for ax in self.axes.values():
+            row.extend(ax.trace_values())
+            if edges:
+                ax.emit_fb_edges(trace, k)
+        trace.record(row)
+
+    def _spend(self, seconds: float) -> None:
+        self.clock.spend(round(seconds * 1e9))
+
+    # -- introspection -----------------------------------------------------------------------
+    def stats(self) -> dict[str, TaskStats]:
+        """Timing statistics per task."""
+        return {t.name: t.stats() for t in self.tasks}
+
+    def close(self) -> None:
+        """Close every drive (idempotent)."""
+        for ax in self.axes.values():
+            ax.close()
+
+    def __enter__(self) -> Runtime:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
