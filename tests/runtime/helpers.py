@@ -83,3 +83,4 @@ class Bench:
             max_seconds=max_cycles * self.rt.cycle,
         )
         assert ok, "FBs still busy"
+        self.run(2)  # let one-cycle outputs fall
