@@ -291,6 +291,9 @@ class Cia402Device:
         if not powered:
             self.demand_velocity = 0.0
         self._monitor_following_error(dt)
+        if stopped and self.state in POWERED_STATES:
+            # standstill reached: the power stage holds the axis, residual creep is zeroed
+            self.actual = PlantState(self.actual.position, 0.0, 0.0)
         if stopped and self.state is Cia402State.FAULT_REACTION_ACTIVE:
             self.state = Cia402State.FAULT  # 14
             self.last_transition = 14
