@@ -174,6 +174,7 @@ class _Job:
         "shift",
         "home_phase",
         "no_override",
+        "waiting",
     )
 
     def __init__(self, cmd: Command, handle: Handle) -> None:
@@ -188,6 +189,7 @@ class _Job:
         self.shift = 0.0
         self.home_phase = 0
         self.no_override = cmd.kind in _NO_OVERRIDE
+        self.waiting = False  # queued behind other motion at submission
 
     def set_chain(self, chain: list[Profile]) -> None:
         self.chain = chain
@@ -338,7 +340,7 @@ class Axis:
     def trace_values(self) -> tuple[float, ...]:
         """One trace row part, in the order of ``runtime.trace.AXIS_FIELDS``."""
         m = self.cfg.modulo
-        p, ap = (self.p, self.act_p) if m is None else (self.p % m, self.act_p % m)
+        p, ap = (self.p, self.act_p) if m is None else (self.wrap(self.p), self.wrap(self.act_p))
         return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, self.state)
 
     def open(self) -> None:
@@ -505,7 +507,7 @@ class Axis:
         s = prof.at(self._f_t)
         self._f, self._fd, self._fdd = s.v, s.a, s.j
         if self._f_t >= prof.duration:
-            self._f = prof.end.v
+            self._f = self.override[0]
             self._fd = self._fdd = 0.0
             self._f_prof = None
         return 0.5 * (f0 + self._f) * dt
@@ -550,7 +552,7 @@ class Axis:
             ):
                 h._finish(Status.ERROR, ErrorID.BLENDING_NOT_SUPPORTED_BY_PREVIOUS)
                 return h
-            waiting = len(self.queue) + sum(1 for j in self._inbox if j is not self.active)
+            waiting = len(self.queue) + sum(1 for j in self._inbox if j.waiting)
             if waiting >= self.cfg.queue_depth:
                 h._finish(Status.ERROR, ErrorID.QUEUE_FULL)
                 return h
@@ -579,6 +581,8 @@ class Axis:
                     return h
         if immediate:
             self.state = next_state(event, state)
+        else:
+            job.waiting = True
         self._inbox.append(job)
         if cmd.is_move and job.target is not None:
             self.last_target = job.target
@@ -645,6 +649,8 @@ class Axis:
         """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise."""
         if self._inbox:
             self._process_inbox()
+        # the override factor ramps in real time, also while no scalable job runs
+        ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
         state = self.state
         if state is S.DISABLED:
             self._resync()
@@ -653,7 +659,7 @@ class Axis:
         if job is None:
             self.v = self.a = self.j = 0.0
         else:
-            self._advance(job, dt)
+            self._advance(job, dt, ftau)
         if self.state is S.STOPPING and self.active is None:
             if all(not h.hold for h in self._stops):
                 self._stops.clear()
@@ -905,9 +911,9 @@ class Axis:
             job.set_chain([plan_velocity(State(self.p, self.v, self.a), 0.0, lim)])
 
     # -- stepping --------------------------------------------------------------------------
-    def _advance(self, job: _Job, dt: float) -> None:
+    def _advance(self, job: _Job, dt: float, ftau: float) -> None:
         scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
-        dtau = self._advance_override(dt) if scaled else dt
+        dtau = ftau if scaled else dt
         job.tau += dtau
         while True:
             tau = job.tau
@@ -920,15 +926,14 @@ class Axis:
                 break  # still searching the switch at constant velocity
             excess = tau - job.duration
             end = job.end_state()
-            nxt = self._finish_job(job)
+            nxt = self._finish_job(job)  # sets p (shifted by homing / queued SetPosition)
             if nxt is None:
                 self.active = None
-                self.p, self.a, self.j = end.p, 0.0, 0.0
+                self.a = self.j = 0.0
                 self.v = end.v if job.kind == "velocity" else 0.0
                 if end.v != 0.0 and job.kind == "velocity":
                     self.active = job
                 return
-            self.p, self.v, self.a = end.p, end.v, end.a
             job = nxt
             job.tau = excess
         p, v, a, j = job.sample(job.tau)
