@@ -334,6 +334,12 @@ class VirtualModbusServer:
         self._server = server
         return server
 
+    async def aclose(self) -> None:
+        """Stop serving (when started with :meth:`serve` on the caller's loop)."""
+        if self._server is not None:
+            await self._server.shutdown()
+            self._server = None
+
     # ------------------------------------------------------ threaded control
     def start(self, timeout: float = 5.0) -> int:
         """Serve in a background thread; returns the bound port."""
