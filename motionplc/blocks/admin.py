@@ -149,6 +149,8 @@ class MC_ReadStatus(EnableFB):
 
     def _update(self, axis: Axis) -> None:
         st = axis.img_state
+        if st is self.state:
+            return
         self.state = st
         for s, f in self._FLAGS.items():
             setattr(self, f, s is st)

@@ -209,6 +209,9 @@ class _Job:
             e = chain[-1].end
             # continuous motion keeps its end velocity (MoveVelocity after InVelocity)
             return (e.p + e.v * (tau - self.duration) + self.shift, e.v, 0.0, 0.0)
+        if len(chain) == 1:
+            p, v, a, j = chain[0].at(tau)
+            return (p + self.shift, v, a, j)
         i = len(chain) - 1
         offs = self.offsets
         while i > 0 and offs[i] > tau:

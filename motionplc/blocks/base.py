@@ -27,6 +27,7 @@ queue full) shows ``error`` in the calling scan.
 from __future__ import annotations
 
 import math
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from motionplc.blocks.axis import Axis, Handle, Status
@@ -42,30 +43,36 @@ class FunctionBlock:
     INPUTS: ClassVar[tuple[str, ...]] = ("axis",)
     OUTPUTS: ClassVar[tuple[str, ...]] = ()  # boolean outputs (traced as edges)
     _input_set: ClassVar[frozenset[str]] = frozenset()
+    _get_outputs: ClassVar[Any] = staticmethod(lambda fb: ())
 
     def __init_subclass__(cls, **kw: Any) -> None:
         super().__init_subclass__(**kw)
         cls._input_set = frozenset(cls.INPUTS)
+        outs = cls.OUTPUTS
+        if len(outs) == 1:
+            getter = attrgetter(outs[0])
+            cls._get_outputs = staticmethod(lambda fb: (getter(fb),))
+        elif outs:
+            cls._get_outputs = staticmethod(attrgetter(*outs))
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.axis: Axis | None = None
         self.name = name
         self._registered: Axis | None = None
-        self._traced_bits = 0
+        self._traced_bits: tuple[Any, ...] = (False,) * len(self.OUTPUTS)
         self.error = False
         self.error_id = ErrorID.OK
         self.error_text = ""
         self._set_inputs(inputs)
 
     def _set_inputs(self, kw: dict[str, Any]) -> None:
-        allowed = self._input_set
-        for k, v in kw.items():
-            if k not in allowed:
-                raise TypeError(
-                    f"{type(self).__name__}() got an unknown input {k!r}; "
-                    f"inputs: {', '.join(self.INPUTS)}"
-                )
-            setattr(self, k, v)
+        if not kw.keys() <= self._input_set:
+            k = next(k for k in kw if k not in self._input_set)
+            raise TypeError(
+                f"{type(self).__name__}() got an unknown input {k!r}; "
+                f"inputs: {', '.join(self.INPUTS)}"
+            )
+        self.__dict__.update(kw)
 
     def __call__(self, **inputs: Any) -> Any:
         if inputs:
@@ -85,18 +92,14 @@ class FunctionBlock:
         raise NotImplementedError
 
     # -- trace support ---------------------------------------------------------------------
-    def _out_bits(self) -> int:
-        bits = 0
-        for i, n in enumerate(self.OUTPUTS):
-            if getattr(self, n):
-                bits |= 1 << i
-        return bits
+    def _out_bits(self) -> tuple[Any, ...]:
+        """Current values of the boolean outputs (compared with the last traced ones)."""
+        return self._get_outputs(self)
 
-    def _emit_edges(self, trace: Trace, cycle: int, bits: int) -> None:
-        changed = bits ^ self._traced_bits
-        for i, n in enumerate(self.OUTPUTS):
-            if changed >> i & 1:
-                trace.event(cycle, self.name or type(self).__name__, n, bool(bits >> i & 1))
+    def _emit_edges(self, trace: Trace, cycle: int, bits: tuple[Any, ...]) -> None:
+        for n, old, new in zip(self.OUTPUTS, self._traced_bits, bits, strict=True):
+            if bool(old) != bool(new):
+                trace.event(cycle, self.name or type(self).__name__, n, bool(new))
         self._traced_bits = bits
 
 
@@ -154,6 +157,7 @@ class ExecuteFB(FunctionBlock):
         self._prev_execute = False
         self._handle: Handle | None = None
         self._seen = False
+        self._busy_status: Status | None = None
         super().__init__(name, **inputs)
 
     def _start(self, axis: Axis) -> Handle:
@@ -174,6 +178,12 @@ class ExecuteFB(FunctionBlock):
 
     def _scan(self) -> None:
         ex = bool(self.execute)
+        h = self._handle
+        if ex is self._prev_execute and h is not None and h.status is self._busy_status:
+            # fast path: no edge and the command is still in the same busy state
+            self._before_outputs(ex)
+            self._busy_outputs(h)
+            return
         if ex and not self._prev_execute:
             if not (self.retrigger_ignored and self.busy):
                 self._handle = self._start_checked()
@@ -181,6 +191,7 @@ class ExecuteFB(FunctionBlock):
         self._prev_execute = ex
         self._before_outputs(ex)
         h = self._handle
+        self._busy_status = None
         if h is None:
             self._clear()
             return
@@ -198,6 +209,7 @@ class ExecuteFB(FunctionBlock):
                 self._handle = None
                 self._clear()
         else:
+            self._busy_status = st
             self.busy = True
             self.active = st is Status.ACTIVE
             self.done = self.error = self.command_aborted = False
