@@ -217,3 +217,57 @@ def test_blending_into_opposite_direction_gives_zero_junction() -> None:
     assert m1.end_velocity == 0.0
     p = b.col("x.position")
     assert p.max() == pytest.approx(1000.0, abs=1e-9) and b.x.p == 500.0
+
+
+@pytest.mark.parametrize("mode", list(BLEND), ids=lambda m: m.name)
+def test_blending_jerk_limited(mode: BufferMode) -> None:
+    """Same examples with j_max = 1000: junction velocities unchanged, acceleration continuous
+    (checked every cycle by the invariants), monotonic motion."""
+    (acc2, dec2), (vj1, vj2), _ = BLEND[mode]
+    b = Bench(v_max=200.0, a_max=400.0, j_max=1000.0).powered()
+    m1, m2, m3 = b.add(
+        MC_MoveAbsolute(**FB1),
+        MC_MoveAbsolute(
+            position=2000.0, velocity=50.0, acceleration=acc2, deceleration=dec2, buffer_mode=mode
+        ),
+        MC_MoveAbsolute(
+            position=3000.0,
+            velocity=100.0,
+            acceleration=100.0,
+            deceleration=100.0,
+            buffer_mode=mode,
+        ),
+    )
+    b.pulse(m1)
+    b.run(1999)
+    b.pulse(m2)
+    b.run(11999)
+    b.pulse(m3)
+    b.run_until_idle()
+    check_monotonic(b)
+    assert (m1.end_velocity, m2.end_velocity) == pytest.approx((vj1, vj2), abs=1e-9)
+    assert v_at(b, 1000.0) == pytest.approx(vj1, abs=0.1)
+    assert v_at(b, 2000.0) == pytest.approx(vj2, abs=0.1)
+    assert rise(b, m2, "active") == rise(b, m1, "done")
+    assert rise(b, m3, "active") == rise(b, m2, "done")
+    assert b.x.p == 3000.0
+
+
+def test_late_blending_command_is_best_effort_without_overshoot() -> None:
+    """FB2 arrives while FB1 already brakes to 0: the junction velocity is what can still be
+    reached at 1000 without reversal or overshoot."""
+    b = Bench(v_max=200.0, a_max=400.0).powered()
+    m1, m2 = b.add(
+        MC_MoveAbsolute(**FB1),
+        MC_MoveAbsolute(position=2000.0, velocity=100.0, buffer_mode=B.BLENDING_HIGH),
+    )
+    b.pulse(m1)
+    b.run(10_600)  # FB1 brakes from t = 10 s; at 10.6 s v = 40 with 8 u to go
+    v_now = b.x.v
+    b.pulse(m2)
+    b.run_until_idle()
+    check_monotonic(b)
+    assert 0.0 < m1.end_velocity < 100.0
+    # cannot be faster than accelerating from v_now over the remaining distance... nor reverse
+    assert m1.end_velocity <= (v_now**2 + 2 * 100.0 * 8.0) ** 0.5 + 1e-6
+    assert b.x.p == 2000.0
