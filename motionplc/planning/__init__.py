@@ -7,24 +7,30 @@ Public API::
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import Limits
+from motionplc.planning.otg import OnlineGenerator
 from motionplc.planning.plan import plan, plan_velocity
 from motionplc.planning.profile import Knot, Profile, Sample, Samples, Segment
 from motionplc.planning.state import State
-from motionplc.planning.sync import plan_sync
+from motionplc.planning.sync import plan_fixed_duration, plan_sync
+from motionplc.planning.tracking import Tracker, track
 from motionplc.planning.trajectory import Trajectory, TrajectorySamples
 
 __all__ = [
     "Knot",
     "Limits",
+    "OnlineGenerator",
     "PlanningError",
     "Profile",
     "Sample",
     "Samples",
     "Segment",
     "State",
+    "Tracker",
     "Trajectory",
     "TrajectorySamples",
     "plan",
+    "plan_fixed_duration",
     "plan_sync",
     "plan_velocity",
+    "track",
 ]

@@ -60,7 +60,7 @@ def second_order(
 def first_order(d: float, vmax: float, vmin: float) -> tuple[float, Phases]:
     """Move at the velocity limit; velocity jumps at both ends."""
     if d == 0.0:
-        return 0.0, []
+        return 0.0, [(0.0, 0.0, 0.0, 0.0)]  # the velocity jumps to the target's 0
     v = vmax if d > 0.0 else vmin
     t = d / v
     return t, [(t, 0.0, 0.0, v), (0.0, 0.0, 0.0, 0.0)]

@@ -40,7 +40,7 @@ _T_TOL = 1e-12  # relative tolerance on a negative phase duration from rounding
 _P_TOL = 1e-8
 _V_TOL = 1e-8
 _A_TOL = 1e-10
-_LIM_TOL = 1e-9
+_LIM_TOL = 1e-12  # relative margin on the limits for rounding
 
 
 def _verify(
@@ -70,6 +70,8 @@ def _verify(
     ahi = amax + _LIM_TOL * max(1.0, abs(amax)) if amax != math.inf else math.inf
     alo = amin - _LIM_TOL * max(1.0, abs(amin)) if amin != -math.inf else -math.inf
     out: Phases = []
+    pmax = 0.0
+    vmag = abs(v0)
     for ph in phases:
         dur = ph[0]
         j = ph[1]
@@ -93,9 +95,16 @@ def _verify(
         t += dur
         if v > vhi or v < vlo or a > ahi or a < alo:
             return None
+        if abs(p) > pmax:
+            pmax = abs(p)
+        if abs(v) > vmag:
+            vmag = abs(v)
         out.append(ph)
-    scale = max(1.0, abs(d))
-    if abs(p - d) > _P_TOL * scale or abs(v - vf) > _V_TOL * max(1.0, abs(vf)):
+    # tolerances: absolute for ordinary moves, growing with the excursion for huge ones
+    # (double precision cannot end within 1e-8 of a target after travelling 1e9)
+    if abs(p - d) > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
+        return None
+    if abs(v - vf) > _V_TOL * max(1.0, abs(vf)) + 1e-13 * vmag:
         return None
     if abs(a - af) > _A_TOL * max(1.0, abs(af)):
         return None
@@ -110,10 +119,13 @@ def _half_up(v0: float, a0: float, v1: float, amax: float, J: float) -> tuple[fl
     """Velocity change (v0, a0) -> (v1, 0) with shape up-down: peak P >= max(a0, 0), plateau h."""
     dv = v1 - v0
     rad = J * dv + 0.5 * a0 * a0
-    if rad < 0.0:
+    # a start a rounding error beyond v1 (or one whose acceleration overshoots it by a
+    # rounding error) still gets the half: the verification bounds the overshoot
+    slack = 1e-12 * J * max(1.0, abs(v1))
+    if rad < -slack:
         return None
-    P = math.sqrt(rad)
-    if P < a0 - 1e-12 * max(1.0, abs(a0)):
+    P = math.sqrt(max(rad, 0.0))
+    if P < a0 and a0 * a0 - P * P > 2.0 * slack:
         return None
     P = max(P, a0)
     if P <= amax:
@@ -128,10 +140,11 @@ def _half_down_from(
     """Velocity change (v1, 0) -> (vf, af) with shape down-up: trough Q <= min(0, af)."""
     dv = vf - v1
     rad = 0.5 * af * af - J * dv
-    if rad < 0.0:
+    slack = 1e-12 * J * max(1.0, abs(v1))
+    if rad < -slack:
         return None
-    Q = -math.sqrt(rad)
-    if Q > af + 1e-12 * max(1.0, abs(af)):
+    Q = -math.sqrt(max(rad, 0.0))
+    if Q > af and af * af - Q * Q > 2.0 * slack:
         return None
     Q = min(Q, af)
     if Q >= amin:

@@ -764,6 +764,18 @@ def _phase_sync(
     return profiles, ""
 
 
+def plan_fixed_duration(start: State, target: State, limits: Limits, T: float) -> Profile | None:
+    """A profile from ``start`` to ``target`` lasting exactly ``T`` (within 1e-9 s), or None if
+    the axis cannot take that duration (shorter than its minimum, or blocked)."""
+    ax = _make_axis(start, target, limits, False, 0)
+    ext = _extremals(ax)
+    Tr = T - ax.t_pre
+    if Tr < ext[0][0] - _SYNC_TOL or _blocked([t for t, _, _ in ext], Tr):
+        return None
+    r = _solve_for(ax, max(Tr, ext[0][0]), ext)
+    return None if r is None else _profile(ax, r[0], r[1])
+
+
 def plan_sync(
     starts: Sequence[State],
     targets: Sequence[State],

@@ -47,6 +47,10 @@ def fmt_float(x: float | None) -> str:
     return repr(float(x))
 
 
+def state_code(p: float, v: float, a: float) -> str:
+    return f"State(p={fmt_float(p)}, v={fmt_float(v)}, a={fmt_float(a)})"
+
+
 @dataclass(frozen=True, slots=True)
 class Case:
     """One 1-DoF planning problem: start (p0, v0, a0), target (pf, vf, af) and limits."""
@@ -97,18 +101,26 @@ class Case:
 
     def code(self) -> str:
         """A ``plan(...)`` call reproducing this case (needs ``math``, ``plan``, ``State``...)."""
-        return (
-            f"plan(State(p={fmt_float(self.p0)}, v={fmt_float(self.v0)}, a={fmt_float(self.a0)}), "
-            f"State(p={fmt_float(self.pf)}, v={fmt_float(self.vf)}, a={fmt_float(self.af)}), "
-            f"{self.limits_code()})"
-        )
+        start = state_code(self.p0, self.v0, self.a0)
+        target = state_code(self.pf, self.vf, self.af)
+        return f"plan({start}, {target}, {self.limits_code()})"
 
     def code_velocity(self) -> str:
         """A ``plan_velocity(...)`` call reproducing this case (the target position is unused)."""
+        start = state_code(self.p0, self.v0, self.a0)
         return (
-            f"plan_velocity(State(p={fmt_float(self.p0)}, v={fmt_float(self.v0)}, a={fmt_float(self.a0)}), "
-            f"v_target={fmt_float(self.vf)}, limits={self.limits_code()}, a_target={fmt_float(self.af)})"
+            f"plan_velocity({start}, v_target={fmt_float(self.vf)}, "
+            f"limits={self.limits_code()}, a_target={fmt_float(self.af)})"
         )
+
+    @classmethod
+    def from_problem(cls, start: State, target: State, lim: Limits, tag: str = "") -> Case:
+        v_min = None if lim.v_min == -lim.v_max else lim.v_min
+        a_min = None if lim.a_min == -lim.a_max else lim.a_min
+        return cls(
+            start.p, start.v, start.a, target.p, target.v, target.a,
+            lim.v_max, lim.a_max, lim.j_max, v_min, a_min, tag,
+        )  # fmt: skip
 
     def __str__(self) -> str:
         return self.code()
@@ -257,7 +269,7 @@ def draw_case(
         j_max = math.inf
     elif order != 3:
         raise ValueError(f"order must be 2 or 3, got {order!r}")
-    return Case(p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min, tag="inside")
+    return Case(p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min, tag="random")
 
 
 def make_outside(rng: np.random.Generator, case: Case, mode: str | None = None) -> Case:
@@ -292,11 +304,31 @@ def make_outside(rng: np.random.Generator, case: Case, mode: str | None = None) 
     raise RuntimeError(f"could not move the start of {case} outside the limits")  # pragma: no cover
 
 
+def make_boundary(rng: np.random.Generator, case: Case) -> Case:
+    """Move the start of ``case`` onto the braking boundary of a velocity limit.
+
+    ``a0`` has log-uniform magnitude in [1e-9, 1] x the acceleration limit (a residual
+    acceleration while cruising) towards the limit, and ``v0 = v_lim - a0|a0|/(2 j_max)``: a
+    jerk of -j_max brings the axis to rest in acceleration exactly at the velocity limit. After
+    rounding the start is inside or outside by an ulp. Second-order cases get ``v0 = v_lim``.
+    """
+    s = 1.0 if rng.random() < 0.5 else -1.0
+    lim_v = case.v_max if s > 0 else -case.lo_v
+    if math.isinf(case.j_max):
+        return replace(case, v0=s * lim_v, tag="boundary")
+    lim_a = case.a_max if s > 0 else -case.lo_a
+    a0 = s * lim_a * 10.0 ** float(rng.uniform(-9.0, 0.0))
+    a0 = s * min(abs(a0), math.sqrt(2.0 * case.j_max * (case.v_max - case.lo_v)))
+    v0 = s * lim_v - a0 * abs(a0) / (2.0 * case.j_max)
+    return replace(case, v0=v0, a0=a0, tag="boundary")
+
+
 def iter_cases(
     seed: int,
     *,
     nonzero: bool = False,
     outside_fraction: float = 0.0,
+    boundary_fraction: float = 0.0,
     asymmetric_fraction: float = 0.0,
     order: int = 3,
     redraw_invalid: bool = True,
@@ -304,6 +336,8 @@ def iter_cases(
 ) -> Iterator[Case]:
     """Endless reproducible stream of cases for ``np.random.default_rng(seed)``.
 
+    ``outside_fraction`` of the cases start outside the limits (:func:`make_outside`), and
+    ``boundary_fraction`` of the others on a braking boundary (:func:`make_boundary`).
     With ``redraw_invalid``, cases whose target Ruckig rejects are skipped (using ``oracle``
     when given, else the pure-Python mirror :func:`case_target_valid`).
     """
@@ -317,6 +351,8 @@ def iter_cases(
         )
         if outside_fraction > 0.0 and rng.random() < outside_fraction:
             case = make_outside(rng, case)
+        elif boundary_fraction > 0.0 and rng.random() < boundary_fraction:
+            case = make_boundary(rng, case)
         if redraw_invalid:
             ok = oracle.accepts(case) if oracle is not None else case_target_valid(case)
             if not ok:
