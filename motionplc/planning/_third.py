@@ -69,7 +69,6 @@ def _verify(
     vlo = vmin - _LIM_TOL * max(1.0, abs(vmin)) if vmin != -math.inf else -math.inf
     ahi = amax + _LIM_TOL * max(1.0, abs(amax)) if amax != math.inf else math.inf
     alo = amin - _LIM_TOL * max(1.0, abs(amin)) if amin != -math.inf else -math.inf
-    out: Phases = []
     pmax = 0.0
     vmag = abs(v0)
     for ph in phases:
@@ -99,7 +98,6 @@ def _verify(
             pmax = abs(p)
         if abs(v) > vmag:
             vmag = abs(v)
-        out.append(ph)
     # tolerances: absolute for ordinary moves, growing with the excursion for huge ones
     # (double precision cannot end within 1e-8 of a target after travelling 1e9)
     if abs(p - d) > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
@@ -108,7 +106,7 @@ def _verify(
         return None
     if abs(a - af) > _A_TOL * max(1.0, abs(af)):
         return None
-    return t, out
+    return t, phases  # non-positive durations are dropped by Profile
 
 
 def _up_phases(a0: float, af: float, P: float, h1: float, Q: float, h2: float, J: float) -> Phases:
@@ -325,9 +323,25 @@ def _fam_none(
         u_hi += 1e-9 * (u_hi + 1.0)
         if u_hi <= 0.0:
             return None
+    # P >= a0 and Q <= af: u^2 - 2 a0 u + K/2 >= 0 and u^2 + 2 af u - K/2 >= 0; where the
+    # excluded interval of either reaches down to u = 0 it raises the lower end
+    r3 = a0 * a0 - 0.5 * K
+    if r3 > 0.0:
+        s3 = math.sqrt(r3)
+        if a0 - s3 <= 0.0:
+            u_lo = max(u_lo, (a0 + s3) * (1.0 - 1e-9) - 1e-12)
+    r4 = af * af + 0.5 * K
+    if r4 > 0.0:
+        s4 = math.sqrt(r4)
+        if -af - s4 <= 0.0:
+            u_lo = max(u_lo, (-af + s4) * (1.0 - 1e-9) - 1e-12)
     base = af - a0
     if (2.0 * max(u_lo, 0.0) + base) / J >= t_best:
         return None
+    if t_best != math.inf:
+        u_hi = min(u_hi, 0.5 * (J * t_best - base) * (1.0 + 1e-9))
+        if u_hi < u_lo:
+            return None
     B = 2.0 * J * (v0 + vf) - a0 * a0 - af * af
     C = -(4.0 / 3.0) * (
         3.0 * J * J * d + 3.0 * J * (a0 * v0 - af * vf) - a0 * a0 * a0 + af * af * af

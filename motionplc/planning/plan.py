@@ -14,6 +14,8 @@ _INF = math.inf
 
 
 def _finite(name: str, value: object) -> float:
+    if type(value) is float and value - value == 0.0:  # fast path: a finite float
+        return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise PlanningError(f"{name} must be a finite number, got {value!r}")
     x = float(value)

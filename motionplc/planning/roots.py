@@ -105,15 +105,23 @@ def quartic_roots_in(
         hi = bound
     if lo > hi:
         return []
+    # inflection points (roots of f'') split [lo, hi] into pieces where f' is monotone; a
+    # piece holds a critical point only where f' changes sign, found by bisection on f'
     pts = [lo]
-    crit = cubic_roots(4.0, 3.0 * c3, 2.0 * c2, c1)
-    infl = quadratic_roots(12.0, 6.0 * c3, 2.0 * c2)
-    inner = [x for x in crit if lo < x < hi]
-    inner.extend(x for x in infl if lo < x < hi)
-    if inner:
-        inner.sort()
-        pts.extend(inner)
+    for x in quadratic_roots(12.0, 6.0 * c3, 2.0 * c2):
+        if lo < x < hi:
+            pts.append(x)
     pts.append(hi)
+    if len(pts) > 0:
+        with_crit = [lo]
+        d0 = ((4.0 * lo + 3.0 * c3) * lo + 2.0 * c2) * lo + c1
+        for x1 in pts[1:]:
+            d1 = ((4.0 * x1 + 3.0 * c3) * x1 + 2.0 * c2) * x1 + c1
+            if (d0 < 0.0) != (d1 < 0.0) and d0 != 0.0 and d1 != 0.0:
+                with_crit.append(_critical(c3, c2, c1, with_crit[-1], x1, d0))
+            with_crit.append(x1)
+            d0 = d1
+        pts = with_crit
     ac3 = abs(c3)
     ac2 = abs(c2)
     ac1 = abs(c1)
@@ -156,18 +164,39 @@ def quartic_roots_in(
     return roots
 
 
+def _critical(c3: float, c2: float, c1: float, lo: float, hi: float, dlo: float) -> float:
+    """The root of f' in (lo, hi), where f' is monotone and changes sign (Newton in a bracket)."""
+    neg_lo = dlo < 0.0
+    x = 0.5 * (lo + hi)
+    for _ in range(_MAX_ITER):
+        d = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
+        if d == 0.0:
+            return x
+        if (d < 0.0) == neg_lo:
+            lo = x
+        else:
+            hi = x
+        dd = (12.0 * x + 6.0 * c3) * x + 2.0 * c2
+        xn = x - d / dd if dd != 0.0 else 0.5 * (lo + hi)
+        if not lo < xn < hi:
+            xn = 0.5 * (lo + hi)
+        if abs(xn - x) <= 4.0 * _EPS * max(abs(x), 1e-300) or hi - lo <= 4.0 * _EPS * abs(x):
+            return xn
+        x = xn
+    return x
+
+
 def _newton_piece(
     c3: float, c2: float, c1: float, c0: float, lo: float, hi: float, flo: float
 ) -> float:
     """The single root in (lo, hi), where the quartic changes sign and is monotone and of one
-    convexity. Newton from the Fourier end converges monotonically; bisection guards rounding."""
-    mid = 0.5 * (lo + hi)
-    curv = (12.0 * mid + 6.0 * c3) * mid + 2.0 * c2
-    # f * f'' > 0 at the start: the end whose f has the sign of the curvature
-    x = lo if (flo > 0.0) == (curv > 0.0) else hi
+    convexity: Newton steps from the regula-falsi point, kept inside the shrinking bracket
+    (bisection if a step leaves it)."""
+    fhi = (((hi + c3) * hi + c2) * hi + c1) * hi + c0
     neg_lo = flo < 0.0
     a = lo
     b = hi
+    x = lo - flo * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
     for _ in range(_MAX_ITER):
         f = (((x + c3) * x + c2) * x + c1) * x + c0
         if f == 0.0:
@@ -180,7 +209,8 @@ def _newton_piece(
         xn = x - f / df if df != 0.0 else 0.5 * (a + b)
         if not a <= xn <= b:
             xn = 0.5 * (a + b)
-        if abs(xn - x) <= 2.0 * _EPS * abs(x) or b - a <= 2.0 * _EPS * abs(x):
+        tol = 4.0 * _EPS * abs(xn) + 1e-300
+        if abs(xn - x) <= tol or b - a <= tol:
             return xn
         x = xn
     return x

@@ -140,7 +140,8 @@ def _optimal(ax: _Axis, J: float | None = None) -> tuple[float, Phases, str]:
 
 def _extremals(ax: _Axis) -> list[tuple[float, Phases, str]]:
     """Extremal profiles (after the prefix), fastest first; one for lower-order/velocity axes."""
-    if ax.velocity or ax.J == _INF:
+    if ax.velocity or ax.J == _INF or (ax.vf == 0.0 and ax.af == 0.0):
+        # a target at rest has no blocked durations: the optimal profile is the only extremal
         return [_optimal(ax)]
     ext = _third.extremal_profiles(
         ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin, ax.J
@@ -592,7 +593,7 @@ def _solve_for(
     rest = ax.v0 == 0.0 and ax.a0 == 0.0 and ax.vf == 0.0 and ax.af == 0.0
     if rest and not ax.velocity and t_min > 0.0:
         k = T / t_min
-        ph = _scaled_rest(ax, k)
+        ph = _scaled_rest(ax, k, ext[0])
         if ph is not None:
             return ph
     durs = [t for t, _, _ in ext]
@@ -616,24 +617,23 @@ def _solve_for(
     return None
 
 
-def _scaled_rest(ax: _Axis, k: float) -> tuple[Phases, str] | None:
-    """Rest-to-rest: the optimal profile for limits (v/k, a/k^2, j/k^3) lasts k times longer."""
-    try:
-        t, ph, kind = position_phases(
-            0.0,
-            0.0,
-            ax.d,
-            0.0,
-            0.0,
-            ax.vmax / k,
-            ax.vmin / k,
-            ax.amax / (k * k),
-            ax.amin / (k * k),
-            ax.J / (k * k * k),
-        )
-    except PlanningError:
-        return None
-    return ph, kind + "+scaled"
+def _scaled_rest(
+    ax: _Axis, k: float, optimal: tuple[float, Phases, str]
+) -> tuple[Phases, str] | None:
+    """Rest-to-rest: the optimal profile for limits (v/k, a/k^2, j/k^3) is the optimal one
+    slowed down k times -- phase durations times k, jerk / k^3, accelerations / k^2,
+    velocities / k -- so it needs no new plan."""
+    _, ph, kind = optimal
+    k2 = k * k
+    scaled: Phases = []
+    for x in ph:
+        y: tuple[float, ...] = (x[0] * k, x[1] / (k2 * k))
+        if len(x) > 2:
+            y += (x[2] / k2,)
+            if len(x) > 3:
+                y += (x[3] / k,)
+        scaled.append(y)
+    return scaled, kind + "+scaled"
 
 
 def _round_up(T: float, dt: float | None) -> float:
