@@ -3,6 +3,7 @@
     python tools/bench_runtime.py                 # sim 1/8/32 axes + real time 8 axes x 60 s
     python tools/bench_runtime.py --rt-seconds 10 # shorter real-time run
     python tools/bench_runtime.py --no-rt         # simulated clock only
+    python tools/bench_runtime.py --fifo 10       # real-time run under SCHED_FIFO (if allowed)
 
 Every axis runs an endless blended sequence of MC_MoveAbsolute blocks (BlendingLow between
 0 -> 400 -> 1000 and back, jerk-limited), with MC_Power and MC_ReadStatus called every scan,
@@ -80,12 +81,14 @@ def sim_throughput(n_axes: int, cycles: int) -> float:
     return cycles / (time.perf_counter() - t0)
 
 
-def realtime(n_axes: int, seconds: float) -> None:
-    rt = build(n_axes, clock=RealtimeClock(), seconds=seconds)
+def realtime(n_axes: int, seconds: float, fifo: int | None) -> None:
+    clock = RealtimeClock(fifo_priority=fifo)
+    rt = build(n_axes, clock=clock, seconds=seconds)
     rt.run(seconds=seconds)
     st = rt.stats()["main"]
     cycles = st.cycle_count + st.omitted_cycles
-    print(f"real time, {n_axes} axes at 1 ms for {seconds:g} s ({cycles} cycles):")
+    policy = "SCHED_FIFO" if clock.fifo_active else "default scheduler"
+    print(f"real time, {n_axes} axes at 1 ms for {seconds:g} s ({cycles} cycles, {policy}):")
     print(
         f"  lateness p50 {st.lateness_p50 * 1e6:7.1f} us   p99 {st.lateness_p99 * 1e6:7.1f} us"
         f"   max {st.lateness_max * 1e6:8.1f} us"
@@ -106,6 +109,7 @@ def main() -> None:
     ap.add_argument("--rt-seconds", type=float, default=60.0)
     ap.add_argument("--rt-axes", type=int, default=8)
     ap.add_argument("--no-rt", action="store_true")
+    ap.add_argument("--fifo", type=int, default=None, help="SCHED_FIFO priority for the RT run")
     args = ap.parse_args()
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     for n in (1, 8, 32):
@@ -113,7 +117,7 @@ def main() -> None:
         ratio = cps / 1000
         print(f"simulated clock, {n:2d} axes: {cps:9.0f} cycles/s ({ratio:.1f}x real time at 1 ms)")
     if not args.no_rt:
-        realtime(args.rt_axes, args.rt_seconds)
+        realtime(args.rt_axes, args.rt_seconds, args.fifo)
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ This is the only module of motionplc that reads the clock or sleeps.
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Protocol
 
@@ -60,16 +61,28 @@ class RealtimeClock:
     """Wall-clock time: sleeps to absolute deadlines of ``time.monotonic_ns``.
 
     ``spin_ns``: the last part of each wait is a busy loop (the OS sleep typically wakes 50-100
-    us late). A larger value lowers lateness and costs CPU.
+    us late). A larger value lowers lateness and costs CPU. ``fifo_priority``: if given, the
+    process switches to ``SCHED_FIFO`` with that priority at :meth:`start` (Linux; needs the
+    privilege, otherwise it stays as it is and ``fifo_active`` is False). The policy stays for
+    the rest of the process.
     """
 
     realtime = True
 
-    def __init__(self, spin_ns: int = 200_000) -> None:
+    def __init__(self, spin_ns: int = 200_000, fifo_priority: int | None = None) -> None:
         self.spin_ns = spin_ns
+        self.fifo_priority = fifo_priority
+        self.fifo_active = False
         self._t0 = 0
 
     def start(self) -> None:
+        if self.fifo_priority is not None and not self.fifo_active:
+            try:
+                param = os.sched_param(self.fifo_priority)
+                os.sched_setscheduler(0, os.SCHED_FIFO, param)
+                self.fifo_active = True
+            except (OSError, AttributeError):
+                self.fifo_active = False
         self._t0 = time.monotonic_ns()  # noqa: TID251 - the one place that reads the clock
 
     def now_ns(self) -> int:
