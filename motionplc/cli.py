@@ -1,4 +1,10 @@
-"""The ``motionplc`` command line."""
+"""The ``motionplc`` command line.
+
+``motionplc run CONFIG [SEQUENCE|PROGRAM]``, ``validate``, ``plot``, ``drives``, ``plan``. Exit
+codes: 0 success, 1 the run failed (an expectation, an FB or axis error, a timeout), 2 invalid
+input (configuration, sequence or program errors: one line each, ``FILE:LINE: key.path:
+problem (allowed: ...)``).
+"""
 
 from __future__ import annotations
 
@@ -8,6 +14,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from motionplc.errors import MotionPlcError
 from motionplc.planning import Limits, State, plan
@@ -87,9 +94,548 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------- run / validate
+def _load_script(path: str, config: Any) -> Any:
+    """Validate a sequence or load a program before anything is built."""
+    if Path(path).suffix == ".py":
+        from motionplc.program import load_program
+
+        return load_program(path)
+    from motionplc.sequence import load_sequence
+
+    return load_sequence(path, config)
+
+
+def _cmd_validate(args: argparse.Namespace) -> int:
+    from motionplc.config import load_config
+
+    cfg = load_config(args.config)
+    tasks = ", ".join(f"{t.name} {t.period * 1e3:g} ms" for t in cfg.runtime.tasks)
+    print(
+        f"{args.config}: ok - {len(cfg.axes)} axes ({', '.join(a.name for a in cfg.axes)}), "
+        f"{len(cfg.buses)} buses, tasks: {tasks}"
+    )
+    if args.script:
+        script = _load_script(args.script, cfg)
+        if hasattr(script, "steps"):
+            print(
+                f"{args.script}: ok - {len(script.steps)} steps, {len(script.blocks)} blocks, "
+                f"task {script.task}"
+            )
+        else:
+            print(f"{args.script}: ok - program(ctx)")
+    return 0
+
+
+def _summary(machine: Any, runner: Any) -> list[str]:
+    """Per-axis table and task statistics."""
+    import numpy as np
+
+    rt = machine.runtime
+    done: dict[str, int] = {}
+    for ev in rt.trace.events:
+        if ev.output == "done" and ev.value:
+            ax = ev.fb.split(".", 1)[0]
+            done[ax] = done.get(ax, 0) + 1
+    lines = [
+        f"{'axis':<10} {'moves done':>10} {'final state':<20} {'position':>14} "
+        f"{'actual':>14} {'max |f.err|':>12}"
+    ]
+    for name, ax in machine.axes.items():
+        try:
+            fe = rt.trace.column(f"{name}.following_error")
+            max_fe = float(np.max(np.abs(fe))) if fe.size else 0.0
+        except KeyError:
+            max_fe = float("nan")
+        lines.append(
+            f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} {ax.position:>14.9g} "
+            f"{ax.actual_position:>14.9g} {max_fe:>12.3g}"
+        )
+    lines.append("")
+    lines.append(
+        f"{'task':<10} {'cycles':>10} {'exec mean':>10} {'exec max':>10} "
+        f"{'late p99':>10} {'late max':>10} {'overruns':>9} {'omitted':>8}"
+    )
+    for st in rt.stats().values():
+        lines.append(
+            f"{st.name:<10} {st.cycle_count:>10} {st.exec_mean * 1e6:>8.1f}us "
+            f"{st.exec_max * 1e6:>8.1f}us {st.lateness_p99 * 1e6:>8.1f}us "
+            f"{st.lateness_max * 1e6:>8.1f}us {st.overruns:>9} {st.omitted_cycles:>8}"
+        )
+    return lines
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from motionplc.blocks import AxisState
+    from motionplc.config import build, load_config
+
+    cfg = load_config(args.config)
+    script = _load_script(args.script, cfg) if args.script else None
+    if args.seconds is not None and not args.seconds > 0:
+        print("motionplc: error: --seconds must be > 0", file=sys.stderr)
+        return 2
+    machine = build(cfg, realtime=True if args.realtime else None)
+    failures: list[str] = []
+    try:
+        runner = None
+        if script is not None:
+            if hasattr(script, "steps"):
+                from motionplc.sequence import SequenceRunner
+
+                runner = SequenceRunner(script, machine)
+                task = script.task
+            else:
+                from motionplc.program import ProgramRunner
+
+                runner = ProgramRunner(script, machine)
+                task = script.task or cfg.runtime.tasks[0].name
+            machine.attach(runner, task)
+        rt = machine.runtime
+        limit = args.seconds
+        if limit is None:
+            limit = 1.0 if runner is None else getattr(script, "timeout", 600.0) + rt.cycle
+        mode = "real time" if rt.clock.realtime else "simulated time"
+        if not args.quiet:
+            what = f" with {args.script}" if args.script else ""
+            print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)")
+        chunk = 1.0
+        next_report = 5.0
+        try:
+            while rt.time < limit - 1e-9:
+                span = min(chunk, limit - rt.time)
+                if args.seconds is None and runner is not None:
+                    end = rt.time + span
+                    rt.run_until(lambda: runner.over, max_seconds=span)
+                    if runner.over:
+                        break
+                    if rt.time < end - 1e-9:
+                        continue
+                else:
+                    rt.run(seconds=span)
+                    if runner is not None and runner.failed:
+                        break
+                if not args.quiet and rt.time >= next_report - 1e-9:
+                    print(f"  t = {rt.time:7.1f} s", file=sys.stderr, flush=True)
+                    next_report += 5.0
+        except KeyboardInterrupt:
+            failures.append("interrupted")
+        if runner is not None:
+            failures.extend(runner.failures)
+            if not runner.finished and not runner.failed and not failures:
+                failures.append(
+                    f"{args.script}: did not finish within {rt.time:g} s"
+                    + ("" if args.seconds is None else " (--seconds)")
+                )
+        for name, ax in machine.axes.items():
+            if ax.state is AxisState.ERROR_STOP and not any(f"{name!r}" in f for f in failures):
+                failures.append(
+                    f"axis {name!r} ends in ERROR_STOP ({ax.axis_error.name}: "
+                    f"{ax.axis_error_reason})"
+                )
+        if rt.error_reason:
+            failures.append(rt.error_reason)
+        if args.trace:
+            path = Path(args.trace)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            events = path.with_suffix(".events.csv")
+            rt.trace.to_csv(path, events_path=events)
+            print(f"wrote {path} ({len(rt.trace)} rows) and {events}")
+        if args.plot:
+            columns, data, events_rows = _trace_from_runtime(rt)
+            code = _write_plot(Path(args.plot), columns, data, events_rows, str(args.config))
+            if code:
+                return code
+        if not args.quiet or failures:
+            print()
+            for line in _summary(machine, runner):
+                print(line)
+            print()
+        t_end = getattr(runner, "t_finished", None)
+        if failures:
+            for f in failures:
+                print(f"FAILED: {f}", file=sys.stderr)
+            return 1
+        if runner is not None:
+            print(f"ok: {args.script} finished at t = {t_end:.3f} s, all expectations met")
+        else:
+            print(f"ok: ran {rt.time:g} s")
+        return 0
+    finally:
+        machine.close()
+
+
+# ---------------------------------------------------------------------------- plots
+def _trace_from_runtime(rt: Any) -> tuple[list[str], Any, list[tuple[int, str, str, bool]]]:
+    import numpy as np
+
+    columns = list(rt.trace.columns)
+    data = np.asarray(rt.trace.array(), dtype=float)
+    events = [(int(e.cycle), e.fb, e.output, bool(e.value)) for e in rt.trace.events]
+    return columns, data, events
+
+
+def _read_trace(path: Path) -> tuple[list[str], Any, list[tuple[int, str, str, bool]]]:
+    import numpy as np
+
+    from motionplc.blocks import AxisState
+
+    try:
+        with path.open(newline="") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as exc:
+        raise MotionPlcError(f"{path}: cannot read: {exc.strerror or exc}") from None
+    if not rows or rows[0][:2] != ["cycle", "t"]:
+        raise MotionPlcError(f"{path}:1: not a motionplc trace (expected columns cycle, t, ...)")
+    columns = rows[0]
+    states = {s.name: float(s.value) for s in AxisState}
+    data = np.empty((len(rows) - 1, len(columns)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(columns):
+            raise MotionPlcError(f"{path}:{i + 2}: {len(row)} values for {len(columns)} columns")
+        for j, x in enumerate(row):
+            try:
+                data[i, j] = states[x] if x in states else float(x)
+            except ValueError:
+                raise MotionPlcError(f"{path}:{i + 2}: {columns[j]}: not a number: {x!r}") from None
+    events: list[tuple[int, str, str, bool]] = []
+    ev_path = path.with_suffix(".events.csv")
+    if ev_path.is_file():
+        with ev_path.open(newline="") as fh:
+            for row in list(csv.reader(fh))[1:]:
+                if len(row) == 4:
+                    events.append((int(row[0]), row[1], row[2], row[3] == "True"))
+    return columns, data, events
+
+
+def _cmd_plot(args: argparse.Namespace) -> int:
+    path = Path(args.trace)
+    columns, data, events = _read_trace(path)
+    out = Path(args.output) if args.output else path.with_suffix(".png")
+    return _write_plot(out, columns, data, events, str(path))
+
+
+def _lanes(
+    columns: list[str], data: Any, events: list[tuple[int, str, str, bool]]
+) -> dict[str, Any]:
+    """Per axis: p/v/a/j arrays, state segments and FB intervals (busy/active, done/error)."""
+    t = data[:, 1] if len(data) else data
+    cycles = data[:, 0] if len(data) else data
+    axes = [c[: -len(".position")] for c in columns if c.endswith(".position")]
+    axes = [a for a in axes if "." not in a]
+    t0 = float(t[0]) if len(t) else 0.0
+    dt = float(t[1] - t[0]) if len(t) > 1 else 0.001
+    c0 = int(cycles[0]) if len(cycles) else 0
+    out: dict[str, Any] = {}
+    for ax in axes:
+        col = {
+            f: data[:, columns.index(f"{ax}.{f}")]
+            for f in ("position", "velocity", "acceleration", "jerk", "state")
+        }
+        fbs: dict[str, list[tuple[str, float, float]]] = {}
+        open_: dict[tuple[str, str], float] = {}
+        for cyc, fb, output, value in events:
+            if not fb.startswith(ax + "."):
+                continue
+            label = fb[len(ax) + 1 :]
+            tt = t0 + (cyc - c0) * dt
+            lst = fbs.setdefault(label, [])
+            if output in ("busy", "active", "valid", "status", "in_velocity"):
+                if value:
+                    open_[(label, output)] = tt
+                elif (label, output) in open_:
+                    lst.append((output, open_.pop((label, output)), tt))
+            elif output in ("done", "error", "command_aborted") and value:
+                lst.append((output, tt, tt))
+        t_end = float(t[-1]) if len(t) else 0.0
+        for (label, output), ts in open_.items():
+            fbs.setdefault(label, []).append((output, ts, t_end))
+        out[ax] = {"t": t, **col, "fbs": fbs}
+    return out
+
+
+_LANE_COLORS = {
+    "busy": "#c6dbef",
+    "active": "#2171b5",
+    "valid": "#74c476",
+    "status": "#238b45",
+    "in_velocity": "#6a51a3",
+    "done": "#000000",
+    "error": "#d62728",
+    "command_aborted": "#ff7f0e",
+}
+
+
+def _write_plot(
+    out: Path, columns: list[str], data: Any, events: list[tuple[int, str, str, bool]], title: str
+) -> int:
+    lanes = _lanes(columns, data, events)
+    if not lanes:
+        raise MotionPlcError(f"{title}: the trace has no axis columns")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() in (".html", ".htm"):
+        out.write_text(_html_plot(lanes, title), encoding="utf-8")
+        print(f"wrote {out}")
+        return 0
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print(
+            "plotting a PNG needs matplotlib: pip install 'motionplc[plot]' "
+            "(or write an .html plot, which needs nothing)",
+            file=sys.stderr,
+        )
+        return 2
+    from motionplc.blocks import AxisState
+
+    names = list(lanes)
+    fig, grid = plt.subplots(
+        5,
+        len(names),
+        sharex=True,
+        figsize=(6.5 * len(names), 11),
+        squeeze=False,
+        gridspec_kw={"height_ratios": [1, 1, 1, 1, 1.4]},
+    )
+    for j, ax_name in enumerate(names):
+        ln = lanes[ax_name]
+        t = ln["t"]
+        for i, (key, label) in enumerate(
+            (
+                ("position", "position"),
+                ("velocity", "velocity"),
+                ("acceleration", "acceleration"),
+                ("jerk", "jerk"),
+            )
+        ):
+            a = grid[i][j]
+            a.plot(t, ln[key], lw=1.2, drawstyle="steps-post" if key == "jerk" else "default")
+            a.set_ylabel(label)
+            a.grid(True, alpha=0.3)
+        grid[0][j].set_title(f"axis {ax_name}")
+        a = grid[4][j]
+        fbs = ln["fbs"]
+        labels = ["state", *fbs]
+        state = ln["state"]
+        if len(t):
+            colors = {
+                AxisState.DISABLED: "#d9d9d9",
+                AxisState.STANDSTILL: "#a1d99b",
+                AxisState.HOMING: "#fdd0a2",
+                AxisState.DISCRETE_MOTION: "#9ecae1",
+                AxisState.CONTINUOUS_MOTION: "#bcbddc",
+                AxisState.SYNCHRONIZED_MOTION: "#c7e9c0",
+                AxisState.STOPPING: "#fdae6b",
+                AxisState.ERROR_STOP: "#d62728",
+            }
+            start = 0
+            for k in range(1, len(t) + 1):
+                if k == len(t) or state[k] != state[start]:
+                    s = int(state[start])
+                    a.broken_barh(
+                        [(t[start], t[min(k, len(t) - 1)] - t[start])],
+                        (-0.4, 0.8),
+                        color=colors.get(AxisState(s), "grey"),
+                    )
+                    dur = t[min(k, len(t) - 1)] - t[start]
+                    if dur > 0.06 * (t[-1] - t[0] + 1e-12):
+                        a.text(
+                            t[start] + dur / 2,
+                            0,
+                            AxisState(s).name.lower(),
+                            ha="center",
+                            va="center",
+                            fontsize=6,
+                        )
+                    start = k
+        for row, fb in enumerate(fbs, start=1):
+            for output, t_a, t_b in fbs[fb]:
+                color = _LANE_COLORS.get(output, "grey")
+                if t_b > t_a:
+                    h = 0.8 if output in ("busy", "valid") else 0.4
+                    a.broken_barh([(t_a, t_b - t_a)], (row - h / 2, h), color=color)
+                else:
+                    marker = {"done": "|", "error": "x", "command_aborted": "v"}.get(output, ".")
+                    a.plot([t_a], [row], marker=marker, color=color, ms=9, mew=2, ls="none")
+        a.set_yticks(range(len(labels)))
+        a.set_yticklabels(labels, fontsize=7)
+        a.set_ylim(-0.7, len(labels) - 0.3)
+        a.invert_yaxis()
+        a.set_xlabel("time [s]")
+        a.grid(True, axis="x", alpha=0.3)
+    fig.suptitle(
+        f"{title} - FB lanes: busy (light), active (dark), valid/status (green), "
+        "done |, error x, aborted v",
+        fontsize=9,
+    )
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    print(f"wrote {out}")
+    return 0
+
+
+def _html_plot(lanes: dict[str, Any], title: str) -> str:
+    """A self-contained HTML scope (inline SVG, hover shows values; no scripts from the web)."""
+    import html
+
+    import numpy as np
+
+    w, h, pad = 900, 120, 40
+    parts = [
+        "<!doctype html><meta charset='utf-8'>",
+        f"<title>{html.escape(title)}</title>",
+        "<style>body{font-family:sans-serif;font-size:12px} svg{background:#fafafa;"
+        "margin:2px 0} polyline{fill:none;stroke:#1f77b4;stroke-width:1.2}</style>",
+        f"<h3>{html.escape(title)}</h3>",
+    ]
+    for ax_name, ln in lanes.items():
+        t = np.asarray(ln["t"], dtype=float)
+        parts.append(f"<h4>axis {html.escape(ax_name)}</h4>")
+        if t.size == 0:
+            continue
+        t0, t1 = float(t[0]), float(t[-1]) if t[-1] > t[0] else float(t[0]) + 1.0
+        step = max(1, t.size // 2000)
+        for key in ("position", "velocity", "acceleration", "jerk", "state"):
+            y = np.asarray(ln[key], dtype=float)
+            lo, hi = float(np.min(y)), float(np.max(y))
+            hi = hi if hi > lo else lo + 1.0
+            xs = pad + (t[::step] - t0) / (t1 - t0) * (w - 2 * pad)
+            ys = h - 10 - (y[::step] - lo) / (hi - lo) * (h - 20)
+            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(xs, ys, strict=True))
+            parts.append(
+                f"<svg width='{w}' height='{h}'><title>{ax_name}.{key}: min {lo:.6g}, "
+                f"max {hi:.6g}</title><text x='2' y='12'>{key} [{lo:.4g} .. {hi:.4g}]"
+                f"</text><polyline points='{pts}'/></svg><br>"
+            )
+        rows = ln["fbs"]
+        hh = 18 * (len(rows) + 1)
+        svg = [f"<svg width='{w}' height='{hh}'>"]
+        for r, (fb, items) in enumerate(rows.items()):
+            y = 18 * r + 4
+            svg.append(f"<text x='2' y='{y + 11}'>{html.escape(fb)}</text>")
+            for output, ta, tb in items:
+                x0 = pad + 60 + (ta - t0) / (t1 - t0) * (w - 2 * pad - 60)
+                x1 = pad + 60 + (tb - t0) / (t1 - t0) * (w - 2 * pad - 60)
+                color = _LANE_COLORS.get(output, "grey")
+                svg.append(
+                    f"<rect x='{x0:.1f}' y='{y}' width='{max(x1 - x0, 2):.1f}' height='12' "
+                    f"fill='{color}'><title>{html.escape(fb)} {output} {ta:.3f}-{tb:.3f} s"
+                    "</title></rect>"
+                )
+        svg.append("</svg>")
+        parts.append("".join(svg))
+    return "\n".join(parts) + "\n"
+
+
+# ---------------------------------------------------------------------------- drives
+def _cmd_drives(args: argparse.Namespace) -> int:
+    import asyncio
+    import json
+    import signal
+
+    from motionplc.config import load_config
+    from motionplc.fieldbus.drives_main import DrivesSpec, run_drives
+
+    cfg = load_config(args.config)
+    specs: list[DrivesSpec] = []
+    for bus in cfg.buses:
+        axes = [a for a in cfg.axes if a.drive.bus == bus.name]
+        if not axes:
+            continue
+        if bus.type == "can":
+            if bus.interface == "virtual":
+                print(
+                    f"motionplc: bus {bus.name!r}: the python-can virtual bus does not reach "
+                    "other processes; its drives run inside 'motionplc run' (use interface: "
+                    "socketcan with vcan0 for separate drives)",
+                    file=sys.stderr,
+                )
+                continue
+            specs.append(
+                DrivesSpec(
+                    can_nodes=tuple(a.drive.node_id for a in axes if a.drive.node_id),
+                    can_interface=bus.interface,
+                    can_channel=bus.channel,
+                    duration=args.duration,
+                )
+            )
+        else:
+            for order in ("big", "little"):
+                ids = tuple(
+                    a.drive.unit_id for a in axes if a.drive.word_order == order and a.drive.unit_id
+                )
+                if ids:
+                    specs.append(
+                        DrivesSpec(
+                            modbus=ids,
+                            modbus_port=bus.port,
+                            word_order=order,  # type: ignore[arg-type]
+                            duration=args.duration,
+                        )
+                    )
+    if not specs:
+        print("motionplc: no drives to serve in this configuration", file=sys.stderr)
+        return 2
+
+    async def serve() -> None:
+        stop = asyncio.Event()
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            try:
+                loop.add_signal_handler(sig, stop.set)
+            except (NotImplementedError, RuntimeError):
+                pass
+
+        def ready(info: dict[str, object]) -> None:
+            print(json.dumps(info), flush=True)
+
+        await asyncio.gather(*(run_drives(s, ready=ready, stop=stop) for s in specs))
+
+    try:
+        asyncio.run(serve())
+    except OSError as exc:
+        print(f"motionplc: drives: {exc}", file=sys.stderr)
+        return 1
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="motionplc", description=__doc__)
+    parser = argparse.ArgumentParser(
+        prog="motionplc",
+        description="Soft-PLC motion-control runtime.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog="exit codes: 0 ok, 1 run failed, 2 invalid configuration/sequence/program",
+    )
     sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a configuration with a sequence or a Python program")
+    r.add_argument("config", help="machine configuration (YAML)")
+    r.add_argument("script", nargs="?", help="sequence (.yaml) or Python program (.py)")
+    r.add_argument("--realtime", action="store_true", help="wall-clock time instead of simulated")
+    r.add_argument(
+        "--seconds",
+        type=_float,
+        default=None,
+        help="run exactly this long (default: until the script ends; 1 s without a script)",
+    )
+    r.add_argument("--trace", help="write the trace as CSV (FB edges to *.events.csv)")
+    r.add_argument("--plot", help="write a scope plot: .png (needs matplotlib) or .html")
+    r.add_argument("--quiet", "-q", action="store_true", help="no progress output")
+    r.set_defaults(func=_cmd_run)
+    v = sub.add_parser("validate", help="check a configuration (and a sequence or program)")
+    v.add_argument("config")
+    v.add_argument("script", nargs="?")
+    v.set_defaults(func=_cmd_validate)
+    pl = sub.add_parser("plot", help="plot a trace CSV: p/v/a/j and FB-state lanes per axis")
+    pl.add_argument("trace", help="trace CSV written by run --trace")
+    pl.add_argument("-o", "--output", help="output .png or .html (default: TRACE.png)")
+    pl.set_defaults(func=_cmd_plot)
+    d = sub.add_parser("drives", help="serve the virtual drives of a configuration on their own")
+    d.add_argument("config")
+    d.add_argument("--duration", type=_float, default=None, help="[s]; default: until Ctrl-C")
+    d.set_defaults(func=_cmd_drives)
     p = sub.add_parser("plan", help="plan one time-optimal move and print its phases")
     for name, default in (
         ("p0", 0.0),

@@ -1,0 +1,1058 @@
+"""YAML machine configuration -> frozen dataclasses, validated up front; and the builder.
+
+A configuration file describes the runtime (base tick, tasks, clock, watchdog), the buses
+(CAN, Modbus TCP), the axes (limits, software limits, modulo, following-error window, homing,
+drive binding) and axis groups::
+
+    runtime:
+      tick: 0.001
+      clock: simulated             # simulated | realtime
+      tasks:
+        motion: {period: 0.001, priority: 0}
+    buses:
+      can0: {type: can, interface: virtual, channel: demo}
+    axes:
+      x:
+        limits: {v_max: 0.5, a_max: 2.0, j_max: 20.0}
+        drive: {bus: can0, node_id: 1, counts_per_unit: 1.0e6}
+    groups:
+      xy: [x, y]
+
+:func:`load_config` reads a file with ``yaml.SafeLoader`` (plus a resolver for floats such as
+``1e-6``, which YAML 1.1 reads as strings) while recording the line of every node, checks
+everything and raises **one** :class:`~motionplc.errors.ConfigError` listing every problem as
+``FILE:LINE: key.path: problem (allowed: ...)``. Validation is done while converting (not in
+``__post_init__`` as conventions §12.11 suggests) because only the loader knows the lines.
+
+:func:`build` turns a valid :class:`Config` into a :class:`Machine`: a
+:class:`~motionplc.runtime.Runtime` with its tasks and axes, the drive masters and the simulated
+drives at the other end of the wire (in-process, stepped in lockstep with the runtime's clock).
+Units are SI throughout (m or rad, s).
+"""
+
+from __future__ import annotations
+
+import ipaddress
+import math
+import re
+import uuid
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import yaml
+
+from motionplc.errors import ConfigError
+
+if TYPE_CHECKING:
+    from motionplc.blocks.axis import Axis
+    from motionplc.runtime import CycleContext, Runtime
+
+__all__ = [
+    "AxisSpec",
+    "BusSpec",
+    "Config",
+    "DriveSpec",
+    "HomingSpec",
+    "LimitsSpec",
+    "Machine",
+    "RuntimeSpec",
+    "TaskSpec",
+    "build",
+    "load_config",
+    "load_yaml",
+    "parse_config",
+]
+
+CLOCKS = ("simulated", "realtime")
+OVERRUN = ("skip", "catch_up")
+BUS_TYPES = ("can", "modbus")
+CAN_INTERFACES = ("virtual", "socketcan")
+CAN_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)
+BUS_DRIVES = ("simulated", "external")
+UNITS = ("m", "rad")
+HOMING = ("set_position", "switch")
+WORD_ORDERS = ("big", "little")
+NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+# ------------------------------------------------------------------------ YAML with lines
+class YamlMap(dict):
+    """A YAML mapping that remembers where it and each of its keys and values start."""
+
+    line: int = 0
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.key_lines: dict[Any, int] = {}
+        self.value_lines: dict[Any, int] = {}
+        self.duplicates: list[tuple[Any, int]] = []
+
+    def line_of(self, key: Any) -> int:
+        """Line of the value of ``key`` (of the mapping when the key is absent)."""
+        return self.value_lines.get(key, self.line)
+
+
+class YamlList(list):
+    """A YAML sequence that remembers the line of each item."""
+
+    line: int = 0
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.item_lines: list[int] = []
+
+    def line_of(self, i: int) -> int:
+        return self.item_lines[i] if 0 <= i < len(self.item_lines) else self.line
+
+
+class _Loader(yaml.SafeLoader):
+    """SafeLoader building :class:`YamlMap` / :class:`YamlList` with line numbers."""
+
+
+def _construct_map(loader: _Loader, node: yaml.MappingNode) -> YamlMap:
+    loader.flatten_mapping(node)
+    m = YamlMap()
+    m.line = node.start_mark.line + 1
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        if isinstance(key, (list, dict)):
+            key = repr(key)
+        value = loader.construct_object(value_node, deep=True)
+        kl = key_node.start_mark.line + 1
+        if key in m:
+            m.duplicates.append((key, kl))
+        m[key] = value
+        m.key_lines[key] = kl
+        m.value_lines[key] = value_node.start_mark.line + 1
+    return m
+
+
+def _construct_seq(loader: _Loader, node: yaml.SequenceNode) -> YamlList:
+    seq = YamlList()
+    seq.line = node.start_mark.line + 1
+    for item in node.value:
+        seq.append(loader.construct_object(item, deep=True))
+        seq.item_lines.append(item.start_mark.line + 1)
+    return seq
+
+
+_Loader.add_constructor("tag:yaml.org,2002:map", _construct_map)
+_Loader.add_constructor("tag:yaml.org,2002:seq", _construct_seq)
+_Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?[0-9][0-9_]*(?:\.[0-9_]*)?[eE][-+]?[0-9]+$"),
+    list("-+0123456789"),
+)
+
+
+def load_yaml(path: str | Path) -> Any:
+    """Read one YAML document (safe subset) with line numbers; errors name ``FILE:LINE``."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"{p}: cannot read: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{p}: not a UTF-8 text file") from None
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line = mark.line + 1 if mark is not None else 1
+        problem = exc.problem or exc.context or "invalid YAML"
+        raise ConfigError(f"{p}:{line}: YAML syntax error: {problem}") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{p}:1: YAML error: {exc}") from None
+
+
+# ------------------------------------------------------------------------ checking helpers
+def _tname(x: Any) -> str:
+    if x is None:
+        return "null"
+    if isinstance(x, bool):
+        return f"boolean {x!r}".replace("True", "true").replace("False", "false")
+    if isinstance(x, (int, float)):
+        return f"number {x!r}"
+    if isinstance(x, str):
+        return f"string {x!r}"
+    if isinstance(x, dict):
+        return "a mapping"
+    if isinstance(x, list):
+        return "a list"
+    return type(x).__name__
+
+
+def _fmt(x: float) -> str:
+    return f"{x:g}"
+
+
+def join(path: str, key: Any) -> str:
+    """Key path ``a.b`` (``a[2]`` for list indices)."""
+    if isinstance(key, int) and not isinstance(key, bool):
+        return f"{path}[{key}]"
+    return f"{path}.{key}" if path else str(key)
+
+
+class Checker:
+    """Collects the problems of one file (``FILE:LINE: key.path: problem (allowed: ...)``)."""
+
+    def __init__(self, file: str | Path) -> None:
+        self.file = str(file)
+        self.errors: list[str] = []
+
+    def error(self, line: int, path: str, problem: str, allowed: str | None = None) -> None:
+        msg = f"{self.file}:{line}: {path}: {problem}"
+        if allowed:
+            msg += f" (allowed: {allowed})"
+        self.errors.append(msg)
+
+    def raise_if_any(self) -> None:
+        if self.errors:
+            raise ConfigError(self.errors)
+
+    # -- structure ------------------------------------------------------------------------
+    def mapping(
+        self,
+        value: Any,
+        line: int,
+        path: str,
+        keys: Mapping[str, bool] | None = None,
+        what: str = "a mapping",
+    ) -> YamlMap | None:
+        """Check a mapping: its type, duplicate keys, unknown keys, required keys.
+
+        ``keys``: allowed key -> required; None = any key (checked by the caller).
+        """
+        if not isinstance(value, YamlMap):
+            self.error(line, path, f"got {_tname(value)}", what)
+            return None
+        for k, kl in value.duplicates:
+            self.error(kl, join(path, k), "duplicate key")
+        if keys is not None:
+            self.keys(value, path, keys)
+        return value
+
+    def keys(self, value: YamlMap, path: str, keys: Mapping[str, bool]) -> None:
+        """Unknown and missing keys of a mapping already checked by :meth:`mapping`."""
+        allowed = ", ".join(keys)
+        for k in value:
+            if k not in keys:
+                self.error(value.key_lines[k], join(path, k), "unknown key", allowed)
+        for k, required in keys.items():
+            if required and k not in value:
+                self.error(value.line, join(path, k), "missing", "required key")
+
+    def name(self, m: YamlMap, key: Any, path: str) -> bool:
+        if isinstance(key, str) and NAME_RE.match(key):
+            return True
+        self.error(
+            m.key_lines.get(key, m.line),
+            join(path, key),
+            f"invalid name {key!r}",
+            "letters, digits and _, not starting with a digit",
+        )
+        return False
+
+    # -- scalars --------------------------------------------------------------------------
+    def number(
+        self,
+        m: YamlMap,
+        key: str,
+        path: str,
+        default: float | None = None,
+        *,
+        gt: float | None = None,
+        ge: float | None = None,
+        le: float | None = None,
+        inf_ok: bool = False,
+    ) -> float | None:
+        """A real number (an int is accepted); ``default`` when absent or null."""
+        if key not in m or m[key] is None:
+            return default
+        x = m[key]
+        p = join(path, key)
+        parts = []
+        if gt is not None:
+            parts.append(f"> {_fmt(gt)}")
+        if ge is not None:
+            parts.append(f">= {_fmt(ge)}")
+        if le is not None:
+            parts.append(f"<= {_fmt(le)}")
+        allowed = "a number" + (" " + " and ".join(parts) if parts else "")
+        if inf_ok:
+            allowed += ", or .inf"
+        if isinstance(x, bool) or not isinstance(x, (int, float)):
+            self.error(m.line_of(key), p, f"got {_tname(x)}", allowed)
+            return default
+        xf = float(x)
+        bad = math.isnan(xf) or (math.isinf(xf) and not (inf_ok and xf > 0))
+        bad = bad or (gt is not None and not xf > gt) or (ge is not None and not xf >= ge)
+        bad = bad or (le is not None and not xf <= le)
+        if bad:
+            self.error(m.line_of(key), p, f"got {_fmt(xf)}", allowed)
+            return default
+        return xf
+
+    def integer(
+        self,
+        m: YamlMap,
+        key: str,
+        path: str,
+        default: int | None = None,
+        *,
+        lo: int | None = None,
+        hi: int | None = None,
+    ) -> int | None:
+        if key not in m or m[key] is None:
+            return default
+        x = m[key]
+        p = join(path, key)
+        if lo is not None and hi is not None:
+            allowed = f"an integer in {lo}..{hi}"
+        elif lo is not None:
+            allowed = f"an integer >= {lo}"
+        else:
+            allowed = "an integer"
+        if isinstance(x, bool) or not isinstance(x, int):
+            self.error(m.line_of(key), p, f"got {_tname(x)}", allowed)
+            return default
+        if (lo is not None and x < lo) or (hi is not None and x > hi):
+            self.error(m.line_of(key), p, f"got {x}", allowed)
+            return default
+        return x
+
+    def choice(
+        self, m: YamlMap, key: str, path: str, options: tuple[Any, ...], default: Any = None
+    ) -> Any:
+        if key not in m or m[key] is None:
+            return default
+        x = m[key]
+        if x not in options or isinstance(x, bool) != isinstance(options[0], bool):
+            allowed = ", ".join(str(o) for o in options)
+            self.error(m.line_of(key), join(path, key), f"got {_tname(x)}", allowed)
+            return default
+        return x
+
+    def string(self, m: YamlMap, key: str, path: str, default: str | None = None) -> str | None:
+        if key not in m or m[key] is None:
+            return default
+        x = m[key]
+        if not isinstance(x, str) or not x:
+            self.error(m.line_of(key), join(path, key), f"got {_tname(x)}", "a non-empty string")
+            return default
+        return x
+
+    def boolean(self, m: YamlMap, key: str, path: str, default: bool = False) -> bool:
+        if key not in m or m[key] is None:
+            return default
+        x = m[key]
+        if not isinstance(x, bool):
+            self.error(m.line_of(key), join(path, key), f"got {_tname(x)}", "true, false")
+            return default
+        return x
+
+
+# ------------------------------------------------------------------------ dataclasses
+@dataclass(frozen=True, slots=True)
+class TaskSpec:
+    """A cyclic task. ``watchdog_time`` None = no watchdog."""
+
+    name: str
+    period: float
+    priority: int = 0
+    watchdog_time: float | None = None
+    watchdog_sensitivity: int = 1
+
+
+@dataclass(frozen=True, slots=True)
+class RuntimeSpec:
+    tick: float
+    clock: str
+    tasks: tuple[TaskSpec, ...]
+    overrun: str = "skip"
+    trace_capacity: int = 500_000
+
+    def task(self, name: str) -> TaskSpec:
+        return next(t for t in self.tasks if t.name == name)
+
+
+@dataclass(frozen=True, slots=True)
+class BusSpec:
+    """A CAN bus (``interface``, ``channel``, ``bitrate``) or a Modbus TCP network (``host``,
+    ``port``, ``timeout``). ``drives``: ``simulated`` (virtual drives in this process, stepped
+    with the runtime) or ``external`` (real drives, or ``motionplc drives`` in another
+    process)."""
+
+    name: str
+    type: str
+    drives: str = "simulated"
+    interface: str = "virtual"
+    channel: str = ""
+    bitrate: int = 1_000_000
+    host: str = "127.0.0.1"
+    port: int = 0
+    timeout: float = 0.1
+
+
+@dataclass(frozen=True, slots=True)
+class LimitsSpec:
+    """Kinematic limits; ``v_min``/``a_min`` (negative) default to ``-v_max``/``-a_max``."""
+
+    v_max: float
+    a_max: float
+    j_max: float = math.inf
+    v_min: float | None = None
+    a_min: float | None = None
+
+    @property
+    def symmetric(self) -> tuple[float, float, float]:
+        """The symmetric limits an axis runs with (the tighter side of asymmetric ones)."""
+        v = self.v_max if self.v_min is None else min(self.v_max, -self.v_min)
+        a = self.a_max if self.a_min is None else min(self.a_max, -self.a_min)
+        return v, a, self.j_max
+
+
+@dataclass(frozen=True, slots=True)
+class HomingSpec:
+    """``set_position``: MC_Home sets the position; ``switch``: move to the reference switch
+    at ``switch`` (drive coordinates) with ``velocity`` first."""
+
+    method: str = "set_position"
+    switch: float | None = None
+    velocity: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class DriveSpec:
+    """``ideal`` (in-process perfect follower) or a drive on a bus (CAN node or Modbus unit)."""
+
+    kind: str = "ideal"  # ideal | canopen | modbus
+    bus: str | None = None
+    node_id: int | None = None  # CANopen
+    unit_id: int | None = None  # Modbus
+    counts_per_unit: float = 1.0e6
+    word_order: str = "big"
+
+
+@dataclass(frozen=True, slots=True)
+class AxisSpec:
+    name: str
+    limits: LimitsSpec
+    units: str = "m"
+    task: str = ""
+    sw_limit_min: float | None = None
+    sw_limit_max: float | None = None
+    modulo: float | None = None
+    following_error: float | None = None
+    homing: HomingSpec = field(default_factory=HomingSpec)
+    drive: DriveSpec = field(default_factory=DriveSpec)
+    queue_depth: int = 8
+
+
+@dataclass(frozen=True, slots=True)
+class Config:
+    """A validated machine configuration."""
+
+    path: str
+    runtime: RuntimeSpec
+    buses: tuple[BusSpec, ...]
+    axes: tuple[AxisSpec, ...]
+    groups: tuple[tuple[str, tuple[str, ...]], ...] = ()
+
+    def axis(self, name: str) -> AxisSpec:
+        return next(a for a in self.axes if a.name == name)
+
+    def bus(self, name: str) -> BusSpec:
+        return next(b for b in self.buses if b.name == name)
+
+    @property
+    def group_map(self) -> dict[str, tuple[str, ...]]:
+        return dict(self.groups)
+
+
+# ------------------------------------------------------------------------ parsing
+_TOP = {"runtime": True, "buses": False, "axes": True, "groups": False}
+_RUNTIME = {"tick": False, "clock": False, "overrun": False, "trace_capacity": False, "tasks": True}
+_TASK = {"period": False, "priority": False, "watchdog": False}
+_WATCHDOG = {"time": True, "sensitivity": False}
+_BUS = {"type": True, "drives": False}
+_CAN = {"interface": False, "channel": False, "bitrate": False}
+_MODBUS = {"host": False, "port": False, "timeout": False}
+_AXIS = {
+    "units": False,
+    "task": False,
+    "limits": True,
+    "software_limits": False,
+    "modulo": False,
+    "following_error": False,
+    "homing": False,
+    "drive": False,
+    "queue_depth": False,
+}
+_LIMITS = {"v_max": True, "a_max": True, "j_max": False, "v_min": False, "a_min": False}
+_SWLIM = {"min": False, "max": False}
+_HOMING = {"method": False, "switch": False, "velocity": False}
+_DRIVE_KEYS = {
+    "type": False,
+    "bus": False,
+    "node_id": False,
+    "unit_id": False,
+    "counts_per_unit": False,
+    "word_order": False,
+}
+
+
+def _is_multiple(period: float, tick: float) -> bool:
+    n = round(period / tick)
+    return n >= 1 and abs(n * tick - period) <= 1e-9 * max(period, tick)
+
+
+def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
+    path = "runtime"
+    tick = c.number(m, "tick", path, 0.001, gt=0.0)
+    tick = tick if tick is not None else 0.001
+    if tick < 1e-6:
+        c.error(m.line_of("tick"), "runtime.tick", f"got {_fmt(tick)}", "a number >= 1e-06")
+        tick = 0.001
+    clock = c.choice(m, "clock", path, CLOCKS, "simulated")
+    overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
+    cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
+    tasks: list[TaskSpec] = []
+    tm = c.mapping(m.get("tasks"), m.line_of("tasks"), "runtime.tasks", None)
+    if tm is not None:
+        if not tm:
+            c.error(tm.line, "runtime.tasks", "no task", "at least one task")
+        for name, body in tm.items():
+            tp = join("runtime.tasks", name)
+            if not c.name(tm, name, "runtime.tasks"):
+                continue
+            if body is None:
+                body = YamlMap()
+                body.line = tm.line_of(name)
+            tb = c.mapping(body, tm.line_of(name), tp, _TASK)
+            if tb is None:
+                continue
+            period = c.number(tb, "period", tp, tick, gt=0.0)
+            if period is not None and "period" in tb and not _is_multiple(period, tick):
+                c.error(
+                    tb.line_of("period"),
+                    join(tp, "period"),
+                    f"{_fmt(period)} s is not a multiple of the tick {_fmt(tick)} s",
+                    f"k * {_fmt(tick)} s with k = 1, 2, ...",
+                )
+            prio = c.integer(tb, "priority", tp, 0, lo=0, hi=31)
+            wd_time, wd_sens = None, 1
+            if "watchdog" in tb and tb["watchdog"] is not None:
+                wp = join(tp, "watchdog")
+                wd = c.mapping(tb["watchdog"], tb.line_of("watchdog"), wp, _WATCHDOG)
+                if wd is not None:
+                    wd_time = c.number(wd, "time", wp, None, gt=0.0)
+                    wd_sens = c.integer(wd, "sensitivity", wp, 1, lo=1) or 1
+            tasks.append(
+                TaskSpec(name, period or tick, prio if prio is not None else 0, wd_time, wd_sens)
+            )
+    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000)
+
+
+def _is_loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
+    path = join("buses", name)
+    m = c.mapping(body, line, path, None)
+    if m is None:
+        return None
+    kind = c.choice(m, "type", path, BUS_TYPES, None)
+    if "type" not in m:
+        c.error(m.line, join(path, "type"), "missing", ", ".join(BUS_TYPES))
+    if kind is None:
+        c.keys(m, path, {"type": False, "drives": False, **_CAN, **_MODBUS})
+        return None
+    keys = {**_BUS, **(_CAN if kind == "can" else _MODBUS)}
+    c.keys(m, path, keys)
+    drives = c.choice(m, "drives", path, BUS_DRIVES, "simulated")
+    if kind == "can":
+        interface = c.choice(m, "interface", path, CAN_INTERFACES, "virtual")
+        channel = c.string(m, "channel", path, name if interface == "virtual" else "vcan0")
+        bitrate = c.choice(m, "bitrate", path, CAN_BITRATES, 1_000_000)
+        if interface == "virtual" and drives == "external":
+            c.error(
+                m.line_of("drives"),
+                join(path, "drives"),
+                "the python-can virtual bus does not reach other processes",
+                "simulated, or interface: socketcan",
+            )
+        return BusSpec(name, kind, drives, interface, channel or name, bitrate)
+    host = c.string(m, "host", path, "127.0.0.1") or "127.0.0.1"
+    if drives == "simulated" and not _is_loopback(host):
+        c.error(
+            m.line_of("host"),
+            join(path, "host"),
+            f"simulated drives listen on loopback only, got {host!r}",
+            "127.0.0.1, ::1, localhost",
+        )
+    port = c.integer(m, "port", path, 0, lo=0, hi=65535)
+    if drives == "external" and port == 0:
+        c.error(
+            m.line_of("port"),
+            join(path, "port"),
+            "external drives need the server's port",
+            "an integer in 1..65535",
+        )
+    timeout = c.number(m, "timeout", path, 0.1, gt=0.0)
+    return BusSpec(name, kind, drives, host=host, port=port or 0, timeout=timeout or 0.1)
+
+
+def _parse_axis(
+    c: Checker, name: str, line: int, body: Any, buses: dict[str, BusSpec], tasks: list[str]
+) -> AxisSpec | None:
+    path = join("axes", name)
+    m = c.mapping(body, line, path, _AXIS)
+    if m is None:
+        return None
+    units = c.choice(m, "units", path, UNITS, "m")
+    task = c.choice(m, "task", path, tuple(tasks) or ("",), tasks[0] if tasks else "")
+    lp = join(path, "limits")
+    lim = None
+    lm = c.mapping(m.get("limits"), m.line_of("limits"), lp, _LIMITS)
+    if lm is not None:
+        v_max = c.number(lm, "v_max", lp, None, gt=0.0)
+        a_max = c.number(lm, "a_max", lp, None, gt=0.0)
+        j_max = c.number(lm, "j_max", lp, math.inf, gt=0.0, inf_ok=True)
+        v_min = c.number(lm, "v_min", lp, None, le=0.0)
+        a_min = c.number(lm, "a_min", lp, None, le=0.0)
+        for key, val in (("v_min", v_min), ("a_min", a_min)):
+            if val is not None and val == 0.0:
+                c.error(lm.line_of(key), join(lp, key), "got 0", "a number < 0")
+        if v_max is not None and a_max is not None:
+            lim = LimitsSpec(v_max, a_max, j_max or math.inf, v_min or None, a_min or None)
+    sw_min = sw_max = None
+    if m.get("software_limits") is not None:
+        sp = join(path, "software_limits")
+        sm = c.mapping(m["software_limits"], m.line_of("software_limits"), sp, _SWLIM)
+        if sm is not None:
+            sw_min = c.number(sm, "min", sp, None)
+            sw_max = c.number(sm, "max", sp, None)
+            if sw_min is not None and sw_max is not None and not sw_min < sw_max:
+                c.error(
+                    sm.line_of("max"),
+                    join(sp, "max"),
+                    f"max {_fmt(sw_max)} is not above min {_fmt(sw_min)}",
+                    "min < max",
+                )
+    modulo = c.number(m, "modulo", path, None, gt=0.0)
+    if modulo is not None and (sw_min is not None or sw_max is not None):
+        c.error(
+            m.line_of("modulo"),
+            join(path, "modulo"),
+            "a modulo axis has no software limits",
+            "modulo or software_limits",
+        )
+    fe = c.number(m, "following_error", path, None, gt=0.0)
+    qd = c.integer(m, "queue_depth", path, 8, lo=0, hi=64)
+    homing = HomingSpec()
+    if m.get("homing") is not None:
+        hp = join(path, "homing")
+        hm = c.mapping(m["homing"], m.line_of("homing"), hp, _HOMING)
+        if hm is not None:
+            method = c.choice(hm, "method", hp, HOMING, "set_position")
+            sw = c.number(hm, "switch", hp, None)
+            hv = c.number(hm, "velocity", hp, None, gt=0.0)
+            if method == "switch" and sw is None:
+                c.error(hm.line, join(hp, "switch"), "missing for method switch", "a number")
+            if method == "set_position" and ("switch" in hm or "velocity" in hm):
+                key = "switch" if "switch" in hm else "velocity"
+                c.error(
+                    hm.key_lines[key],
+                    join(hp, key),
+                    "only used by method switch",
+                    "method: switch",
+                )
+            homing = HomingSpec(method, sw, hv)
+    drive = DriveSpec()
+    if m.get("drive") is not None:
+        drive = _parse_drive(c, m, path, buses) or drive
+    if lim is None:
+        return None
+    return AxisSpec(
+        name,
+        lim,
+        units,
+        task,
+        sw_min,
+        sw_max,
+        modulo,
+        fe,
+        homing,
+        drive,
+        qd if qd is not None else 8,
+    )
+
+
+def _parse_drive(
+    c: Checker, axis: YamlMap, path: str, buses: dict[str, BusSpec]
+) -> DriveSpec | None:
+    dp = join(path, "drive")
+    m = c.mapping(axis["drive"], axis.line_of("drive"), dp, _DRIVE_KEYS)
+    if m is None:
+        return None
+    dtype = c.choice(m, "type", dp, ("ideal", "bus"), None)
+    bus_name = m.get("bus")
+    if dtype == "ideal" or (dtype is None and bus_name is None):
+        for k in ("bus", "node_id", "unit_id", "counts_per_unit", "word_order"):
+            if k in m:
+                c.error(m.key_lines[k], join(dp, k), "not used by an ideal drive", "type: ideal")
+        return DriveSpec()
+    if bus_name is None:
+        c.error(m.line, join(dp, "bus"), "missing", ", ".join(buses) or "a bus name")
+        return None
+    if bus_name not in buses:
+        c.error(
+            m.line_of("bus"),
+            join(dp, "bus"),
+            f"unknown bus {bus_name!r}",
+            ", ".join(buses) or "no bus is defined",
+        )
+        return None
+    bus = buses[bus_name]
+    cpu = c.number(m, "counts_per_unit", dp, 1.0e6, gt=0.0) or 1.0e6
+    if bus.type == "can":
+        for k in ("unit_id", "word_order"):
+            if k in m:
+                c.error(m.key_lines[k], join(dp, k), "not used on a CAN bus", "node_id")
+        if "node_id" not in m:
+            c.error(m.line, join(dp, "node_id"), "missing", "an integer in 1..127")
+        node = c.integer(m, "node_id", dp, None, lo=1, hi=127)
+        return DriveSpec("canopen", bus_name, node_id=node, counts_per_unit=cpu)
+    if "node_id" in m:
+        c.error(m.key_lines["node_id"], join(dp, "node_id"), "not used on Modbus", "unit_id")
+    if "unit_id" not in m:
+        c.error(m.line, join(dp, "unit_id"), "missing", "an integer in 1..247")
+    unit = c.integer(m, "unit_id", dp, None, lo=1, hi=247)
+    order = c.choice(m, "word_order", dp, WORD_ORDERS, "big")
+    return DriveSpec("modbus", bus_name, unit_id=unit, counts_per_unit=cpu, word_order=order)
+
+
+def parse_config(data: Any, file: str | Path) -> Config:
+    """Validate a loaded YAML document (from :func:`load_yaml`); raise one ConfigError."""
+    c = Checker(file)
+    top = c.mapping(data, getattr(data, "line", 1), "(top level)", _TOP)
+    if top is None:
+        c.raise_if_any()
+        raise AssertionError("unreachable")
+    runtime = None
+    rm = c.mapping(top.get("runtime"), top.line_of("runtime"), "runtime", _RUNTIME)
+    if rm is not None:
+        runtime = _parse_runtime(c, rm)
+    tasks = [t.name for t in runtime.tasks] if runtime is not None else []
+    buses: dict[str, BusSpec] = {}
+    if top.get("buses") is not None:
+        bm = c.mapping(top["buses"], top.line_of("buses"), "buses", None)
+        for name, body in (bm or {}).items():
+            if c.name(bm, name, "buses"):
+                bus = _parse_bus(c, name, bm.line_of(name), body)
+                if bus is not None:
+                    buses[name] = bus
+    axes: list[AxisSpec] = []
+    am = c.mapping(top.get("axes"), top.line_of("axes"), "axes", None)
+    lines: dict[str, int] = {}
+    if am is not None:
+        if not am:
+            c.error(am.line, "axes", "no axis", "at least one axis")
+        for name, body in am.items():
+            if c.name(am, name, "axes"):
+                ax = _parse_axis(c, name, am.line_of(name), body, buses, tasks)
+                if ax is not None:
+                    axes.append(ax)
+                    lines[name] = am.line_of(name)
+        # bus-wide rules: unique node/unit ids, one task per CAN bus
+        seen: dict[tuple[str, int], str] = {}
+        bus_task: dict[str, tuple[str, str]] = {}
+        for ax in axes:
+            d = ax.drive
+            if d.bus is None:
+                continue
+            ident = d.node_id if d.kind == "canopen" else d.unit_id
+            key = "node_id" if d.kind == "canopen" else "unit_id"
+            dm = am[ax.name]["drive"]
+            if ident is not None:
+                if (d.bus, ident) in seen:
+                    c.error(
+                        dm.line_of(key),
+                        f"axes.{ax.name}.drive.{key}",
+                        f"{ident} is already used by axis {seen[(d.bus, ident)]!r} "
+                        f"on bus {d.bus!r}",
+                        "one axis per id and bus",
+                    )
+                else:
+                    seen[(d.bus, ident)] = ax.name
+            if d.kind == "canopen":
+                if d.bus in bus_task and bus_task[d.bus][0] != ax.task:
+                    first = bus_task[d.bus]
+                    c.error(
+                        am[ax.name].line_of("task"),
+                        f"axes.{ax.name}.task",
+                        f"{ax.task!r}, but axis {first[1]!r} on CAN bus {d.bus!r} runs in "
+                        f"{first[0]!r} (one SYNC per bus)",
+                        first[0],
+                    )
+                else:
+                    bus_task.setdefault(d.bus, (ax.task, ax.name))
+    groups: list[tuple[str, tuple[str, ...]]] = []
+    if top.get("groups") is not None:
+        gm = c.mapping(top["groups"], top.line_of("groups"), "groups", None)
+        for name, members in (gm or {}).items():
+            gp = join("groups", name)
+            if not c.name(gm, name, "groups"):
+                continue
+            if name in lines:
+                c.error(gm.key_lines[name], gp, "a group cannot have the name of an axis")
+                continue
+            if not isinstance(members, YamlList) or not members:
+                c.error(gm.line_of(name), gp, f"got {_tname(members)}", "a list of axis names")
+                continue
+            ok = True
+            for i, member in enumerate(members):
+                if member not in lines:
+                    ok = False
+                    c.error(
+                        members.line_of(i),
+                        join(gp, i),
+                        f"unknown axis {member!r}"
+                        if isinstance(member, str)
+                        else f"got {_tname(member)}",
+                        ", ".join(lines) or "no axis is defined",
+                    )
+                elif members.index(member) != i:
+                    ok = False
+                    c.error(members.line_of(i), join(gp, i), f"axis {member!r} is listed twice")
+            if ok:
+                groups.append((name, tuple(members)))
+    c.raise_if_any()
+    assert runtime is not None
+    return Config(str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups))
+
+
+def load_config(path: str | Path) -> Config:
+    """Load and validate a machine configuration; raises ConfigError listing every problem."""
+    return parse_config(load_yaml(path), path)
+
+
+# ------------------------------------------------------------------------ building
+class _TaskBody:
+    """The program of one task: calls the attached programs in order."""
+
+    def __init__(self) -> None:
+        self.programs: list[Callable[[CycleContext], Any]] = []
+
+    def __call__(self, ctx: CycleContext) -> None:
+        for program in self.programs:
+            program(ctx)
+
+
+class Machine:
+    """A runtime built from a :class:`Config`: axes with their drives, tasks, simulated drives.
+
+    Attach programs with :meth:`attach`, then ``machine.runtime.run(...)``; :meth:`close` (or
+    ``with``) closes the drives, the bus endpoints and the simulated drives.
+    """
+
+    def __init__(self, config: Config, runtime: Runtime) -> None:
+        self.config = config
+        self.runtime = runtime
+        self.axes: dict[str, Axis] = {}
+        self.groups: dict[str, tuple[str, ...]] = config.group_map
+        self.bodies: dict[str, _TaskBody] = {}
+        self.peers: dict[str, Any] = {}  # bus name -> simulated drives (VirtualCanBus, server)
+        self._closers: list[Callable[[], None]] = []
+        self._closed = False
+
+    def attach(self, program: Callable[[CycleContext], Any], task: str | None = None) -> None:
+        """Call ``program(ctx)`` every cycle of ``task`` (default: the first task)."""
+        name = task if task is not None else self.config.runtime.tasks[0].name
+        if name not in self.bodies:
+            raise ConfigError(
+                f"{self.config.path}: unknown task {name!r} (allowed: {', '.join(self.bodies)})"
+            )
+        self.bodies[name].programs.append(program)
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self.runtime.close()
+        for closer in reversed(self._closers):
+            try:
+                closer()
+            except Exception:  # noqa: BLE001 - best effort at shutdown
+                pass
+
+    def __enter__(self) -> Machine:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __iter__(self) -> Iterator[Axis]:
+        return iter(self.axes.values())
+
+
+def build(
+    config: Config,
+    *,
+    realtime: bool | None = None,
+    check_invariants: bool = False,
+    unique_channels: bool = True,
+) -> Machine:
+    """Create the runtime, tasks, drives and axes of ``config``.
+
+    ``realtime`` overrides ``runtime.clock``. ``unique_channels``: python-can ``virtual``
+    channels get a unique suffix, so that two machines in one process never share frames.
+    """
+    from motionplc.runtime import RealtimeClock, Runtime, SimClock
+
+    rs = config.runtime
+    use_rt = (rs.clock == "realtime") if realtime is None else realtime
+    rt = Runtime(
+        cycle=rs.tick,
+        clock=RealtimeClock() if use_rt else SimClock(),
+        trace_capacity=rs.trace_capacity,
+        overrun_policy=rs.overrun,
+        check_invariants=check_invariants,
+    )
+    machine = Machine(config, rt)
+    try:
+        for t in rs.tasks:
+            body = _TaskBody()
+            machine.bodies[t.name] = body
+            rt.add_task(
+                t.name,
+                body,
+                t.period,
+                t.priority,
+                watchdog_time=t.watchdog_time,
+                watchdog_sensitivity=t.watchdog_sensitivity,
+            )
+        masters: dict[str, Any] = {}
+        modbus_first: set[str] = set()
+        for ax in config.axes:
+            drive = _make_drive(machine, ax, masters, modbus_first, unique_channels)
+            v, a, j = ax.limits.symmetric
+            options: dict[str, Any] = {
+                "modulo": ax.modulo,
+                "following_error_limit": ax.following_error,
+                "sw_limit_pos": ax.sw_limit_max,
+                "sw_limit_neg": ax.sw_limit_min,
+                "queue_depth": ax.queue_depth,
+            }
+            if ax.homing.method == "switch":
+                options["home_switch"] = ax.homing.switch
+                options["home_velocity"] = ax.homing.velocity
+            machine.axes[ax.name] = rt.add_axis(
+                ax.name, v, a, j, drive=drive, task=ax.task, **options
+            )
+    except BaseException:
+        machine.close()
+        raise
+    return machine
+
+
+def _make_drive(
+    machine: Machine,
+    ax: AxisSpec,
+    masters: dict[str, Any],
+    modbus_first: set[str],
+    unique_channels: bool,
+) -> Any:
+    d = ax.drive
+    cfg = machine.config
+    period = cfg.runtime.task(ax.task).period
+    if d.kind == "ideal":
+        from motionplc.fieldbus.ideal import IdealDrive
+
+        return IdealDrive(ax.name)
+    assert d.bus is not None
+    bus = cfg.bus(d.bus)
+    if d.kind == "canopen":
+        import can
+
+        from motionplc.fieldbus.canopen_drive import (
+            CanopenDrive,
+            CanopenDriveConfig,
+            CanopenMaster,
+        )
+
+        if d.bus not in masters:
+            channel = bus.channel
+            if bus.interface == "virtual" and unique_channels:
+                channel = f"{channel}-{uuid.uuid4().hex[:12]}"
+            rack = None
+            if bus.drives == "simulated":
+                from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+
+                nodes = [
+                    a.drive.node_id
+                    for a in cfg.axes
+                    if a.drive.bus == d.bus and a.drive.node_id is not None
+                ]
+                rack = VirtualCanBus(
+                    can.Bus(interface=bus.interface, channel=channel),
+                    [VirtualCia402Drive(n) for n in nodes],
+                )
+                machine._closers.append(rack.close)
+                machine.peers[d.bus] = rack
+            master = CanopenMaster(can.Bus(interface=bus.interface, channel=channel), peer=rack)
+            machine._closers.append(master.close)
+            masters[d.bus] = master
+        assert d.node_id is not None
+        return CanopenDrive(
+            ax.name,
+            masters[d.bus],
+            CanopenDriveConfig(
+                node_id=d.node_id, counts_per_unit=d.counts_per_unit, cycle_time=period
+            ),
+        )
+    from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig
+
+    port = bus.port
+    peer = None
+    if bus.drives == "simulated":
+        if d.bus not in masters:
+            from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
+
+            units = [a.drive for a in cfg.axes if a.drive.bus == d.bus]
+            server = VirtualModbusServer(
+                [VirtualModbusDrive(u.unit_id or 1, word_order=u.word_order) for u in units],  # type: ignore[arg-type]
+                host=bus.host,
+                port=bus.port,
+            )
+            server.start()
+            machine._closers.append(server.stop)
+            machine.peers[d.bus] = server
+            masters[d.bus] = server
+        port = masters[d.bus].port
+        if d.bus not in modbus_first:
+            modbus_first.add(d.bus)
+            peer = masters[d.bus]
+    assert d.unit_id is not None
+    return ModbusDrive(
+        ax.name,
+        ModbusDriveConfig(
+            port=port,
+            host=bus.host,
+            device_id=d.unit_id,
+            counts_per_unit=d.counts_per_unit,
+            word_order=d.word_order,  # type: ignore[arg-type]
+            cycle_time=period,
+            timeout=bus.timeout,
+        ),
+        peer=peer,
+    )

@@ -1,0 +1,855 @@
+"""Scripted motion sequences (YAML, SFC-like) and their runner.
+
+A sequence is a list of steps. A step issues FB calls, waits for its transition condition,
+checks its expectations, then the next step starts::
+
+    task: motion            # optional: the task that runs the sequence (default: the first)
+    timeout: 60             # optional: [s] of (virtual) time for the whole sequence
+    steps:
+      - name: power on
+        call:
+          - {block: pwr_x, type: MC_Power, axis: x, enable: true}
+        until: {done: pwr_x}                 # MC_Power: status; enable FBs: valid
+      - name: move
+        call:
+          - {block: mx, type: MC_MoveAbsolute, axis: x, position: 1.0, velocity: 0.5}
+          - {block: mx2, type: MC_MoveRelative, axis: x, distance: -0.5, velocity: 0.5,
+             buffer_mode: BLENDING_PREVIOUS}
+        until: done                          # every block issued in this step is Done
+        expect: {x.position: 0.5, within: 1.0e-9}
+      - wait: 0.2                            # a step that only waits
+      - parallel:                            # branches run side by side; joined when all end
+          x: [{call: [{block: mx, position: 0.0}]}]
+          y: [{call: [{block: my, type: MC_MoveAbsolute, axis: y, position: 0.3,
+                       velocity: 0.2}]}]
+
+Calls: ``block`` names an FB instance (created on first use with ``type`` and ``axis``; later
+calls reuse it, and re-issuing an Execute FB gives it a new rising edge). Inputs are the FB's
+pins (snake_case PLCopen names); enums by member name (``buffer_mode: BUFFERED``,
+``direction: POSITIVE``). ``type: SyncMoveAbsolute`` with ``group`` and ``position: {axis:
+target}`` moves the axes of a group so that they start and arrive together (each axis' own
+time-optimal move, time-scaled to the slowest one; the axes must be at rest).
+
+Conditions (``until``; several keys must all hold): ``done`` (a block, a list of blocks, or
+``done`` alone = every block issued in the step), ``time`` (seconds in the step), ``position:
+{x: {min: a, max: b}}``, ``state: {x: STANDSTILL}``. A step without ``until`` waits for its
+blocks (``done``). ``timeout`` of a step fails the run when the condition is not met in time.
+``expect: {x.position: 1.0, x.state: STANDSTILL, mx.done: true, within: 1.0e-6}`` is checked
+when the step's condition holds; a mismatch fails the run with a clear message, as does an FB
+error or an axis going to ErrorStop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import Enum
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from motionplc.config import Checker, Config, YamlList, YamlMap, _tname, join, load_yaml
+
+if TYPE_CHECKING:
+    from motionplc.config import Machine
+    from motionplc.runtime import CycleContext
+
+__all__ = [
+    "AXIS_FIELDS",
+    "Call",
+    "Condition",
+    "Expectation",
+    "Sequence",
+    "SequenceRunner",
+    "Step",
+    "load_sequence",
+    "parse_sequence",
+]
+
+AXIS_FIELDS = ("position", "actual_position", "velocity", "following_error", "state")
+SYNC_MOVE = "SyncMoveAbsolute"
+_TOP = {"task": False, "timeout": False, "steps": True}
+_STEP = {
+    "name": False,
+    "call": False,
+    "until": False,
+    "timeout": False,
+    "expect": False,
+    "wait": False,
+    "parallel": False,
+}
+_COND = {"done": False, "time": False, "position": False, "state": False}
+
+
+def _fb_types() -> dict[str, type]:
+    import motionplc.blocks as blocks
+
+    return {n: getattr(blocks, n) for n in blocks.__all__ if n.startswith("MC_")}
+
+
+def _is_enable_fb(cls: type) -> bool:
+    return "enable" in cls.INPUTS  # type: ignore[attr-defined]
+
+
+# ------------------------------------------------------------------------ dataclasses
+@dataclass(frozen=True, slots=True)
+class Call:
+    """One FB call of a step: inputs to set (execute FBs also get a rising edge)."""
+
+    block: str
+    inputs: tuple[tuple[str, Any], ...]
+    line: int
+
+
+@dataclass(frozen=True, slots=True)
+class Condition:
+    """Transition condition: all given parts must hold. ``done = ("*",)``: every issued block."""
+
+    done: tuple[str, ...] = ("*",)
+    time: float | None = None
+    positions: tuple[tuple[str, float, float], ...] = ()
+    states: tuple[tuple[str, str], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class Expectation:
+    target: str  # "axis.field" or "block.output"
+    value: Any
+    within: float
+    line: int
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    name: str
+    line: int
+    calls: tuple[Call, ...] = ()
+    until: Condition = field(default_factory=Condition)
+    timeout: float | None = None
+    expects: tuple[Expectation, ...] = ()
+    branches: tuple[tuple[str, tuple[Step, ...]], ...] = ()
+
+
+@dataclass(frozen=True, slots=True)
+class BlockDecl:
+    """An FB instance of the sequence: ``type`` (an MC_* name or SyncMoveAbsolute), its axis
+    (or group)."""
+
+    name: str
+    type: str
+    axis: str
+    line: int
+
+
+@dataclass(frozen=True, slots=True)
+class Sequence:
+    path: str
+    task: str
+    timeout: float
+    blocks: tuple[BlockDecl, ...]
+    steps: tuple[Step, ...]
+
+
+# ------------------------------------------------------------------------ parsing
+class _Parser:
+    def __init__(self, c: Checker, config: Config) -> None:
+        self.c = c
+        self.config = config
+        self.types = _fb_types()
+        self.blocks: dict[str, BlockDecl] = {}
+        self.anon = 0
+        self.axes = [a.name for a in config.axes]
+        self.groups = config.group_map
+
+    def steps(self, seq: Any, line: int, path: str) -> tuple[Step, ...]:
+        c = self.c
+        if not isinstance(seq, YamlList) or not seq:
+            c.error(line, path, f"got {_tname(seq)}", "a non-empty list of steps")
+            return ()
+        out = []
+        for i, body in enumerate(seq):
+            st = self.step(body, seq.line_of(i), join(path, i), i)
+            if st is not None:
+                out.append(st)
+        return tuple(out)
+
+    def step(self, body: Any, line: int, path: str, index: int) -> Step | None:
+        c = self.c
+        m = c.mapping(body, line, path, _STEP)
+        if m is None:
+            return None
+        name = c.string(m, "name", path, f"step {index + 1}") or f"step {index + 1}"
+        kinds = [k for k in ("call", "wait", "parallel") if k in m]
+        if len(kinds) > 1:
+            c.error(
+                m.key_lines[kinds[1]],
+                join(path, kinds[1]),
+                f"a step has one of call, wait, parallel; this one also has {kinds[0]}",
+                "call, wait, parallel",
+            )
+        calls: list[Call] = []
+        if "call" in m:
+            cl = m["call"]
+            cp = join(path, "call")
+            if isinstance(cl, YamlMap):  # a single call
+                cl_list = YamlList()
+                cl_list.append(cl)
+                cl_list.item_lines.append(m.line_of("call"))
+                cl = cl_list
+            if not isinstance(cl, YamlList) or not cl:
+                c.error(m.line_of("call"), cp, f"got {_tname(cl)}", "a list of FB calls")
+            else:
+                for j, item in enumerate(cl):
+                    call = self.call(item, cl.line_of(j), join(cp, j))
+                    if call is not None:
+                        calls.append(call)
+        until = Condition()
+        if "wait" in m:
+            w = c.number(m, "wait", path, None, ge=0.0)
+            until = Condition(done=(), time=w)
+        if "until" in m:
+            until = self.condition(m, path, bool(calls))
+        elif not calls and "wait" not in m:
+            until = Condition(done=())
+        timeout = c.number(m, "timeout", path, None, gt=0.0)
+        branches: list[tuple[str, tuple[Step, ...]]] = []
+        if "parallel" in m:
+            pp = join(path, "parallel")
+            pm = c.mapping(m["parallel"], m.line_of("parallel"), pp, None)
+            if pm is not None:
+                if not pm:
+                    c.error(pm.line, pp, "no branch", "one or more named branches")
+                for bname, blist in pm.items():
+                    branches.append(
+                        (str(bname), self.steps(blist, pm.line_of(bname), join(pp, bname)))
+                    )
+            if "until" not in m:
+                until = Condition(done=())
+        expects = self.expects(m, path) if "expect" in m else ()
+        return Step(name, line, tuple(calls), until, timeout, expects, tuple(branches))
+
+    def call(self, body: Any, line: int, path: str) -> Call | None:
+        c = self.c
+        m = c.mapping(body, line, path, None)
+        if m is None:
+            return None
+        bname = m.get("block")
+        if "block" in m and (not isinstance(bname, str) or not bname or "." in bname):
+            c.error(
+                m.line_of("block"),
+                join(path, "block"),
+                f"got {_tname(bname)}",
+                "a name without '.'",
+            )
+            return None
+        decl = self.blocks.get(bname) if isinstance(bname, str) else None
+        fb_type = m.get("type")
+        type_names = [*self.types, SYNC_MOVE]
+        if decl is None:
+            if fb_type is None:
+                c.error(
+                    m.line,
+                    join(path, "type"),
+                    "missing (first use of the block)",
+                    ", ".join(type_names),
+                )
+                return None
+            if fb_type not in type_names:
+                c.error(
+                    m.line_of("type"),
+                    join(path, "type"),
+                    f"got {_tname(fb_type)}",
+                    ", ".join(type_names),
+                )
+                return None
+            target_key = "group" if fb_type == SYNC_MOVE else "axis"
+            target = m.get(target_key)
+            options = list(self.groups) if fb_type == SYNC_MOVE else self.axes
+            if target not in options:
+                problem = "missing" if target is None else f"unknown {target_key} {target!r}"
+                c.error(
+                    m.line_of(target_key),
+                    join(path, target_key),
+                    problem,
+                    ", ".join(options) or f"no {target_key} is defined",
+                )
+                return None
+            if bname is None:
+                self.anon += 1
+                bname = f"{fb_type}_{self.anon}"
+            decl = BlockDecl(bname, fb_type, target, m.line)
+            self.blocks[bname] = decl
+        else:
+            if fb_type is not None and fb_type != decl.type:
+                c.error(
+                    m.line_of("type"),
+                    join(path, "type"),
+                    f"block {bname!r} is a {decl.type} (line {decl.line})",
+                    decl.type,
+                )
+            key = "group" if decl.type == SYNC_MOVE else "axis"
+            if key in m and m[key] != decl.axis:
+                c.error(
+                    m.line_of(key),
+                    join(path, key),
+                    f"block {bname!r} is bound to {decl.axis!r} (line {decl.line})",
+                    decl.axis,
+                )
+        inputs = self.inputs(m, path, decl)
+        return Call(decl.name, inputs, line)
+
+    def inputs(self, m: YamlMap, path: str, decl: BlockDecl) -> tuple[tuple[str, Any], ...]:
+        c = self.c
+        if decl.type == SYNC_MOVE:
+            allowed = ["block", "type", "group", "position"]
+            c.keys(m, path, {k: False for k in allowed})
+            pos = m.get("position")
+            members = self.groups[decl.axis]
+            if pos is None:
+                return ()
+            pm = c.mapping(
+                pos, m.line_of("position"), join(path, "position"), {a: False for a in members}
+            )
+            out: dict[str, float] = {}
+            if pm is not None:
+                for a in members:
+                    v = c.number(pm, a, join(path, "position"), None)
+                    if v is not None:
+                        out[a] = v
+            return (("position", tuple(out.items())),)
+        cls = self.types[decl.type]
+        pins = [p for p in cls.INPUTS if p not in ("axis", "execute")]  # type: ignore[attr-defined]
+        c.keys(m, path, {k: False for k in ["block", "type", "axis", *pins]})
+        proto = cls()
+        out_inputs: list[tuple[str, Any]] = []
+        for pin in pins:
+            if pin not in m:
+                continue
+            default = getattr(proto, pin)
+            val = m[pin]
+            line = m.line_of(pin)
+            p = join(path, pin)
+            if isinstance(default, bool):
+                if not isinstance(val, bool):
+                    c.error(line, p, f"got {_tname(val)}", "true, false")
+                    continue
+            elif isinstance(default, Enum):
+                enum = type(default)
+                names = [e.name for e in enum]
+                if val not in names:
+                    c.error(line, p, f"got {_tname(val)}", ", ".join(names))
+                    continue
+                val = enum[val]
+            elif isinstance(default, (int, float)):
+                num = c.number(m, pin, path, None)
+                if num is None:
+                    continue
+                val = num
+            out_inputs.append((pin, val))
+        return tuple(out_inputs)
+
+    def condition(self, m: YamlMap, path: str, has_calls: bool) -> Condition:
+        c = self.c
+        up = join(path, "until")
+        u = m["until"]
+        if u == "done":
+            return Condition()
+        cm = c.mapping(u, m.line_of("until"), up, _COND, "done, or a mapping of conditions")
+        if cm is None:
+            return Condition()
+        done: tuple[str, ...] = ()
+        if "done" in cm:
+            d = cm["done"]
+            names = [d] if isinstance(d, str) else d
+            if d == "done" or d is True:
+                done = ("*",)
+            elif not isinstance(names, list) or not names:
+                c.error(
+                    cm.line_of("done"),
+                    join(up, "done"),
+                    f"got {_tname(d)}",
+                    "a block name or a list of block names",
+                )
+            else:
+                ok = []
+                for name in names:
+                    if name not in self.blocks:
+                        c.error(
+                            cm.line_of("done"),
+                            join(up, "done"),
+                            f"unknown block {name!r}",
+                            ", ".join(self.blocks) or "no block is declared yet",
+                        )
+                    else:
+                        ok.append(name)
+                done = tuple(ok)
+        t = c.number(cm, "time", up, None, ge=0.0)
+        positions = []
+        if "position" in cm:
+            pp = join(up, "position")
+            pm = c.mapping(
+                cm["position"], cm.line_of("position"), pp, {a: False for a in self.axes}
+            )
+            for a, spec in (pm or {}).items():
+                if a not in self.axes:
+                    continue
+                ap = join(pp, a)
+                sm = c.mapping(spec, pm.line_of(a), ap, {"min": False, "max": False})
+                if sm is not None:
+                    lo = c.number(sm, "min", ap, -math.inf)
+                    hi = c.number(sm, "max", ap, math.inf)
+                    if "min" not in sm and "max" not in sm:
+                        c.error(sm.line, ap, "no bound", "min, max")
+                    positions.append(
+                        (a, lo if lo is not None else -math.inf, hi if hi is not None else math.inf)
+                    )
+        states = []
+        if "state" in cm:
+            from motionplc.blocks import AxisState
+
+            sp = join(up, "state")
+            sm2 = c.mapping(cm["state"], cm.line_of("state"), sp, {a: False for a in self.axes})
+            names = tuple(s.name for s in AxisState)
+            for a in sm2 or {}:
+                if a in self.axes:
+                    st = c.choice(sm2, a, sp, names, None)
+                    if st is not None:
+                        states.append((a, st))
+        return Condition(done, t, tuple(positions), tuple(states))
+
+    def expects(self, m: YamlMap, path: str) -> tuple[Expectation, ...]:
+        c = self.c
+        ep = join(path, "expect")
+        em = c.mapping(m["expect"], m.line_of("expect"), ep, None)
+        if em is None:
+            return ()
+        within = c.number(em, "within", ep, 1e-6, ge=0.0)
+        within = 1e-6 if within is None else within
+        out = []
+        allowed_axes = ", ".join(f"{a}.{f}" for a in self.axes for f in AXIS_FIELDS)
+        for key, val in em.items():
+            if key == "within":
+                continue
+            kp = join(ep, key)
+            line = em.line_of(key)
+            obj, _, attr = str(key).partition(".")
+            if obj in self.axes:
+                if attr not in AXIS_FIELDS:
+                    c.error(
+                        em.key_lines[key],
+                        kp,
+                        f"unknown axis field {attr!r}",
+                        ", ".join(AXIS_FIELDS),
+                    )
+                    continue
+                if attr == "state":
+                    from motionplc.blocks import AxisState
+
+                    names = tuple(s.name for s in AxisState)
+                    if val not in names:
+                        c.error(line, kp, f"got {_tname(val)}", ", ".join(names))
+                        continue
+                elif isinstance(val, bool) or not isinstance(val, (int, float)):
+                    c.error(line, kp, f"got {_tname(val)}", "a number")
+                    continue
+            elif obj in self.blocks and attr:
+                if not isinstance(val, (bool, int, float)):
+                    c.error(line, kp, f"got {_tname(val)}", "a boolean or a number")
+                    continue
+            else:
+                c.error(
+                    em.key_lines[key],
+                    kp,
+                    f"unknown target {key!r}",
+                    f"{allowed_axes}, BLOCK.OUTPUT, within",
+                )
+                continue
+            out.append(Expectation(str(key), val, within, line))
+        return tuple(out)
+
+
+def parse_sequence(data: Any, file: str | Path, config: Config) -> Sequence:
+    """Validate a loaded sequence document against ``config``; raise one ConfigError."""
+    c = Checker(file)
+    top = c.mapping(data, getattr(data, "line", 1), "(top level)", _TOP)
+    if top is None:
+        c.raise_if_any()
+        raise AssertionError("unreachable")
+    tasks = tuple(t.name for t in config.runtime.tasks)
+    task = c.choice(top, "task", "", tasks, tasks[0])
+    timeout = c.number(top, "timeout", "", 600.0, gt=0.0) or 600.0
+    p = _Parser(c, config)
+    steps = p.steps(top.get("steps"), top.line_of("steps"), "steps") if "steps" in top else ()
+    c.raise_if_any()
+    return Sequence(str(file), task, timeout, tuple(p.blocks.values()), steps)
+
+
+def load_sequence(path: str | Path, config: Config) -> Sequence:
+    """Load and validate a sequence file for ``config``."""
+    return parse_sequence(load_yaml(path), path, config)
+
+
+# ------------------------------------------------------------------------ running
+class _Block:
+    """Runtime side of one block: the FB, its pending inputs and latched outcome."""
+
+    def __init__(self, decl: BlockDecl, fb: Any, enable_fb: bool) -> None:
+        self.decl = decl
+        self.fb = fb
+        self.enable_fb = enable_fb
+        self.pending: dict[str, Any] = {}
+        self.low_first = False  # give execute a falling edge before the rising one
+        self.armed = False  # the rising edge has been delivered since the last issue
+        self.done = False
+        self.issued = False
+        self.reported = False
+
+    def call(self) -> None:
+        if self.low_first:
+            self.low_first = False
+            self.fb(execute=False)
+            return
+        kw = self.pending
+        self.pending = {}
+        self.fb(**kw)
+        if self.issued:
+            self.armed = True
+
+    def outcome(self) -> bool:
+        fb = self.fb
+        if not self.armed:
+            return False
+        if self.enable_fb:
+            ok = bool(
+                getattr(fb, "status", False)
+                or getattr(fb, "valid", False)
+                or getattr(fb, "enabled", False)
+            )
+            return ok
+        if getattr(fb, "in_velocity", False):
+            return True
+        if fb.done:
+            self.done = True
+        return self.done
+
+
+class _SyncBlock:
+    """SyncMoveAbsolute: one MC_MoveAbsolute per group member, time-scaled to arrive together."""
+
+    def __init__(self, decl: BlockDecl, members: dict[str, _Block]) -> None:
+        self.decl = decl
+        self.members = members
+        self.issued = False
+
+    def issue(self, targets: dict[str, float]) -> None:
+        from motionplc.planning import Limits, State, plan
+
+        durations: dict[str, float] = {}
+        for name, blk in self.members.items():
+            if name not in targets:
+                continue
+            ax = blk.fb.axis
+            cfg = ax.cfg
+            lim = Limits(v_max=cfg.v_max, a_max=cfg.a_max, j_max=cfg.j_max)
+            durations[name] = plan(State(ax.p, ax.v, ax.a), State(targets[name]), lim).duration
+        t_max = max(durations.values(), default=0.0)
+        for name, blk in self.members.items():
+            blk.issued = False
+            if name not in targets or t_max <= 0.0:
+                continue
+            ax = blk.fb.axis
+            cfg = ax.cfg
+            r = durations[name] / t_max
+            if r <= 0.0:
+                continue
+            jerk = cfg.j_max * r**3 if math.isfinite(cfg.j_max) else 0.0
+            _issue(
+                blk,
+                {
+                    "position": targets[name],
+                    "velocity": cfg.v_max * r,
+                    "acceleration": cfg.a_max * r * r,
+                    "deceleration": cfg.a_max * r * r,
+                    "jerk": min(jerk, cfg.j_max),
+                },
+            )
+        self.issued = True
+
+    def outcome(self) -> bool:
+        return all(b.outcome() for b in self.members.values() if b.issued)
+
+
+def _issue(blk: _Block, inputs: dict[str, Any]) -> None:
+    blk.pending.update(inputs)
+    blk.issued = True
+    blk.armed = False
+    blk.done = False
+    blk.reported = False
+    if not blk.enable_fb:
+        if blk.fb.execute:
+            blk.low_first = True
+        blk.pending["execute"] = True
+
+
+class _Cursor:
+    """Position in a list of steps (the main list or a parallel branch)."""
+
+    def __init__(self, steps: tuple[Step, ...], label: str) -> None:
+        self.steps = steps
+        self.label = label
+        self.index = -1
+        self.t_entered = 0.0
+        self.issued: list[str] = []
+        self.branches: list[_Cursor] = []
+
+    @property
+    def finished(self) -> bool:
+        return self.index >= len(self.steps)
+
+    @property
+    def step(self) -> Step:
+        return self.steps[self.index]
+
+
+class SequenceRunner:
+    """Runs a :class:`Sequence` on a :class:`~motionplc.config.Machine` as a task program.
+
+    Every scan it calls every FB instance of the sequence (declaration order), then evaluates
+    the transition conditions; the calls of a step entered in scan k take effect in scan k+1.
+    ``finished`` / ``failed`` / ``failures`` report the outcome.
+    """
+
+    def __init__(self, sequence: Sequence, machine: Machine) -> None:
+        self.sequence = sequence
+        self.machine = machine
+        self.types = _fb_types()
+        self.blocks: dict[str, _Block | _SyncBlock] = {}
+        self._scan_order: list[_Block] = []
+        for decl in sequence.blocks:
+            if decl.type == SYNC_MOVE:
+                members = {}
+                for a in machine.groups[decl.axis]:
+                    sub = BlockDecl(f"{decl.name}.{a}", "MC_MoveAbsolute", a, decl.line)
+                    members[a] = self._make(sub)
+                self.blocks[decl.name] = _SyncBlock(decl, members)
+            else:
+                self.blocks[decl.name] = self._make(decl)
+        self.root = _Cursor(sequence.steps, "")
+        self.finished = False
+        self.failures: list[str] = []
+        self.t = 0.0
+        self.t_finished: float | None = None
+        self.steps_done = 0
+
+    def _make(self, decl: BlockDecl) -> _Block:
+        cls = self.types[decl.type]
+        ax = self.machine.axes[decl.axis]
+        fb = cls(name=f"{decl.axis}.{decl.name}", axis=ax)
+        blk = _Block(decl, fb, _is_enable_fb(cls))
+        self._scan_order.append(blk)
+        return blk
+
+    @property
+    def failed(self) -> bool:
+        return bool(self.failures)
+
+    @property
+    def over(self) -> bool:
+        """Finished or failed: nothing more will happen."""
+        return self.finished or self.failed
+
+    def _fail(self, msg: str) -> None:
+        if not self.failures:
+            self.failures.append(f"{self.sequence.path}: {msg}")
+
+    # -- the program ------------------------------------------------------------------------
+    def __call__(self, ctx: CycleContext) -> None:
+        self.t = ctx.t
+        if self.root.index < 0:
+            self._enter(self.root, 0, ctx.t)
+        for blk in self._scan_order:
+            blk.call()
+        if self.over:
+            return
+        self._check_errors()
+        if self.failed:
+            return
+        if ctx.t >= self.sequence.timeout - 1e-12:
+            self._fail(
+                f"timeout: the sequence did not finish within {self.sequence.timeout:g} s "
+                f"(at {self._where(self.root)})"
+            )
+            return
+        self._advance(self.root, ctx.t)
+        if self.root.finished and not self.failed:
+            self.finished = True
+            self.t_finished = ctx.t
+
+    def _where(self, cur: _Cursor) -> str:
+        if cur.finished:
+            return "the end"
+        st = cur.step
+        where = f"step {st.name!r} (line {st.line})"
+        if cur.label:
+            where = f"branch {cur.label!r}, " + where
+        inner = [self._where(b) for b in cur.branches if not b.finished]
+        return where + (": " + "; ".join(inner) if inner else "")
+
+    def _check_errors(self) -> None:
+        from motionplc.blocks import AxisState
+
+        for blk in self._scan_order:
+            fb = blk.fb
+            if blk.armed and fb.error and not blk.reported:
+                blk.reported = True
+                eid = fb.error_id
+                text = f": {fb.error_text}" if fb.error_text else ""
+                self._fail(
+                    f"block {blk.decl.name!r} ({blk.decl.type} on axis {blk.decl.axis!r}, "
+                    f"line {blk.decl.line}) failed with {eid.name} (0x{int(eid):04X}){text}"
+                )
+                return
+        for name, ax in self.machine.axes.items():
+            if ax.state is AxisState.ERROR_STOP:
+                reason = ax.axis_error_reason or ax.axis_error.name
+                self._fail(
+                    f"axis {name!r} went to ERROR_STOP at t = {self.t:.3f} s "
+                    f"({ax.axis_error.name}: {reason}) in {self._where(self.root)}"
+                )
+                return
+
+    def _enter(self, cur: _Cursor, index: int, t: float) -> None:
+        cur.index = index
+        cur.t_entered = t
+        cur.issued = []
+        cur.branches = []
+        if cur.finished:
+            return
+        st = cur.step
+        for call in st.calls:
+            blk = self.blocks[call.block]
+            inputs = dict(call.inputs)
+            if isinstance(blk, _SyncBlock):
+                blk.issue(dict(inputs.get("position", ())))
+            else:
+                _issue(blk, inputs)
+            cur.issued.append(call.block)
+        for label, steps in st.branches:
+            sub = _Cursor(steps, label)
+            cur.branches.append(sub)
+            self._enter(sub, 0, t)
+
+    def _advance(self, cur: _Cursor, t: float) -> None:
+        while not cur.finished:
+            for sub in cur.branches:
+                self._advance(sub, t)
+                if self.failed:
+                    return
+            st = cur.step
+            if not all(b.finished for b in cur.branches) or not self._holds(cur, st, t):
+                if st.timeout is not None and t - cur.t_entered >= st.timeout - 1e-12:
+                    self._fail(
+                        f"step {st.name!r} (line {st.line}) timed out after {st.timeout:g} s "
+                        f"(condition not met: {self._describe(cur, st)})"
+                    )
+                return
+            if not self._expectations(st):
+                return
+            self.steps_done += 1
+            self._enter(cur, cur.index + 1, t)
+            # the new step's calls take effect in the next scan: stop here unless it has none
+            if not cur.finished and (cur.step.calls or cur.step.branches):
+                return
+
+    def _holds(self, cur: _Cursor, st: Step, t: float) -> bool:
+        u = st.until
+        if u.time is not None and t - cur.t_entered < u.time - 1e-12:
+            return False
+        names = cur.issued if u.done == ("*",) else u.done
+        for name in names:
+            if not self.blocks[name].outcome():
+                return False
+        axes = self.machine.axes
+        for a, lo, hi in u.positions:
+            if not lo <= axes[a].position <= hi:
+                return False
+        for a, state in u.states:
+            if axes[a].state.name != state:
+                return False
+        return True
+
+    def _describe(self, cur: _Cursor, st: Step) -> str:
+        u = st.until
+        parts = []
+        names = cur.issued if u.done == ("*",) else u.done
+        pending = [n for n in names if not self.blocks[n].outcome()]
+        if pending:
+            parts.append("not done: " + ", ".join(pending))
+        for a, lo, hi in u.positions:
+            p = self.machine.axes[a].position
+            if not lo <= p <= hi:
+                parts.append(f"{a}.position = {p:.6g} not in [{lo:g}, {hi:g}]")
+        for a, state in u.states:
+            s = self.machine.axes[a].state.name
+            if s != state:
+                parts.append(f"{a}.state = {s}, waiting for {state}")
+        return "; ".join(parts) or "time"
+
+    def _value(self, target: str) -> Any:
+        obj, _, attr = target.partition(".")
+        if obj in self.machine.axes:
+            ax = self.machine.axes[obj]
+            if attr == "state":
+                return ax.state.name
+            if attr == "position":
+                return ax.position
+            if attr == "actual_position":
+                return ax.actual_position
+            if attr == "velocity":
+                return ax.v
+            return ax.following_error
+        blk = self.blocks[obj]
+        fb = blk.fb if isinstance(blk, _Block) else None
+        if fb is None:
+            return blk.outcome() if attr == "done" else None
+        return getattr(fb, attr, None)
+
+    def _expectations(self, st: Step) -> bool:
+        for e in st.expects:
+            actual = self._value(e.target)
+            if isinstance(e.value, str) or isinstance(e.value, bool) or actual is None:
+                ok = actual == e.value
+                shown = f"{actual!r}"
+            else:
+                ok = isinstance(actual, (int, float)) and abs(actual - e.value) <= e.within
+                shown = f"{actual:.12g} (error {actual - e.value:+.3g})" if ok is not None else ""
+                if not isinstance(actual, (int, float)):
+                    shown = repr(actual)
+            if not ok:
+                want = (
+                    f"{e.value!r}"
+                    if isinstance(e.value, (str, bool))
+                    else f"{e.value:g} within {e.within:g}"
+                )
+                self._fail(
+                    f"line {e.line}: expectation failed in step {st.name!r} at t = "
+                    f"{self.t:.3f} s: {e.target} = {shown}, expected {want}"
+                )
+                return False
+        return True
+
+
+def runner_for(path: str | Path, machine: Machine) -> tuple[Callable[[Any], Any], str]:
+    """Load a sequence (``.yaml``/``.yml``) or a Python program (``.py``) for ``machine``.
+
+    Returns the program callable and the task it belongs to.
+    """
+    p = Path(path)
+    if p.suffix == ".py":
+        from motionplc.program import ProgramRunner, load_program
+
+        prog = load_program(p)
+        runner = ProgramRunner(prog, machine)
+        return runner, prog.task or machine.config.runtime.tasks[0].name
+    seq = load_sequence(p, machine.config)
+    return SequenceRunner(seq, machine), seq.task
