@@ -175,6 +175,7 @@ class _Job:
         "home_phase",
         "no_override",
         "waiting",
+        "single",
     )
 
     def __init__(self, cmd: Command, handle: Handle) -> None:
@@ -190,9 +191,11 @@ class _Job:
         self.home_phase = 0
         self.no_override = cmd.kind in _NO_OVERRIDE
         self.waiting = False  # queued behind other motion at submission
+        self.single: Profile | None = None  # the profile of a one-profile chain
 
     def set_chain(self, chain: list[Profile]) -> None:
         self.chain = chain
+        self.single = chain[0] if len(chain) == 1 else None
         offs = []
         t = 0.0
         for prof in chain:
@@ -255,6 +258,14 @@ class Axis:
     def __init__(self, config: AxisConfig, drive: Drive) -> None:
         self.cfg = config
         self.name = config.name
+        # hot-path copies of the (frozen) configuration
+        self._modulo = config.modulo
+        self._fe_limit = config.following_error_limit
+        self._sw_pos = config.sw_limit_pos
+        self._sw_neg = config.sw_limit_neg
+        self._sw_check = config.modulo is None and (
+            config.sw_limit_pos is not None or config.sw_limit_neg is not None
+        )
         self.drive = drive
         self.task_name: str | None = None
         self.fbs: list[Any] = []
@@ -342,9 +353,12 @@ class Axis:
 
     def trace_values(self) -> tuple[float, ...]:
         """One trace row part, in the order of ``runtime.trace.AXIS_FIELDS``."""
-        m = self.cfg.modulo
-        p, ap = (self.p, self.act_p) if m is None else (self.wrap(self.p), self.wrap(self.act_p))
-        return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, self.state)
+        if self._modulo is None:
+            p, ap = self.p, self.act_p
+        else:
+            p, ap = self.wrap(self.p), self.wrap(self.act_p)
+        # the state as a plain float: numpy converts an IntEnum member much more slowly
+        return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, float(self.state))
 
     def open(self) -> None:
         """Open the drive and take its position as the initial set position."""
@@ -361,35 +375,44 @@ class Axis:
     def read_inputs(self, t: float) -> None:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         fb = self.drive.read_inputs(t)
-        self.act_p = fb.position + self.offset
+        act_p = fb.position + self.offset
+        enabled = fb.enabled
+        fault = fb.fault
+        comm_ok = fb.comm_ok
+        self.act_p = act_p
         self.act_v = fb.velocity
-        self.drive_enabled = fb.enabled
-        self.drive_fault = fb.fault
-        self.comm_ok = fb.comm_ok
-        self.following_error = self._sent_p - self.act_p if fb.enabled else 0.0
+        self.drive_enabled = enabled
+        self.drive_fault = fault
+        self.comm_ok = comm_ok
+        self.following_error = self._sent_p - act_p if enabled else 0.0
         state = self.state
-        if state is not S.ERROR_STOP:
-            if not fb.comm_ok:
+        if state is not S.ERROR_STOP and (not comm_ok or fault or not enabled):
+            if not comm_ok:
                 self.raise_axis_error("COMMUNICATION_LOST", fb.detail or "communication lost")
-            elif fb.fault:
+            elif fault:
                 self.raise_axis_error(
                     "DRIVE_FAULT", f"drive fault 0x{fb.error_code:04X}: {fb.detail}".rstrip(": ")
                 )
-            elif (
-                state is not S.DISABLED
-                and self.power_request
-                and self._was_enabled
-                and not fb.enabled
-            ):
+            elif state is not S.DISABLED and self.power_request and self._was_enabled:
                 self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
-        self._was_enabled = fb.enabled
+        self._was_enabled = enabled
         if self._reset_handle is not None and self._reset_sent:
-            self._try_finish_reset(fb.fault, fb.comm_ok)
-        if self.state is S.DISABLED:
-            if self.power_request and fb.enabled and not fb.fault:
-                self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
+            self._try_finish_reset(fault, comm_ok)
+        state = self.state
+        if state is S.DISABLED:
+            if self.power_request and enabled and not fault:
+                state = self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
             self._resync()
-        self._refresh_image()
+        # image for the read FBs of this scan (inlined _refresh_image: runs every cycle)
+        self.img_state = state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = act_p
+        self.img_act_v = self.act_v
+        self.img_error = self.axis_error
+        self.img_enabled = enabled
+        self.img_homed = self.homed
 
     def _resync(self) -> None:
         self.p = self.act_p
@@ -663,19 +686,20 @@ class Axis:
             self.v = self.a = self.j = 0.0
         else:
             self._advance(job, dt, ftau)
-        if self.state is S.STOPPING and self.active is None:
+        state = self.state
+        if state is S.STOPPING and self.active is None:
             if all(not h.hold for h in self._stops):
                 self._stops.clear()
-                self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
-        if self.state is not S.ERROR_STOP:
-            lim = self.cfg.following_error_limit
+                state = self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
+        if state is not S.ERROR_STOP:
+            lim = self._fe_limit
             if lim is not None and abs(self.following_error) > lim:
                 self.raise_axis_error(
                     "FOLLOWING_ERROR",
                     f"following error {self.following_error:.6g} exceeds {lim:.6g}",
                 )
-            elif self.cfg.modulo is None:
-                hi, lo = self.cfg.sw_limit_pos, self.cfg.sw_limit_neg
+            elif self._sw_check:
+                hi, lo = self._sw_pos, self._sw_neg
                 if (hi is not None and self.p > hi + 1e-9) or (
                     lo is not None and self.p < lo - 1e-9
                 ):
@@ -916,8 +940,12 @@ class Axis:
     # -- stepping --------------------------------------------------------------------------
     def _advance(self, job: _Job, dt: float, ftau: float) -> None:
         scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
-        dtau = ftau if scaled else dt
-        job.tau += dtau
+        tau = job.tau = job.tau + (ftau if scaled else dt)
+        if tau < job.duration and not scaled and job.single is not None and job.kind != "home":
+            # fast path: a one-profile job still running, no override scaling
+            p, self.v, self.a, self.j = job.single.at(tau)
+            self.p = p + job.shift
+            return
         while True:
             tau = job.tau
             if tau < job.duration or (job.kind == "velocity" and not self.queue):

@@ -66,7 +66,7 @@ class FunctionBlock:
         self._set_inputs(inputs)
 
     def _set_inputs(self, kw: dict[str, Any]) -> None:
-        if not kw.keys() <= self._input_set:
+        if not self._input_set.issuperset(kw):
             k = next(k for k in kw if k not in self._input_set)
             raise TypeError(
                 f"{type(self).__name__}() got an unknown input {k!r}; "
@@ -75,8 +75,10 @@ class FunctionBlock:
         self.__dict__.update(kw)
 
     def __call__(self, **inputs: Any) -> Any:
-        if inputs:
-            self._set_inputs(inputs)
+        if inputs:  # inlined _set_inputs (the hot path of every scan)
+            if not self._input_set.issuperset(inputs):
+                self._set_inputs(inputs)  # raises TypeError naming the unknown input
+            self.__dict__.update(inputs)
         axis = self.axis
         if axis is not self._registered and axis is not None:
             if not isinstance(axis, Axis):
@@ -144,6 +146,8 @@ class ExecuteFB(FunctionBlock):
     INPUTS = ("axis", "execute")
     OUTPUTS = ("busy", "done", "error")
     _TERMINAL_OUT = True
+    _hook_before: ClassVar[bool] = False
+    _hook_busy: ClassVar[bool] = False
 
     def __init__(
         self, name: str | None = None, *, retrigger_ignored: bool = False, **inputs: Any
@@ -176,14 +180,28 @@ class ExecuteFB(FunctionBlock):
             self.error_text = str(exc)
             return _failed(exc.error_id)
 
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        # the per-scan hooks are called on the fast paths only when a subclass defines them
+        cls._hook_before = cls._before_outputs is not ExecuteFB._before_outputs
+        cls._hook_busy = cls._busy_outputs is not ExecuteFB._busy_outputs
+
     def _scan(self) -> None:
         ex = bool(self.execute)
         h = self._handle
-        if ex is self._prev_execute and h is not None and h.status is self._busy_status:
-            # fast path: no edge and the command is still in the same busy state
-            self._before_outputs(ex)
-            self._busy_outputs(h)
-            return
+        if ex is self._prev_execute:
+            if h is None:
+                # fast path: idle (no command, no edge); the outputs were cleared already
+                if self._hook_before:
+                    self._before_outputs(ex)
+                return
+            if h.status is self._busy_status:
+                # fast path: no edge and the command is still in the same busy state
+                if self._hook_before:
+                    self._before_outputs(ex)
+                if self._hook_busy:
+                    self._busy_outputs(h)
+                return
         if ex and not self._prev_execute:
             if not (self.retrigger_ignored and self.busy):
                 self._handle = self._start_checked()
@@ -255,23 +273,25 @@ class EnableFB(FunctionBlock):
             self.error_text = ""
             self._reset_values()
             return
-        self.busy = True
         axis = self.axis
         try:
             if axis is None:
                 raise InputError(ErrorID.INVALID_AXIS, "axis input is not connected")
             self._update(axis)
         except InputError as exc:
+            self.busy = True
             self.valid = False
             self.error = True
             self.error_id = exc.error_id
             self.error_text = str(exc)
             self._reset_values()
             return
-        self.valid = True
-        self.error = False
-        self.error_id = ErrorID.OK
-        self.error_text = ""
+        if not self.valid or self.error:  # steady state (valid, no error): nothing to write
+            self.busy = True
+            self.valid = True
+            self.error = False
+            self.error_id = ErrorID.OK
+            self.error_text = ""
 
     def _update(self, axis: Axis) -> None:
         """Compute the values (subclasses); raise InputError for a (recoverable) error."""
