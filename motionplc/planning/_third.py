@@ -55,58 +55,69 @@ def _verify(
     amax: float,
     amin: float,
 ) -> tuple[float, Phases] | None:
-    """Integrate the phases; return (duration, cleaned phases) when they reach the target
-    within tolerance and respect the limits, else None."""
-    total = 0.0
-    for ph in phases:
-        total += abs(ph[0])
-    ttol = _T_TOL * max(1.0, total)
+    """Integrate the phases; return (duration, phases) when they reach the target within
+    tolerance and respect the limits, else None. Durations a rounding error below zero are
+    accepted (Profile drops non-positive phases)."""
+    # relative margins; infinite limits stay infinite
+    vhi = vmax + _LIM_TOL * (vmax if vmax > 1.0 else 1.0)
+    vlo = vmin - _LIM_TOL * (-vmin if vmin < -1.0 else 1.0)
+    ahi = amax + _LIM_TOL * (amax if amax > 1.0 else 1.0)
+    alo = amin - _LIM_TOL * (-amin if amin < -1.0 else 1.0)
     p = 0.0
     v = v0
     a = a0
     t = 0.0
-    vhi = vmax + _LIM_TOL * max(1.0, abs(vmax)) if vmax != math.inf else math.inf
-    vlo = vmin - _LIM_TOL * max(1.0, abs(vmin)) if vmin != -math.inf else -math.inf
-    ahi = amax + _LIM_TOL * max(1.0, abs(amax)) if amax != math.inf else math.inf
-    alo = amin - _LIM_TOL * max(1.0, abs(amin)) if amin != -math.inf else -math.inf
     pmax = 0.0
     vmag = abs(v0)
     for ph in phases:
         dur = ph[0]
-        j = ph[1]
         if dur <= 0.0:
-            if dur < -ttol:
-                return None
+            if dur < 0.0:
+                total = sum(abs(x[0]) for x in phases)
+                if dur < -_T_TOL * (total if total > 1.0 else 1.0):
+                    return None
             continue
+        j = ph[1]
         if len(ph) > 2:
             a = ph[2]
             if len(ph) > 3:
                 v = ph[3]
         if j != 0.0:
-            tz = -a / j
-            if 0.0 < tz < dur:
+            a1 = a + dur * j
+            if (a < 0.0) != (a1 < 0.0):
+                tz = -a / j
                 vz = v + tz * (a + 0.5 * tz * j)
                 if vz > vhi or vz < vlo:
                     return None
-        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
-        v += dur * (a + 0.5 * dur * j)
-        a += dur * j
+            p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+            v += dur * (a + 0.5 * dur * j)
+            a = a1
+        else:
+            p += dur * (v + 0.5 * dur * a)
+            v += dur * a
         t += dur
         if v > vhi or v < vlo or a > ahi or a < alo:
             return None
-        if abs(p) > pmax:
-            pmax = abs(p)
-        if abs(v) > vmag:
-            vmag = abs(v)
+        if p > pmax:
+            pmax = p
+        elif -p > pmax:
+            pmax = -p
+        if v > vmag:
+            vmag = v
+        elif -v > vmag:
+            vmag = -v
     # tolerances: absolute for ordinary moves, growing with the excursion for huge ones
     # (double precision cannot end within 1e-8 of a target after travelling 1e9)
-    if abs(p - d) > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
+    e = p - d
+    if e > 0.0 and e > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
+        return None
+    if e < 0.0 and -e > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
         return None
     if abs(v - vf) > _V_TOL * max(1.0, abs(vf)) + 1e-13 * vmag:
         return None
     if abs(a - af) > _A_TOL * max(1.0, abs(af)):
         return None
-    return t, phases  # non-positive durations are dropped by Profile
+    return t, phases
 
 
 def _up_phases(a0: float, af: float, P: float, h1: float, Q: float, h2: float, J: float) -> Phases:
@@ -151,17 +162,6 @@ def _half_down_from(
     return amin, max(h, 0.0)
 
 
-def _ramp_distance(v: float, a: float, phases: Phases) -> tuple[float, float, float]:
-    p = 0.0
-    for dur, j, *_ in phases:
-        if dur <= 0.0:
-            continue
-        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
-        v += dur * (a + 0.5 * dur * j)
-        a += dur * j
-    return p, v, a
-
-
 def _plateau_domain(lo: float, hi: float, m: float) -> tuple[float, float]:
     """Hull of {x in [lo, hi] : x^2 >= m} (a plateau duration is >= 0 exactly there); a bound
     set by the plateau condition is widened by a rounding margin, the natural bounds are kept
@@ -204,14 +204,36 @@ def _fam_vel(
         return None
     P, h1 = h1r
     Q, h2 = h2r
-    first: Phases = [((P - a0) / J, J), (h1, 0.0, P), (P / J, -J)]
-    last: Phases = [(-Q / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
-    d1, _, _ = _ramp_distance(v0, a0, first)
-    d2, _, _ = _ramp_distance(vmax, 0.0, last)
+    t1 = (P - a0) / J
+    t3 = P / J
+    t5 = -Q / J
+    t7 = (af - Q) / J
+    t_ramps = t1 + h1 + t3 + t5 + h2 + t7
+    if t_ramps >= t_best and out is None:
+        return None
+    # distances of the two halves (v1 is the velocity after the first ramp, etc.)
+    v1 = v0 + t1 * (a0 + 0.5 * t1 * J)
+    v2 = v1 + h1 * P
+    d1 = t1 * (v0 + t1 * (0.5 * a0 + t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+    d1 += t3 * (v2 + t3 * (0.5 * P - t3 * J / 6.0))
+    v5 = vmax - 0.5 * t5 * t5 * J
+    v6 = v5 + h2 * Q
+    d2 = t5 * (vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+    d2 += t7 * (v6 + t7 * (0.5 * Q + t7 * J / 6.0))
     cruise = (d - d1 - d2) / vmax
     if cruise < -_T_TOL * max(1.0, abs(d / vmax)):
         return None
-    ph = [*first, (max(cruise, 0.0), 0.0, 0.0, vmax), *last]
+    if t_ramps + cruise >= t_best and out is None:
+        return None
+    ph: Phases = [
+        (t1, J),
+        (h1, 0.0, P),
+        (t3, -J),
+        (max(cruise, 0.0), 0.0, 0.0, vmax),
+        (t5, -J),
+        (h2, 0.0, Q),
+        (t7, J),
+    ]
     r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
     if r is None:
         return None
@@ -237,6 +259,9 @@ def _fam_acc0_acc1(
 ) -> Candidate | None:
     """Plateaus at a_max and a_min: a quadratic in the second plateau duration h2."""
     if amax == math.inf:
+        return None
+    ramps = (2.0 * amax - a0 - 2.0 * amin + af) / J
+    if ramps >= t_best and out is None:
         return None
     K = 2.0 * J * (vf - v0) + a0 * a0 - af * af
     A2 = amax * amax
@@ -266,7 +291,6 @@ def _fam_acc0_acc1(
         + 12.0 * N2 * af * af
         - 3.0 * af**4
     ) / denom
-    ramps = (2.0 * amax - a0 - 2.0 * amin + af) / J
     best: Candidate | None = None
     for h2 in quadratic_roots(1.0, b, c):
         if h2 < -_T_TOL:

@@ -126,6 +126,13 @@ def position_phases(
         t, ph = _lower.second_order(v, d, vf, vmax, vmin, amax, amin)
         return t + sum(x[0] for x in pre), pre + ph, "second-order"
     pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
+    if pre3 and vmin <= v0 <= vmax and amin <= a0 <= amax:
+        # Inside the limits, braking only because an overshoot looks inevitable: a target
+        # reached before the overshoot happens (one whose own continuation overshoots too)
+        # is planned without a brake when a profile within the limits exists.
+        best = _third.time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
+        if best is not None:
+            return best[0], best[1], best[2]
     t_brake = 0.0
     if pre3:
         # distance covered while braking
