@@ -19,6 +19,7 @@ class MC_Power(EnableFB):
 
     INPUTS = ("axis", "enable", "enable_positive", "enable_negative")
     OUTPUTS = ("status", "valid", "busy", "error")
+    _UPDATE_MARKS_DIRTY = True
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.enable_positive = True
@@ -36,7 +37,10 @@ class MC_Power(EnableFB):
         super()._scan()
 
     def _update(self, axis: Axis) -> None:
-        self.status = axis.img_enabled
+        status = axis.img_enabled
+        if status != self.status:
+            self.status = status
+            self._dirty = True
 
     def _reset_values(self) -> None:
         self.status = False

@@ -1046,6 +1046,9 @@ class Axis:
     def emit_fb_edges(self, trace: Trace, cycle: int) -> None:
         """Record FB output edges in the trace (called by the runtime once per cycle)."""
         for fb in self.fbs:
-            bits = fb._out_bits()
-            if bits != fb._traced_bits:
-                fb._emit_edges(trace, cycle, bits)
+            if fb._dirty:  # only FBs whose scan may have changed a traced output
+                bits = fb._get_outputs(fb)
+                if bits != fb._traced_bits:
+                    fb._emit_edges(trace, cycle, bits)
+                else:
+                    fb._dirty = False

@@ -60,6 +60,9 @@ class FunctionBlock:
         self.name = name
         self._registered: Axis | None = None
         self._traced_bits: tuple[Any, ...] = (False,) * len(self.OUTPUTS)
+        # True when a traced output may have changed since the last edge emission; the scan
+        # fast paths leave it alone, so the trace skips the FBs whose outputs did not change
+        self._dirty = True
         self.error = False
         self.error_id = ErrorID.OK
         self.error_text = ""
@@ -99,6 +102,7 @@ class FunctionBlock:
         return self._get_outputs(self)
 
     def _emit_edges(self, trace: Trace, cycle: int, bits: tuple[Any, ...]) -> None:
+        self._dirty = False
         for n, old, new in zip(self.OUTPUTS, self._traced_bits, bits, strict=True):
             if bool(old) != bool(new):
                 trace.event(cycle, self.name or type(self).__name__, n, bool(new))
@@ -148,6 +152,9 @@ class ExecuteFB(FunctionBlock):
     _TERMINAL_OUT = True
     _hook_before: ClassVar[bool] = False
     _hook_busy: ClassVar[bool] = False
+    _busy_traced: ClassVar[bool] = False
+    # a subclass whose _busy_outputs changes no traced output (or sets _dirty itself)
+    _BUSY_HOOK_UNTRACED: ClassVar[bool] = False
 
     def __init__(
         self, name: str | None = None, *, retrigger_ignored: bool = False, **inputs: Any
@@ -185,6 +192,7 @@ class ExecuteFB(FunctionBlock):
         # the per-scan hooks are called on the fast paths only when a subclass defines them
         cls._hook_before = cls._before_outputs is not ExecuteFB._before_outputs
         cls._hook_busy = cls._busy_outputs is not ExecuteFB._busy_outputs
+        cls._busy_traced = cls._hook_busy and not cls._BUSY_HOOK_UNTRACED
 
     def _scan(self) -> None:
         ex = bool(self.execute)
@@ -201,7 +209,10 @@ class ExecuteFB(FunctionBlock):
                     self._before_outputs(ex)
                 if self._hook_busy:
                     self._busy_outputs(h)
+                    if self._busy_traced:
+                        self._dirty = True
                 return
+        self._dirty = True
         if ex and not self._prev_execute:
             if not (self.retrigger_ignored and self.busy):
                 self._handle = self._start_checked()
@@ -259,6 +270,9 @@ class EnableFB(FunctionBlock):
 
     INPUTS = ("axis", "enable")
     OUTPUTS = ("valid", "busy", "error")
+    _values_traced: ClassVar[bool] = False
+    # a subclass with extra traced outputs whose _update sets _dirty itself when they change
+    _UPDATE_MARKS_DIRTY: ClassVar[bool] = False
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.enable = False
@@ -266,8 +280,14 @@ class EnableFB(FunctionBlock):
         self.busy = False
         super().__init__(name, **inputs)
 
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        extra = not set(cls.OUTPUTS) <= {"valid", "busy", "error"}
+        cls._values_traced = extra and not cls._UPDATE_MARKS_DIRTY
+
     def _scan(self) -> None:
         if not self.enable:
+            self._dirty = True
             self.valid = self.busy = self.error = False
             self.error_id = ErrorID.OK
             self.error_text = ""
@@ -279,6 +299,7 @@ class EnableFB(FunctionBlock):
                 raise InputError(ErrorID.INVALID_AXIS, "axis input is not connected")
             self._update(axis)
         except InputError as exc:
+            self._dirty = True
             self.busy = True
             self.valid = False
             self.error = True
@@ -287,11 +308,14 @@ class EnableFB(FunctionBlock):
             self._reset_values()
             return
         if not self.valid or self.error:  # steady state (valid, no error): nothing to write
+            self._dirty = True
             self.busy = True
             self.valid = True
             self.error = False
             self.error_id = ErrorID.OK
             self.error_text = ""
+        elif self._values_traced:
+            self._dirty = True
 
     def _update(self, axis: Axis) -> None:
         """Compute the values (subclasses); raise InputError for a (recoverable) error."""

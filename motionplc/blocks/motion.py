@@ -48,6 +48,7 @@ class _MoveFB(MotionFB):
     """Common pins of the discrete moves."""
 
     OUTPUTS = ("busy", "active", "done", "command_aborted", "error")
+    _BUSY_HOOK_UNTRACED = True  # _busy_outputs only updates end_velocity (not traced)
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.continuous_update = False
@@ -171,6 +172,7 @@ class MC_MoveVelocity(MotionFB):
         "buffer_mode",
     )
     OUTPUTS = ("busy", "active", "in_velocity", "command_aborted", "error")
+    _BUSY_HOOK_UNTRACED = True  # _busy_outputs sets _dirty when in_velocity changes
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.continuous_update = False
@@ -218,7 +220,10 @@ class MC_MoveVelocity(MotionFB):
         self.in_velocity = False
 
     def _busy_outputs(self, h: Handle) -> None:
-        self.in_velocity = h.in_target and self.active
+        iv = h.in_target and self.active
+        if iv != self.in_velocity:
+            self.in_velocity = iv
+            self._dirty = True
 
 
 class MC_Halt(MotionFB):
@@ -251,6 +256,7 @@ class MC_Stop(MotionFB):
 
     INPUTS = ("axis", "execute", "deceleration", "jerk")
     OUTPUTS = ("busy", "done", "command_aborted", "error")
+    _BUSY_HOOK_UNTRACED = True  # active is not an output of MC_Stop
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.deceleration = 0.0
