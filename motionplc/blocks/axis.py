@@ -34,6 +34,7 @@ from enum import IntEnum
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis_state import Event, allowed, next_state
+from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
@@ -388,15 +389,16 @@ class Axis:
         state = self.state
         if state is not S.ERROR_STOP and (not comm_ok or fault or not enabled):
             if not comm_ok:
-                self.raise_axis_error("COMMUNICATION_LOST", fb.detail or "communication lost")
+                self.raise_axis_error(drive_error_kind(fb), fb.detail or "communication lost")
             elif fault:
                 self.raise_axis_error(
-                    "DRIVE_FAULT", f"drive fault 0x{fb.error_code:04X}: {fb.detail}".rstrip(": ")
+                    drive_error_kind(fb),
+                    f"drive fault 0x{fb.error_code:04X}: {fb.detail}".rstrip(": "),
                 )
             elif state is not S.DISABLED and self.power_request and self._was_enabled:
                 self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
         self._was_enabled = enabled
-        if self._reset_handle is not None and self._reset_sent:
+        if self._reset_handle is not None and self._reset_sent and not fb.reset_pending:
             self._try_finish_reset(fault, comm_ok)
         state = self.state
         if state is S.DISABLED:

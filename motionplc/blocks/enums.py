@@ -92,6 +92,14 @@ class ErrorID(IntEnum):
     WATCHDOG = 0x4005
     POWER_LOST = 0x4006
     HOMING_FAILED = 0x4007
+    # fieldbus failures, one per failure mode (motionplc.blocks.drive_errors maps the feedback)
+    BUS_OFF = 0x4008  # CAN bus-off (the master could not send)
+    HEARTBEAT_LOST = 0x4009  # CAN heartbeat of the drive lost / drive left OPERATIONAL
+    FEEDBACK_LOST = 0x400A  # cyclic feedback (TPDO) missing or late beyond the allowed cycles
+    COMM_TIMEOUT = 0x400B  # request without response (Modbus timeout)
+    COMM_EXCEPTION = 0x400C  # exception response from the drive (Modbus)
+    SETPOINT_LOST = 0x400D  # the drive faulted because setpoints stopped (RPDO timeout, SYNC loss)
+    MASTER_LOST = 0x400E  # the drive faulted because the master went silent (heartbeat, watchdog)
     PLANNING_FAILED = 0x5001
 
     @staticmethod

@@ -45,6 +45,20 @@ class DriveFeedback:
     comm_ok: bool = True  # False when communication is lost (heartbeat, timeout, bus-off)
     detail: str = ""  # human-readable reason for a fault or a communication loss
     stale: bool = False  # no fresh feedback this cycle: values are the last ones received
+    kind: str = ""  # class of a communication failure (``FAILURE_KINDS``), "" = none/other
+    reset_pending: bool = False  # a fault reset requested by the master is still in progress
+
+
+# Classes of communication failures a backend reports in ``DriveFeedback.kind`` (drive faults
+# are classified by their CiA 301/402 error code instead, see ``motionplc.blocks.drive_errors``)
+FAILURE_KINDS = (
+    "bus_off",  # CAN controller bus-off (send failed); latched until a reset
+    "heartbeat",  # CAN heartbeat of the node lost / node left OPERATIONAL
+    "no_feedback",  # cyclic feedback (TPDO) missing or late for more than the allowed cycles
+    "timeout",  # request without response (Modbus timeout)
+    "exception",  # exception response (Modbus)
+    "disconnected",  # connection lost / refused; latched until a reset
+)
 
 
 class FieldbusError(MotionPlcError):
