@@ -24,15 +24,25 @@ delay with the virtual drives, which answer the SYNC of cycle k before cycle k+1
 
 Failure modes as values (never raised in the cycle):
 
-=====================  ========  ==========  ===================================
-condition              fault     comm_ok     error_code
-=====================  ========  ==========  ===================================
+=====================  ========  ==========  ===================================  ===========
+condition              fault     comm_ok     error_code                           kind
+=====================  ========  ==========  ===================================  ===========
 drive FAULT / FRA      True      True        EMCY code, else 0x603F (TPDO2)
-heartbeat lost         False     False       0x8130
-node not OPERATIONAL   False     False       0x8130 (boot-up seen or NMT state)
-no TPDO > limit        False     False       0x8250
-bus-off (send fails)   False     False       0x8140 (latched until MC_Reset)
-=====================  ========  ==========  ===================================
+heartbeat lost         False     False       0x8130                               heartbeat
+node not OPERATIONAL   False     False       0x8130 (boot-up seen or NMT state)   heartbeat
+no TPDO > limit        False     False       0x8250                               no_feedback
+bus-off (send fails)   False     False       0x8140 (latched until MC_Reset)      bus_off
+=====================  ========  ==========  ===================================  ===========
+
+A fault reset (``DriveCommand.fault_reset``, MC_Reset) starts a reset sequence: after bus-off
+the node is re-initialised (NMT start), a drive in FAULT gets fault-reset edges; feedback
+carries ``reset_pending`` until the drive is out of FAULT with communication OK, or
+``reset_timeout`` has passed (the reset then fails).
+
+Cyclic fast path: RPDOs are packed with precompiled ``struct`` layouts (from canopen's PDO
+maps) and sent as raw frames; TPDOs are decoded straight from the received frames; frames
+are :class:`~motionplc.fieldbus.fastcan.FastMessage` (cheap copy on the virtual bus). SDO, NMT,
+EMCY and heartbeat go through canopen.
 """
 
 from __future__ import annotations
@@ -61,6 +71,7 @@ from motionplc.fieldbus.cia402 import (
     decode_statusword,
     next_controlword,
 )
+from motionplc.fieldbus.fastcan import drain, make_message
 from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.scaling import Scaling
 from motionplc.fieldbus.virtual_cia402 import eds_path
@@ -103,6 +114,7 @@ class CanopenDriveConfig:
     velocity_feed_forward: bool = False  # RPDO2 with 0x60B1
     feedback_velocity: bool = True  # TPDO2 with 0x606C + 0x603F
     tpdo_loss_limit: int = 3  # cycles without TPDO1 before comm_ok = False
+    reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
     eds: str | None = None  # object dictionary; None = the shipped virtual-drive EDS
 
     def __post_init__(self) -> None:
@@ -126,8 +138,10 @@ class _MasterNetwork(canopen.Network):
         self._master = master
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        msg = make_message(can_id, data, remote)
         try:
-            super().send_message(can_id, data, remote)
+            with self.send_lock:
+                self.bus.send(msg)
         except can.CanError as exc:
             self._master._on_send_error(exc)
             raise
@@ -173,6 +187,8 @@ class CanopenMaster:
         self.sync_sent = 0
         self.frames_received = 0
         self.sync_enabled = True  # fault injection: SYNC loss when False
+        # cyclic fast path: TPDO COB-ID -> decoder (bypasses canopen's PdoMap.on_message)
+        self.rx_handlers: dict[int, Callable[[bytearray], None]] = {}
 
     # ------------------------------------------------------------- bus health
     def _on_send_error(self, exc: Exception) -> None:
@@ -191,13 +207,25 @@ class CanopenMaster:
     # ----------------------------------------------------------------- cycle
     def _drain(self, t: float) -> None:
         try:
-            while (msg := self.bus.recv(timeout=0)) is not None:
-                if msg.is_error_frame or msg.is_remote_frame:
-                    continue
-                self.frames_received += 1
-                self.network.notify(msg.arbitration_id, msg.data, t)
+            frames = drain(self.bus)
         except can.CanError as exc:
             self._on_send_error(exc)
+            return
+        handlers = self.rx_handlers
+        notify = self.network.notify
+        for msg in frames:
+            if msg.is_error_frame or msg.is_remote_frame:
+                continue
+            self.frames_received += 1
+            handler = handlers.get(msg.arbitration_id)
+            if handler is not None:
+                handler(msg.data)
+            else:
+                notify(msg.arbitration_id, msg.data, t)
+
+    def send_pdo(self, cob_id: int, data: bytes) -> None:
+        """Send one cyclic PDO frame (raw, prepacked). Send errors mark the bus (bus-off)."""
+        self.network.send_message(cob_id, data)
 
     def pump(self, t: float) -> None:
         """Deliver every received frame to the canopen stack (once per cycle time ``t``)."""
@@ -296,6 +324,7 @@ class CanopenDrive(Drive):
         self._sync_pending = False
         self._armed_t: float | None = None
         self._hb_lost = False
+        self._reset_until: float | None = None  # fault reset in progress until this time
 
     # ------------------------------------------------------------------ open
     def open(self) -> None:
@@ -360,21 +389,25 @@ class CanopenDrive(Drive):
         self._rpdo2 = PdoCodec(self.node.rpdo[2]) if self.config.velocity_feed_forward else None
         self._tpdo1 = PdoCodec(self.node.tpdo[1])
         self._tpdo2 = PdoCodec(self.node.tpdo[2]) if self.config.feedback_velocity else None
-        self.node.tpdo[1].add_callback(self._on_tpdo1)
+        self._rpdo1_id = n + 0x200
+        self._rpdo2_id = n + 0x300
+        # cyclic TPDOs are decoded straight from the frames (layout compiled from canopen's map)
+        handlers = self.master.rx_handlers
+        handlers[0x180 + n] = self._on_tpdo1
         if self._tpdo2 is not None:
-            self.node.tpdo[2].add_callback(self._on_tpdo2)
+            handlers[0x280 + n] = self._on_tpdo2
 
     # ------------------------------------------------------------- callbacks
-    def _on_tpdo1(self, pdo_map: Any) -> None:
-        values = self._tpdo1.unpack(pdo_map.data)
+    def _on_tpdo1(self, data: bytearray) -> None:
+        values = self._tpdo1.unpack(data)
         if values is None:
             return  # wrong length: ignore (the values would be garbage)
         self.statusword, self.position_counts = values
         self._tpdo_count += 1
 
-    def _on_tpdo2(self, pdo_map: Any) -> None:
+    def _on_tpdo2(self, data: bytearray) -> None:
         assert self._tpdo2 is not None
-        values = self._tpdo2.unpack(pdo_map.data)
+        values = self._tpdo2.unpack(data)
         if values is None:
             return
         self.velocity_counts, self.drive_error_code = values
@@ -418,28 +451,39 @@ class CanopenDrive(Drive):
         elif self.emcy_code and self._have_feedback:
             detail = f"EMCY 0x{self.emcy_code:04X}"
         comm_ok = True
+        kind = ""
         hb_ok, hb_detail = self._heartbeat_ok(t)
         if self.master.bus_fault_latched:
-            comm_ok, error_code = False, CODE_BUS_OFF
+            comm_ok, error_code, kind = False, CODE_BUS_OFF, "bus_off"
             detail = self.master.bus_error or "bus-off"
             if self.master.bus_ok:
                 detail += " (bus recovered; reset required)"
         elif not hb_ok:
-            comm_ok, error_code, detail = False, CODE_HEARTBEAT, hb_detail
+            comm_ok, error_code, detail, kind = False, CODE_HEARTBEAT, hb_detail, "heartbeat"
         elif self._missed > self.config.tpdo_loss_limit:
-            comm_ok, error_code = False, CODE_NO_FEEDBACK
+            comm_ok, error_code, kind = False, CODE_NO_FEEDBACK, "no_feedback"
             detail = f"no TPDO from node {self.config.node_id} for {self._missed} cycles"
         elif not self._opened:
             comm_ok, detail = False, "not opened"
+        enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
+        reset_pending = False
+        if self._reset_until is not None:
+            done = comm_ok and not fault
+            if done or t > self._reset_until + 1e-9:
+                self._reset_until = None
+            else:
+                reset_pending = True
         return DriveFeedback(
             position=self.scaling.position_to_si(self.position_counts),
             velocity=self.scaling.velocity_to_si(self.velocity_counts),
-            enabled=state is Cia402State.OPERATION_ENABLED and comm_ok,
+            enabled=enabled,
             fault=fault,
             error_code=error_code,
             comm_ok=comm_ok,
             detail=detail,
             stale=not fresh,
+            kind=kind,
+            reset_pending=reset_pending,
         )
 
     def write_outputs(self, t: float, command: DriveCommand) -> None:
@@ -447,23 +491,33 @@ class CanopenDrive(Drive):
             self.master.written(self, t)
             return
         state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
-        if command.fault_reset and self.master.bus_fault_latched and self.master.bus_ok:
-            self.master.bus_fault_latched = False  # re-initialise after recovery, on reset
-            self.master.bus_error = ""
-            self._restart_node()
-        if command.fault_reset and state is not Cia402State.FAULT:
+        if command.fault_reset:
+            # MC_Reset: run the reset sequence (fault-reset edges, re-initialisation after a
+            # communication failure) over the next cycles; reported as reset_pending
+            self._reset_until = t + self.config.reset_timeout
+            if self.master.bus_fault_latched and self.master.bus_ok:
+                self.master.bus_fault_latched = False  # re-initialise after recovery
+                self.master.bus_error = ""
+                self._restart_node()
+            elif self.node.nmt.timestamp is not None and self.node.nmt.state != "OPERATIONAL":
+                self._restart_node()  # the node rebooted / left OPERATIONAL: NMT start again
+        resetting = self._reset_until is not None
+        if resetting and state is not Cia402State.FAULT:
             self.emcy_code = 0  # warnings / communication errors acknowledged
         target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
-        cw = next_controlword(state, target, self.controlword, command.fault_reset)
+        cw = next_controlword(state, target, self.controlword, resetting)
         self.controlword = cw
         if state is Cia402State.OPERATION_ENABLED and command.enable:
             target_counts = self.scaling.position_to_counts(command.position)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
         try:
-            self._rpdo1.transmit((cw, target_counts))
+            self.master.send_pdo(self._rpdo1_id, self._rpdo1.pack((cw, target_counts)))
             if self._rpdo2 is not None:
-                self._rpdo2.transmit((self.scaling.velocity_to_counts(command.velocity),))
+                self.master.send_pdo(
+                    self._rpdo2_id,
+                    self._rpdo2.pack((self.scaling.velocity_to_counts(command.velocity),)),
+                )
         except can.CanError:
             pass  # recorded by the master (bus-off)
         self._sync_pending = self.master.sync_enabled
@@ -481,4 +535,7 @@ class CanopenDrive(Drive):
     def close(self) -> None:
         if self in self.master.drives:
             self.master.drives.remove(self)
+        n = self.config.node_id
+        for cob_id in (0x180 + n, 0x280 + n):
+            self.master.rx_handlers.pop(cob_id, None)
         self._opened = False

@@ -18,12 +18,19 @@ Every request is bounded by the client ``timeout`` with ``retries=0``. Failures 
 condition                   fault    comm_ok  error_code
 ==========================  =======  =======  ==========================================
 drive FAULT / FRA           True     True     ERROR_CODE register (e.g. 0x8611, 0x8100)
-no response (timeout)       False    False    0x8130
-exception response c        False    False    0xFF00 | c (DEVICE_BUSY retried once)
-disconnected / refused      False    False    0x8130, latched until MC_Reset (reconnects
-                                              with a backoff counted in cycles)
+no response (timeout)       False    False    0x8130, kind "timeout"; the connection is
+                                              reopened before the next request
+late reply (FC23 echo of    False    False    0x8130, kind "timeout"; reply discarded,
+LIFE_SIGN is not this one)                    connection reopened
+exception response c        False    False    0xFF00 | c, kind "exception" (DEVICE_BUSY
+                                              retried once)
+disconnected / refused      False    False    0x8130, kind "disconnected", latched until
+                                              MC_Reset (reconnects with a backoff in cycles)
 stale LIFE_SIGN_ECHO        -        -        stale=True
 ==========================  =======  =======  ==========================================
+
+A fault reset (MC_Reset) is reported as ``reset_pending`` until the drive is out of FAULT with
+communication OK, or ``reset_timeout`` has passed.
 """
 
 from __future__ import annotations
@@ -85,6 +92,7 @@ class ModbusDriveConfig:
     watchdog: float = 0.0  # [s] -> WATCHDOG_MS, 0 = off
     velocity_feed_forward: bool = False  # send TARGET_VELOCITY (CSP: velocity offset)
     reconnect_every: int = 10  # cycles between reconnect attempts
+    reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
 
     def __post_init__(self) -> None:
         if not 0 < self.port < 65536:
@@ -100,10 +108,11 @@ class ModbusDriveConfig:
 
 
 class _RequestError(Exception):
-    def __init__(self, code: int, detail: str) -> None:
+    def __init__(self, code: int, detail: str, kind: str) -> None:
         super().__init__(detail)
         self.code = code
         self.detail = detail
+        self.kind = kind  # DriveFeedback.kind: "timeout" or "exception"
 
 
 class ModbusDrive(Drive):
@@ -122,10 +131,13 @@ class ModbusDrive(Drive):
         self.controlword = 0
         self.life_sign = 0
         self._fresh = False
-        self._failure: tuple[int, str] | None = None  # this cycle's request failure
+        self._failure: tuple[int, str, str] | None = None  # (code, detail, kind) this cycle
         self._disconnected = False  # latched until a fault reset after reconnecting
         self._cycles_since_attempt = 0
         self.requests = 0
+        self._reset_until: float | None = None  # fault reset in progress until this time
+        self._reopen = False  # resynchronise (close + connect) before the next request
+        self.late_replies = 0
 
     # ----------------------------------------------------------------- setup
     def open(self) -> None:
@@ -176,14 +188,20 @@ class ModbusDrive(Drive):
             except ModbusException as exc:
                 if not self.client.connected:
                     self._disconnected = True
-                raise _RequestError(CODE_NO_RESPONSE, f"no response: {exc}") from exc
+                else:
+                    # a reply may still come: reopen the connection before the next request so
+                    # that it cannot be taken for the answer to a later request
+                    self._reopen = True
+                raise _RequestError(CODE_NO_RESPONSE, f"no response: {exc}", "timeout") from exc
             if rr.isError():
                 code = int(getattr(rr, "exception_code", 0) or 0)
                 if code == ExcCodes.DEVICE_BUSY and attempt == 0:
                     continue  # BUSY: retry once
                 name = ExcCodes(code).name if code in iter(ExcCodes) else "?"
                 raise _RequestError(
-                    CODE_EXCEPTION_BASE | code, f"Modbus exception 0x{code:02X} ({name})"
+                    CODE_EXCEPTION_BASE | code,
+                    f"Modbus exception 0x{code:02X} ({name})",
+                    "exception",
                 )
             return rr
         raise AssertionError("unreachable")
@@ -219,7 +237,7 @@ class ModbusDrive(Drive):
                 self.status = StatusBlock.decode(regs, self.config.word_order)
                 self._fresh = True
             except _RequestError as exc:
-                self._failure = (exc.code, exc.detail)
+                self._failure = (exc.code, exc.detail, exc.kind)
         st = self.status
         fresh = self._fresh
         self._fresh = False
@@ -227,39 +245,55 @@ class ModbusDrive(Drive):
             return DriveFeedback(0.0, 0.0, False, comm_ok=False, detail="not opened", stale=True)
         state = decode_statusword(st.statusword)
         fault = state in (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
-        comm_ok, error_code, detail = True, 0, ""
+        comm_ok, error_code, detail, kind = True, 0, "", ""
         if fault:
             error_code = st.error_code
             detail = f"drive fault 0x{st.error_code:04X} ({state.value})"
         if self._disconnected or not self._opened:
-            comm_ok, error_code = False, CODE_NO_RESPONSE
+            comm_ok, error_code, kind = False, CODE_NO_RESPONSE, "disconnected"
             detail = "not opened" if not self._opened else "connection lost"
             if self._opened and self.client.connected:
                 detail += " (reconnected; reset required)"
         elif self._failure is not None:
-            comm_ok, (error_code, detail) = False, self._failure
+            comm_ok, (error_code, detail, kind) = False, self._failure
         if fresh and st.life_sign_echo != self.life_sign and self.config.exchange == "fc23":
             fresh = False  # the drive has not seen our last command
+        enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
+        reset_pending = False
+        if self._reset_until is not None:
+            done = comm_ok and not fault
+            if done or t > self._reset_until + 1e-9:
+                self._reset_until = None
+            else:
+                reset_pending = True
         return DriveFeedback(
             position=self.scaling.position_to_si(st.position),
             velocity=self.scaling.velocity_to_si(st.velocity),
-            enabled=state is Cia402State.OPERATION_ENABLED and comm_ok,
+            enabled=enabled,
             fault=fault,
             error_code=error_code,
             comm_ok=comm_ok,
             detail=detail,
             stale=not fresh,
+            kind=kind,
+            reset_pending=reset_pending,
         )
 
     def write_outputs(self, t: float, command: DriveCommand) -> None:
         if not self._opened:
             return
         self._failure = None
+        if command.fault_reset:
+            self._reset_until = t + self.config.reset_timeout  # reported as reset_pending
+        if self._reopen:
+            self._reopen = False
+            self.client.close()
+            self.client.connect()  # loopback / LAN: bounded by the client timeout
         if not self.client.connected:
             self._disconnected = True
             self._try_reconnect()
             if not self.client.connected:
-                self._failure = (CODE_NO_RESPONSE, "connection lost")
+                self._failure = (CODE_NO_RESPONSE, "connection lost", "disconnected")
                 self._step_peer(t)
                 return
         if self._disconnected and command.fault_reset:
@@ -269,7 +303,8 @@ class ModbusDrive(Drive):
         if self._disconnected:
             state = Cia402State.UNKNOWN  # -> controlword 0x00 until reset
         target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
-        cw = next_controlword(state, target, self.controlword, command.fault_reset)
+        resetting = self._reset_until is not None
+        cw = next_controlword(state, target, self.controlword, resetting)
         self.controlword = cw
         if state is Cia402State.OPERATION_ENABLED and command.enable:
             position = self.scaling.position_to_counts(command.position)
@@ -288,12 +323,24 @@ class ModbusDrive(Drive):
         try:
             if self.config.exchange == "fc23":
                 regs = self._exchange(block)
-                self.status = StatusBlock.decode(regs, self.config.word_order)
+                status = StatusBlock.decode(regs, self.config.word_order)
+                if status.life_sign_echo != self.life_sign:
+                    # FC23 writes before it reads: the reply must echo this request's life
+                    # sign. Otherwise it is a late reply to an earlier request: discard it.
+                    self.late_replies += 1
+                    self._reopen = True
+                    raise _RequestError(
+                        CODE_NO_RESPONSE,
+                        f"late reply (life sign {status.life_sign_echo}, expected "
+                        f"{self.life_sign})",
+                        "timeout",
+                    )
+                self.status = status
                 self._fresh = True
             else:
                 self._write(CMD_BASE, block)
         except _RequestError as exc:
-            self._failure = (exc.code, exc.detail)
+            self._failure = (exc.code, exc.detail, exc.kind)
         self._step_peer(t)
 
     def _step_peer(self, t: float) -> None:

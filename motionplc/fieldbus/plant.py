@@ -96,21 +96,45 @@ def plant_step(
     n = params.substeps
     h = dt / n
     p, v, a = state.position, state.velocity, 0.0
-    slope = (demand_to - demand_from) / dt
-    v_ff = params.kff * slope + velocity_offset
-    for i in range(1, n + 1):
-        if powered:
-            p_d = demand_from + (demand_to - demand_from) * ((i - 1) / n)
-            v_cmd = _clamp(v_ff + params.kp * (p_d - p), params.v_max)
-            a = (v_cmd - v) / params.tau_v - params.friction(v) - params.load
-            a = _clamp(a, params.a_max)
-            v = _clamp(v + a * h, params.v_max)
-        else:
-            drag = v / params.tau_coast + params.friction(v)
-            v_new = v - drag * h
-            if v_new * v <= 0.0:  # friction stops the motor, never reverses it
-                v_new = 0.0
-            a = (v_new - v) / h
-            v = v_new
+    v_max = params.v_max
+    coulomb = params.coulomb
+    viscous = params.viscous
+    if powered:
+        # hot loop (every drive, every cycle): clamp and friction inlined
+        a_max = params.a_max
+        kp = params.kp
+        inv_tau = 1.0 / params.tau_v
+        load = params.load
+        step = (demand_to - demand_from) / n
+        v_ff = params.kff * (demand_to - demand_from) / dt + velocity_offset
+        for i in range(n):
+            v_cmd = v_ff + kp * (demand_from + step * i - p)
+            if v_cmd > v_max:
+                v_cmd = v_max
+            elif v_cmd < -v_max:
+                v_cmd = -v_max
+            a = (v_cmd - v) * inv_tau - load
+            if v > 0.0:
+                a -= coulomb + viscous * v
+            elif v < 0.0:
+                a += coulomb - viscous * v
+            if a > a_max:
+                a = a_max
+            elif a < -a_max:
+                a = -a_max
+            v += a * h
+            if v > v_max:
+                v = v_max
+            elif v < -v_max:
+                v = -v_max
+            p += v * h
+        return PlantState(p, v, a)
+    for _ in range(n):
+        drag = v / params.tau_coast + params.friction(v)
+        v_new = v - drag * h
+        if v_new * v <= 0.0:  # friction stops the motor, never reverses it
+            v_new = 0.0
+        a = (v_new - v) / h
+        v = v_new
         p += v * h
     return PlantState(p, v, a)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from importlib import resources
 from pathlib import Path
 
@@ -39,6 +39,7 @@ from canopen.sdo import SdoAbortedError
 
 from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.cia402 import OperationMode
+from motionplc.fieldbus.fastcan import drain, make_message
 from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.plant import PlantParams
 from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device
@@ -55,6 +56,20 @@ SYNC_COB_ID = 0x080
 # SDO abort codes
 ABORT_VALUE_RANGE = 0x06090030
 ABORT_DEVICE_STATE = 0x08000022
+
+
+# objects a TPDO can carry -> field of DeviceSnapshot
+_SNAPSHOT_FIELDS = {
+    0x6041: "statusword",
+    0x6064: "position",
+    0x606C: "velocity",
+    0x60F4: "following_error",
+    0x6077: "torque",
+    0x6062: "demand",
+    0x603F: "error_code",
+    0x6061: "mode_display",
+    0x1001: "error_register",
+}
 
 
 def eds_path() -> Path:
@@ -107,7 +122,7 @@ class SimulatedTimeNetwork(canopen.Network):
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
         try:
-            super().send_message(can_id, data, remote)
+            self.bus.send(make_message(can_id, data, remote))
         except can.CanError:
             pass
 
@@ -142,6 +157,8 @@ class VirtualCia402Drive:
         self.node.add_read_callback(self._on_sdo_read)
         self.node.add_write_callback(self._on_sdo_write)
         self.network: SimulatedTimeNetwork | None = None
+        self.on_rx_table_changed: Callable[[], None] | None = None
+        self._rpdo_by_cob: dict[int, PdoCodec] = {}
         self._reset_runtime()
 
     def _reset_runtime(self) -> None:
@@ -183,9 +200,34 @@ class VirtualCia402Drive:
         self.node.rpdo.read()
         self.node.tpdo.read()
         self._rpdo_codecs = {id(m): PdoCodec(m) for m in self.node.rpdo.map.values()}
+        self._rpdo_by_cob = {
+            m.cob_id: self._rpdo_codecs[id(m)]
+            for m in self.node.rpdo.map.values()
+            if m.enabled and m.cob_id
+        }
         self._tpdo_codecs = [
             PdoCodec(m) for m in self.node.tpdo.map.values() if m.enabled and m.map
         ]
+        # per TPDO: (codec, COB-ID, transmission type, snapshot field of each mapped object)
+        self._tpdo_plan = [
+            (
+                codec,
+                codec.pdo_map.cob_id,
+                codec.pdo_map.trans_type or 1,
+                tuple(_SNAPSHOT_FIELDS.get(index) for index, _ in codec.keys),
+            )
+            for codec in self._tpdo_codecs
+        ]
+        if self.on_rx_table_changed is not None:
+            self.on_rx_table_changed()
+
+    def fast_rx(self) -> dict[int, Callable[[int, bytearray, float], None]]:
+        """COB-ID -> handler for the cyclic frames (SYNC, RPDOs), bypassing canopen's PDO
+        dispatch; every other frame goes through ``Network.notify``."""
+        table: dict[int, Callable[[int, bytearray, float], None]] = {SYNC_COB_ID: self._on_sync}
+        for cob_id in self._rpdo_by_cob:
+            table[cob_id] = self._on_rpdo_frame
+        return table
 
     # ------------------------------------------------------------------- NMT
     def _on_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
@@ -293,15 +335,21 @@ class VirtualCia402Drive:
 
     # ------------------------------------------------------------ cyclic PDOs
     def _on_rpdo(self, pdo_map: canopen.pdo.PdoMap) -> None:
+        self._on_rpdo_data(self._rpdo_codecs[id(pdo_map)], pdo_map.data)
+
+    def _on_rpdo_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        codec = self._rpdo_by_cob.get(can_id)
+        if codec is not None:
+            self._on_rpdo_data(codec, data)
+
+    def _on_rpdo_data(self, codec: PdoCodec, data: bytearray) -> None:
         if not self._operational():
             return  # PDOs only in OPERATIONAL
-        codec = self._rpdo_codecs[id(pdo_map)]
-        values = codec.unpack(pdo_map.data)
+        values = codec.unpack(data)
         if values is None:
             self.device.pending_emcy.append(
                 (ERROR_CODES["pdo_length"], self.device.error_register | 0x10)
             )
-            pdo_map.data = bytearray(codec.length)
             return
         self._latched.update(zip(codec.keys, values, strict=True))
         self._rpdo_new = True
@@ -332,22 +380,13 @@ class VirtualCia402Drive:
 
     def _send_tpdos(self) -> None:
         snap = self.device.snapshot()
-        values = {
-            0x6041: snap.statusword,
-            0x6064: snap.position,
-            0x606C: snap.velocity,
-            0x60F4: snap.following_error,
-            0x6077: snap.torque,
-            0x6062: snap.demand,
-            0x603F: snap.error_code,
-            0x6061: snap.mode_display,
-            0x1001: snap.error_register,
-        }
-        for codec in self._tpdo_codecs:
-            tt = codec.pdo_map.trans_type or 1
+        network = self.network
+        assert network is not None
+        for codec, cob_id, tt, fields in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
-            codec.transmit([values.get(index, 0) for index, _ in codec.keys])
+            values = [0 if f is None else getattr(snap, f) for f in fields]
+            network.send_message(cob_id, codec.pack(values))
 
     def flush_emcy(self) -> None:
         if self.node.nmt.state == "STOPPED":
@@ -408,6 +447,7 @@ class VirtualCanBus:
         self.drives: dict[int, VirtualCia402Drive] = {}
         self.t = 0.0
         self._was_bus_off = False
+        self._fast: dict[int, list[Callable[[int, bytearray, float], None]]] | None = None
         for drive in drives:
             self.add(drive)
 
@@ -415,8 +455,21 @@ class VirtualCanBus:
         if drive.node_id in self.drives:
             raise ValueError(f"node {drive.node_id} is already on this bus")
         self.drives[drive.node_id] = drive
+        drive.on_rx_table_changed = self._invalidate
         drive.attach(self.network)
+        self._invalidate()
         return drive
+
+    def _invalidate(self) -> None:
+        self._fast = None
+
+    def _fast_table(self) -> dict[int, list[Callable[[int, bytearray, float], None]]]:
+        table: dict[int, list[Callable[[int, bytearray, float], None]]] = {}
+        for drive in self.drives.values():
+            for cob_id, handler in drive.fast_rx().items():
+                table.setdefault(cob_id, []).append(handler)
+        self._fast = table
+        return table
 
     def __getitem__(self, node_id: int) -> VirtualCia402Drive:
         return self.drives[node_id]
@@ -432,13 +485,24 @@ class VirtualCanBus:
         self.network.now = t
         self.faults.tick()
         n = 0
-        timeout = wait
-        while (msg := self.faults.recv(timeout=timeout)) is not None:
-            timeout = 0.0
+        if wait > 0.0:
+            first = self.faults.recv(timeout=wait)
+            frames = [] if first is None else [first]
+            frames.extend(drain(self.faults))
+        else:
+            frames = drain(self.faults)
+        notify = self.network.notify
+        for msg in frames:
             if msg.is_error_frame or msg.is_remote_frame:
                 continue
             n += 1
-            self.network.notify(msg.arbitration_id, msg.data, t)
+            cob_id = msg.arbitration_id
+            fast = (self._fast if self._fast is not None else self._fast_table()).get(cob_id)
+            if fast is not None:
+                for handler in fast:
+                    handler(cob_id, msg.data, t)
+            else:
+                notify(cob_id, msg.data, t)
         if self._was_bus_off and not self.faults.bus_off:
             for drive in self.drives.values():  # recovered from bus-off
                 drive.device.pending_emcy.append(
