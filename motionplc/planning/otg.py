@@ -68,6 +68,8 @@ class OnlineGenerator:
         self.interface = interface
         self.sync = sync
         self._target: object = None
+        self._target_obj: object = None  # the object last passed to update()
+        self._last: Sample | tuple[Sample, ...] | None = None  # setpoint not yet in _state
         self._plan: Profile | Trajectory | None = None
         self._t = 0.0
         self.replans = 0
@@ -76,6 +78,13 @@ class OnlineGenerator:
     @property
     def state(self) -> State | tuple[State, ...]:
         """The commanded state after the last :meth:`update`."""
+        last = self._last
+        if last is not None:
+            if self._group:
+                self._state = tuple(State(x.p, x.v, x.a) for x in last)  # type: ignore[union-attr]
+            else:
+                self._state = State(last.p, last.v, last.a)  # type: ignore[union-attr]
+            self._last = None
         return self._state
 
     @property
@@ -96,8 +105,10 @@ class OnlineGenerator:
     def reset(self, state: State | Sequence[State]) -> None:
         """Set the commanded state (e.g. to the measured one) and forget the plan."""
         self._state = tuple(state) if self._group else state  # type: ignore[arg-type,assignment]
+        self._last = None
         self._plan = None
         self._target = None
+        self._target_obj = None
         self._t = 0.0
 
     # -- cycle -------------------------------------------------------------------------------
@@ -108,26 +119,24 @@ class OnlineGenerator:
         group). A bad target raises :class:`PlanningError` and leaves the generator as it was:
         the motion in progress continues with the next valid call.
         """
-        key = tuple(target) if self._group else target  # type: ignore[arg-type]
-        if self._plan is None or key != self._target:
-            self._plan = self._replan(key)
-            self._target = key
-            self._t = 0.0
-            self.replans += 1
+        if target is not self._target_obj or self._plan is None:
+            key = tuple(target) if self._group else target  # type: ignore[arg-type]
+            if self._plan is None or key != self._target:
+                self._plan = self._replan(key)
+                self._target = key
+                self._t = 0.0
+                self.replans += 1
+            self._target_obj = target
         self._t += self.dt
-        plan_ = self._plan
-        if self._group:
-            samples = plan_.at(self._t)  # type: ignore[union-attr]
-            self._state = tuple(State(s.p, s.v, s.a) for s in samples)  # type: ignore[union-attr]
-            return samples  # type: ignore[return-value]
-        s = plan_.at(self._t)  # type: ignore[union-attr]
-        self._state = State(s.p, s.v, s.a)  # type: ignore[union-attr]
+        s = self._plan.at(self._t)  # type: ignore[union-attr]
+        self._last = s
         return s  # type: ignore[return-value]
 
     def _replan(self, target: object) -> Profile | Trajectory:
+        state = self.state
         if self._group:
             return plan_sync(
-                list(self._state),  # type: ignore[arg-type]
+                list(state),  # type: ignore[arg-type]
                 list(target),  # type: ignore[call-overload]
                 list(self._limits),  # type: ignore[arg-type]
                 sync=self.sync,
@@ -135,5 +144,5 @@ class OnlineGenerator:
         if not isinstance(target, State):
             raise PlanningError(f"target must be a State, got {type(target).__name__}")
         if self.interface == "velocity":
-            return plan_velocity(self._state, target.v, self._limits, target.a)  # type: ignore[arg-type]
-        return plan(self._state, target, self._limits)  # type: ignore[arg-type]
+            return plan_velocity(state, target.v, self._limits, target.a)  # type: ignore[arg-type]
+        return plan(state, target, self._limits)  # type: ignore[arg-type]
