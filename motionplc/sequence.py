@@ -520,12 +520,9 @@ class _Block:
         if not self.armed:
             return False
         if self.enable_fb:
-            ok = bool(
-                getattr(fb, "status", False)
-                or getattr(fb, "valid", False)
-                or getattr(fb, "enabled", False)
-            )
-            return ok
+            if hasattr(fb, "status"):  # MC_Power: the drive reports OPERATION ENABLED
+                return bool(fb.status)
+            return bool(getattr(fb, "valid", False) or getattr(fb, "enabled", False))
         if getattr(fb, "in_velocity", False):
             return True
         if fb.done:
