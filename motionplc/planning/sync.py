@@ -287,11 +287,17 @@ def _by_limit_bisection(
         steps += 1
     if fa is None:
         return None
-    side = 0
-    for it in range(60):
-        x = (xa * fb - xb * fa) / (fb - fa)
-        if not min(xa, xb) < x < max(xa, xb):
-            x = 0.5 * (xa + xb)
+    # Dekker-style: secant through the two newest points, kept inside the bracket, with a
+    # bisection whenever the bracket has not halved for three steps (guaranteed progress)
+    xc, fc = xa, fa
+    xp, fp = xb, fb
+    width = abs(xa - xb)
+    since_halved = 0
+    for _ in range(80):
+        lo, hi = (xa, xb) if xa < xb else (xb, xa)
+        x = xc - fc * (xc - xp) / (fc - fp) if fc != fp else 0.5 * (lo + hi)
+        if since_halved >= 3 or not lo < x < hi:
+            x = 0.5 * (lo + hi)
         fx = g(x)
         if found:
             return done()
@@ -299,20 +305,19 @@ def _by_limit_bisection(
             return None
         if fx > 0.0:
             xa, fa = x, fx
-            if side == 1:
-                fb *= 0.5
-            side = 1
         else:
             xb, fb = x, fx
-            if side == -1:
-                fa *= 0.5
-            side = -1
-        if (it > 4 and abs(fa - fb) > 10.0 * abs(xa - xb) + 1e-6) or (
-            abs(xa - xb) <= 1e-7 * (1.0 + abs(xa)) and min(abs(fa), abs(fb)) > 1e-6
-        ):
+        xp, fp, xc, fc = xc, fc, x, fx
+        new_width = abs(xa - xb)
+        if new_width <= 0.5 * width:
+            width = new_width
+            since_halved = 0
+        else:
+            since_halved += 1
+        if new_width <= 1e-9 * (1.0 + abs(xa)) and min(abs(fa), abs(fb)) > 1e-7:
             # log T changes faster than any smooth family allows: T(s) jumps over T here
             return None
-        if abs(xa - xb) <= 1e-15 * (1.0 + abs(xa)):
+        if new_width <= 1e-15 * (1.0 + abs(xa)):
             return None
     return None
 
