@@ -189,6 +189,10 @@ class Runtime:
             task.axes.append(ax)
             ax.open()
         self._order = sorted(self.tasks, key=lambda t: t.sort_key)
+        # every task runs every tick (the common case): no per-tick selection
+        self._all_every_tick = all(t.period_ticks == 1 for t in self._order)
+        self._all_names = [t.name for t in self._order]
+        self._axis_list = list(self.axes.values())
         self._started = True
 
     # -- running -----------------------------------------------------------------------------
@@ -266,8 +270,12 @@ class Runtime:
     def _run_tick(self, k: int, deadline: int, start: int) -> None:
         clock = self.clock
         image = self.image
-        due = [t for t in self._order if k % t.period_ticks == 0]
-        self.last_due = [t.name for t in due]
+        if self._all_every_tick:
+            due = self._order
+            self.last_due = self._all_names
+        else:
+            due = [t for t in self._order if k % t.period_ticks == 0]
+            self.last_due = [t.name for t in due]
         t_virtual = k * self.cycle
         for task in due:
             t0 = clock.now_ns()
@@ -294,12 +302,14 @@ class Runtime:
                 for ax in axes:
                     ax.raise_axis_error("WATCHDOG", reason)
         row: list[float] = [k, t_virtual]
-        edges = self.trace_edges
         trace = self.trace
-        for ax in self.axes.values():
-            row.extend(ax.trace_values())
-            if edges:
+        if self.trace_edges:
+            for ax in self._axis_list:
+                row += ax.trace_values()
                 ax.emit_fb_edges(trace, k)
+        else:
+            for ax in self._axis_list:
+                row += ax.trace_values()
         trace.record(row)
 
     def _spend(self, seconds: float) -> None:

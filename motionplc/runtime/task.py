@@ -95,7 +95,8 @@ class Task:
         self.exec_sum_ns = 0
         self.lat_min_ns = math.inf
         self.lat_max_ns = 0
-        self.lat_hist = np.zeros(_HIST_BINS + 1, dtype=np.int64)
+        # lateness histogram (1 us bins); a list: a numpy item increment per cycle costs more
+        self._lat_counts = [0] * (_HIST_BINS + 1)
         self.overruns = 0
         self.omitted_cycles = 0
         self.consecutive_overruns = 0
@@ -122,7 +123,7 @@ class Task:
         if lateness_ns > self.lat_max_ns:
             self.lat_max_ns = lateness_ns
         b = lateness_ns // _HIST_BIN_NS
-        self.lat_hist[min(max(b, 0), _HIST_BINS)] += 1
+        self._lat_counts[b if 0 <= b < _HIST_BINS else (0 if b < 0 else _HIST_BINS)] += 1
         self.cycle_time_exceeded = overrun
         if overrun:
             self.overruns += 1
@@ -150,11 +151,21 @@ class Task:
             self.watchdog_reason = reason
         return reason
 
+    @property
+    def lat_hist(self) -> np.ndarray:
+        """Lateness histogram: counts per 1 us bin (the last bin collects everything later)."""
+        return np.asarray(self._lat_counts, dtype=np.int64)
+
+    def lateness_percentile(self, q: float) -> float:
+        """Lateness [s] below which a fraction ``q`` of the cycles started (1 us resolution)."""
+        return self._lat_percentile(q)
+
     def _lat_percentile(self, q: float) -> float:
-        total = int(self.lat_hist.sum())
+        hist = self.lat_hist
+        total = int(hist.sum())
         if total == 0:
             return 0.0
-        idx = int(np.searchsorted(np.cumsum(self.lat_hist), math.ceil(q * total)))
+        idx = int(np.searchsorted(np.cumsum(hist), math.ceil(q * total)))
         # upper edge of the bin, clamped to the observed range
         ns = min(max((idx + 1) * _HIST_BIN_NS, self.lat_min_ns), self.lat_max_ns)
         return ns * 1e-9
