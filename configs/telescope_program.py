@@ -14,9 +14,9 @@ from motionplc.blocks import Direction, MC_MoveVelocity, MC_Power
 from motionplc.planning import Limits, State, Tracker
 
 TASK = "tracking"
-TIMEOUT = 40.0
-T_END = 30.0  # [s] end of the observation
-T_SETTLED = 15.0  # [s] the error is checked from here on
+TIMEOUT = 30.0
+T_END = 20.0  # [s] end of the observation
+T_SETTLED = 10.0  # [s] the error is checked from here on
 MAX_ERROR = 1e-4  # [rad] (about 20 arcsec; limited by the velocity interface, see below)
 GAIN = 5.0  # [1/s] position correction
 LOOKAHEAD = 0.004  # [s] acceleration feed-forward: the velocity is re-commanded every 4 ms
@@ -54,7 +54,7 @@ def program(ctx):
         if name not in trackers:
             cfg = axis.cfg
             lim = Limits(v_max=0.9 * cfg.v_max, a_max=0.9 * cfg.a_max, j_max=0.9 * cfg.j_max)
-            trackers[name] = Tracker(lim, ctx.dt, State(axis.p, axis.v, axis.a))
+            trackers[name] = Tracker(lim, ctx.dt, State(axis.p, axis.v, axis.a), mode="replan")
         ref = trackers[name].update(target(name, ctx.t))
         v_cmd = ref.v + LOOKAHEAD * ref.a + GAIN * (ref.p - axis.p)
         v_cmd = max(-axis.cfg.v_max, min(axis.cfg.v_max, v_cmd))

@@ -520,7 +520,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
     overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
     cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
     tasks: list[TaskSpec] = []
-    tm = c.mapping(m.get("tasks"), m.line_of("tasks"), "runtime.tasks", None)
+    tm = c.mapping(m["tasks"], m.line_of("tasks"), "runtime.tasks", None) if "tasks" in m else None
     if tm is not None:
         if not tm:
             c.error(tm.line, "runtime.tasks", "no task", "at least one task")
@@ -622,7 +622,7 @@ def _parse_axis(
     task = c.choice(m, "task", path, tuple(tasks) or ("",), tasks[0] if tasks else "")
     lp = join(path, "limits")
     lim = None
-    lm = c.mapping(m.get("limits"), m.line_of("limits"), lp, _LIMITS)
+    lm = c.mapping(m["limits"], m.line_of("limits"), lp, _LIMITS) if "limits" in m else None
     if lm is not None:
         v_max = c.number(lm, "v_max", lp, None, gt=0.0)
         a_max = c.number(lm, "a_max", lp, None, gt=0.0)
@@ -749,7 +749,9 @@ def parse_config(data: Any, file: str | Path) -> Config:
         c.raise_if_any()
         raise AssertionError("unreachable")
     runtime = None
-    rm = c.mapping(top.get("runtime"), top.line_of("runtime"), "runtime", _RUNTIME)
+    rm = None
+    if "runtime" in top:
+        rm = c.mapping(top["runtime"], top.line_of("runtime"), "runtime", _RUNTIME)
     if rm is not None:
         runtime = _parse_runtime(c, rm)
     tasks = [t.name for t in runtime.tasks] if runtime is not None else []
@@ -762,7 +764,7 @@ def parse_config(data: Any, file: str | Path) -> Config:
                 if bus is not None:
                     buses[name] = bus
     axes: list[AxisSpec] = []
-    am = c.mapping(top.get("axes"), top.line_of("axes"), "axes", None)
+    am = c.mapping(top["axes"], top.line_of("axes"), "axes", None) if "axes" in top else None
     lines: dict[str, int] = {}
     if am is not None:
         if not am:
