@@ -33,6 +33,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import TYPE_CHECKING, Any
 
+from motionplc._fastinit import slot_setters
 from motionplc.blocks.axis_state import Event, allowed, next_state
 from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
@@ -44,6 +45,25 @@ if TYPE_CHECKING:
 
 _INF = math.inf
 S = AxisState
+
+_new = object.__new__
+try:
+    (_cp, _cv, _ca, _ce, _cr), _ = slot_setters(
+        DriveCommand, ("position", "velocity", "acceleration", "enable", "fault_reset")
+    )
+
+    def _drive_command(p: float, v: float, a: float, enable: bool, reset: bool) -> DriveCommand:
+        """``DriveCommand(p, v, a, enable, reset)``, built cheaply (once per axis and cycle)."""
+        cmd = _new(DriveCommand)
+        _cp(cmd, p)
+        _cv(cmd, v)
+        _ca(cmd, a)
+        _ce(cmd, enable)
+        _cr(cmd, reset)
+        return cmd
+
+except TypeError:  # DriveCommand changed: the normal constructor (slower, same values)
+    _drive_command = DriveCommand  # type: ignore[assignment]
 
 
 @dataclass(frozen=True, slots=True)
@@ -1041,7 +1061,7 @@ class Axis:
             self._reset_sent = True
         self._sent_p = self.p
         self.drive.write_outputs(
-            t, DriveCommand(self.p - self.offset, self.v, self.a, self.power_request, reset)
+            t, _drive_command(self.p - self.offset, self.v, self.a, self.power_request, reset)
         )
 
     # -- diagnostics -----------------------------------------------------------------------

@@ -10,7 +10,48 @@ fault reaction, so the controller's jerk-limited stop ramp is executed).
 
 from __future__ import annotations
 
+from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback
+
+_new = object.__new__
+try:
+    (_sp, _sv, _se, _sf, _sc, _so, _sd, _ss, _sk, _sr), _D = slot_setters(
+        DriveFeedback,
+        (
+            "position",
+            "velocity",
+            "enabled",
+            "fault",
+            "error_code",
+            "comm_ok",
+            "detail",
+            "stale",
+            "kind",
+            "reset_pending",
+        ),
+    )
+    _D_FAULT, _D_CODE, _D_DETAIL = _D["fault"], _D["error_code"], _D["detail"]
+    _D_STALE, _D_KIND, _D_RESET = _D["stale"], _D["kind"], _D["reset_pending"]
+
+    def _healthy_feedback(position: float, velocity: float, enabled: bool) -> DriveFeedback:
+        """``DriveFeedback(position, velocity, enabled)`` (comm ok, no fault), built cheaply."""
+        fb = _new(DriveFeedback)
+        _sp(fb, position)
+        _sv(fb, velocity)
+        _se(fb, enabled)
+        _sf(fb, _D_FAULT)
+        _sc(fb, _D_CODE)
+        _so(fb, True)
+        _sd(fb, _D_DETAIL)
+        _ss(fb, _D_STALE)
+        _sk(fb, _D_KIND)
+        _sr(fb, _D_RESET)
+        return fb
+
+except TypeError:  # DriveFeedback changed: the normal constructor (slower, same values)
+
+    def _healthy_feedback(position: float, velocity: float, enabled: bool) -> DriveFeedback:
+        return DriveFeedback(position, velocity, enabled)
 
 
 class IdealDrive(Drive):
@@ -57,6 +98,9 @@ class IdealDrive(Drive):
 
     # -- Drive interface -----------------------------------------------------------------------
     def _refresh(self) -> None:
+        if self._comm_ok and not self._fault:
+            self._feedback = _healthy_feedback(self._position, self._velocity, self._enabled)
+            return
         self._feedback = DriveFeedback(
             self._position,
             self._velocity,

@@ -166,8 +166,9 @@ class Task:
         if total == 0:
             return 0.0
         idx = int(np.searchsorted(np.cumsum(hist), math.ceil(q * total)))
-        # upper edge of the bin, clamped to the observed range
-        ns = min(max((idx + 1) * _HIST_BIN_NS, self.lat_min_ns), self.lat_max_ns)
+        # upper edge of the bin, clamped to the observed range (the overflow bin: the maximum)
+        edge = (idx + 1) * _HIST_BIN_NS if idx < _HIST_BINS else self.lat_max_ns
+        ns = min(max(edge, self.lat_min_ns), self.lat_max_ns)
         return ns * 1e-9
 
     def stats(self) -> TaskStats:
