@@ -213,13 +213,22 @@ class MC_ReadAxisError(EnableFB):
 
 
 class MC_ReadMotionState(EnableFB):
-    """Motion flags of the set values (``source`` COMMANDED/SET) or of the actual velocity."""
+    """Motion flags of the set values (``source`` COMMANDED/SET) or of the actual values.
 
-    INPUTS = ("axis", "enable", "source")
+    ACTUAL_VALUE uses the actual velocity and the actual acceleration; drives report no
+    acceleration, so the axis derives it from the actual velocities of consecutive fresh
+    samples (backward difference, one cycle behind the set acceleration on an ideal drive);
+    accelerating/decelerating say whether |v| grew or shrank over that sample interval. The
+    window for actual values (vendor specific in the spec) is ``acc_window`` [u/s^2]
+    (0 = automatic: 1e-6 * a_max) for constant_velocity and 1e-9 u/s for the direction flags.
+    """
+
+    INPUTS = ("axis", "enable", "source", "acc_window")
     _EPS = 1e-9
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.source = Source.SET_VALUE
+        self.acc_window = 0.0
         self.constant_velocity = False
         self.accelerating = False
         self.decelerating = False
@@ -232,16 +241,27 @@ class MC_ReadMotionState(EnableFB):
             raise InputError(
                 ErrorID.INVALID_EXECUTION_MODE, f"source must be a Source, got {self.source!r}"
             )
+        eps = self._EPS
         if self.source is Source.ACTUAL_VALUE:
             _check_comm(axis)
+            win = check_number(
+                "acc_window", self.acc_window, ErrorID.INVALID_ACCELERATION, 0.0, axis.cfg.a_max
+            )
             v = axis.img_act_v
+            a = axis.img_act_a
+            const = abs(a) <= (win or 1e-6 * axis.cfg.a_max)
+            # over the last sample interval: did |v| grow or shrink (also across v = 0)?
+            dspeed = abs(v) - abs(axis.img_act_v_prev)
+            self.constant_velocity = const
+            self.accelerating = not const and dspeed > 0.0
+            self.decelerating = not const and dspeed < 0.0
         else:
             v = axis.img_v
-        a = axis.img_a
-        eps = self._EPS
-        self.constant_velocity = abs(a) <= eps
-        self.accelerating = a * v > eps or (abs(v) <= eps and abs(a) > eps)
-        self.decelerating = a * v < -eps
+            a = axis.img_a
+            const = abs(a) <= eps
+            self.constant_velocity = const
+            self.accelerating = not const and (a * v > 0.0 or abs(v) <= eps)
+            self.decelerating = not const and a * v < 0.0
         self.direction_positive = v > eps
         self.direction_negative = v < -eps
 

@@ -197,6 +197,8 @@ class _Job:
         "no_override",
         "waiting",
         "single",
+        "base",
+        "dir",
     )
 
     def __init__(self, cmd: Command, handle: Handle) -> None:
@@ -213,6 +215,8 @@ class _Job:
         self.no_override = cmd.kind in _NO_OVERRIDE
         self.waiting = False  # queued behind other motion at submission
         self.single: Profile | None = None  # the profile of a one-profile chain
+        self.base: float | None = None  # position a discrete move's target was resolved from
+        self.dir = 0.0  # direction of the motion while running (+1 / -1, 0 = none)
 
     def set_chain(self, chain: list[Profile]) -> None:
         self.chain = chain
@@ -301,6 +305,9 @@ class Axis:
         # feedback
         self.act_p = 0.0
         self.act_v = 0.0
+        self.act_a = 0.0  # derived from actual velocity differences (drives report none)
+        self._act_t = 0.0  # time of the last fresh velocity sample
+        self.act_v_prev = 0.0  # the actual velocity of the sample before
         self.following_error = 0.0
         self.drive_enabled = False
         self.drive_fault = False
@@ -311,6 +318,7 @@ class Axis:
         self.power_request = False
         self.enable_positive = True
         self.enable_negative = True
+        self._feed_all = True  # both directions enabled (the common case: no checks)
         self._reset_handle: Handle | None = None
         self._reset_pulse = False
         self._reset_sent = False
@@ -319,6 +327,7 @@ class Axis:
         self.axis_error_reason = ""
         # command queue
         self._inbox: list[_Job] = []
+        self._pending: list[tuple[Handle, Any]] = []  # ContinuousUpdate values / failures
         self.active: _Job | None = None
         self.queue: deque[_Job] = deque()
         self._stops: list[Handle] = []
@@ -337,6 +346,8 @@ class Axis:
         self.img_a = 0.0
         self.img_act_p = 0.0
         self.img_act_v = 0.0
+        self.img_act_a = 0.0
+        self.img_act_v_prev = 0.0
         self.img_error = ErrorID.OK
         self.img_enabled = False
         self.img_homed = False
@@ -397,11 +408,17 @@ class Axis:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         fb = self.drive.read_inputs(t)
         act_p = fb.position + self.offset
+        act_v = fb.velocity
         enabled = fb.enabled
         fault = fb.fault
         comm_ok = fb.comm_ok
+        dt_act = t - self._act_t
+        if dt_act > 0.0 and not fb.stale:  # actual acceleration: backward difference
+            self.act_v_prev = self.act_v
+            self.act_a = (act_v - self.act_v) / dt_act
+            self._act_t = t
         self.act_p = act_p
-        self.act_v = fb.velocity
+        self.act_v = act_v
         self.drive_enabled = enabled
         self.drive_fault = fault
         self.comm_ok = comm_ok
@@ -431,7 +448,9 @@ class Axis:
         self.img_v = self.v
         self.img_a = self.a
         self.img_act_p = act_p
-        self.img_act_v = self.act_v
+        self.img_act_v = act_v
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error
         self.img_enabled = enabled
         self.img_homed = self.homed
@@ -447,6 +466,8 @@ class Axis:
         self.img_a = self.a
         self.img_act_p = self.act_p
         self.img_act_v = self.act_v
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error
         self.img_enabled = self.drive_enabled
         self.img_homed = self.homed
@@ -476,6 +497,7 @@ class Axis:
         self._inbox.clear()
         self.queue.clear()
         self._stops.clear()
+        self._pending.clear()
         self.active = None
         self.last_target = None
 
@@ -523,6 +545,7 @@ class Axis:
         self.power_request = enable
         self.enable_positive = enable_positive
         self.enable_negative = enable_negative
+        self._feed_all = enable_positive and enable_negative
         if not enable and self.state not in (S.DISABLED, S.ERROR_STOP):
             self.state = next_state(Event.POWER_OFF, self.state)  # T2
             self._fail_all(ErrorID.OK, Status.ABORTED)
@@ -627,6 +650,11 @@ class Axis:
                 if err is not ErrorID.OK:
                     h._finish(Status.ERROR, err)
                     return h
+        if not self._feed_all:
+            d = self._direction_of(job, self.p if immediate else job.base)
+            if not self._dir_enabled(d):
+                h._finish(Status.ERROR, ErrorID.DIRECTION_NOT_ENABLED)
+                return h
         if immediate:
             self.state = next_state(event, state)
         else:
@@ -675,6 +703,7 @@ class Axis:
             if (hi is not None and target > hi) or (lo is not None and target < lo):
                 return ErrorID.TARGET_OUTSIDE_SW_LIMITS
         job.target = target
+        job.base = base
         return ErrorID.OK
 
     def _shift_to(self, cmd: Command) -> None:
@@ -691,12 +720,16 @@ class Axis:
             job.shift += d
             if job.target is not None:
                 job.target += d
+            if job.base is not None:
+                job.base += d
 
     # -- motion kernel ---------------------------------------------------------------------
     def step(self, dt: float) -> None:
         """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise."""
         if self._inbox:
             self._process_inbox()
+        if self._pending:
+            self._apply_pending()
         # the override factor ramps in real time, also while no scalable job runs
         ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
         state = self.state
@@ -704,6 +737,9 @@ class Axis:
             self._resync()
             return
         job = self.active
+        if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
+            self._feed_stop()
+            job = self.active
         if job is None:
             self.v = self.a = self.j = 0.0
         else:
@@ -785,6 +821,7 @@ class Axis:
             self._abort_motion()
         self.active = job
         job.handle.status = Status.ACTIVE
+        job.dir = self._direction_of(job, self.p)
         return True
 
     def _prepare_ramp(self, job: _Job, v_target: float, dec: float, jerk: float) -> None:
@@ -1026,6 +1063,17 @@ class Axis:
             h._finish(Status.DONE)
         else:
             h._finish(Status.DONE)
+        nxt = self._activate_queued()
+        if nxt is not None:
+            return nxt
+        if kind == "home" or (kind == "feedstop" and self.state is S.HOMING):
+            self.state = next_state(Event.HOME_DONE, self.state)  # T7
+        elif self.state is S.DISCRETE_MOTION:
+            self.state = next_state(Event.DISCRETE_DONE, self.state)  # T9
+        return None
+
+    def _activate_queued(self) -> _Job | None:
+        """Start the first startable queued job from the current set state (None: none)."""
         while self.queue:
             nxt = self.queue.popleft()
             if nxt.kind == "setpos":
@@ -1041,16 +1089,169 @@ class Axis:
                 if err is not ErrorID.OK:  # FB runtime error: the next one takes over (2.4)
                     nxt.handle._finish(Status.ERROR, err)
                     continue
+            if not self._feed_all and not self._dir_enabled(self._direction_of(nxt, self.p)):
+                nxt.handle._finish(Status.ERROR, ErrorID.DIRECTION_NOT_ENABLED)
+                continue
             if self._start(nxt, immediate=False):
                 self.state = next_state(event, self.state)
                 if self.active is nxt:
                     return nxt
                 continue  # homing by set position finished at once
-        if kind == "home":
-            self.state = next_state(Event.HOME_DONE, self.state)  # T7
-        elif self.state is S.DISCRETE_MOTION:
-            self.state = next_state(Event.DISCRETE_DONE, self.state)  # T9
         return None
+
+    # -- feed enables (MC_Power.EnablePositive / EnableNegative) -----------------------------
+    def _direction_of(self, job: _Job, base: float | None) -> float:
+        """Direction (+1 / -1, 0 = none or not known yet) in which ``job`` moves from ``base``."""
+        kind = job.kind
+        if kind == "velocity":
+            return _sign(job.cmd.velocity)
+        if kind in ("absolute", "relative", "additive"):
+            if job.target is None or base is None:
+                return 0.0
+            return _sign(job.target - base)
+        if kind == "home":
+            if job.home_phase == 1:  # searching: job.target holds the search direction
+                return _sign(job.target or 0.0)
+            sw = self.cfg.home_switch
+            if sw is None or base is None or job.home_phase:
+                return 0.0
+            return _sign(sw - (base - self.offset)) or 1.0
+        return 0.0  # halt, stop and the internal ramps only brake
+
+    def _dir_enabled(self, d: float) -> bool:
+        return d == 0.0 or (self.enable_positive if d > 0.0 else self.enable_negative)
+
+    def _feed_stop(self) -> None:
+        """The running command moves in a direction that is no longer enabled: it and the
+        queued ones end with Error DIRECTION_NOT_ENABLED; controlled stop with the axis' limits
+        (DiscreteMotion, like MC_Halt; from Homing the axis stays Homing until standstill)."""
+        eid = ErrorID.DIRECTION_NOT_ENABLED
+        for q in self.queue:
+            q.handle._finish(Status.ERROR, eid)
+        self.queue.clear()
+        if self.active is not None:
+            self.active.handle._finish(Status.ERROR, eid)
+        self.active = None
+        self.last_target = None
+        if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
+            self.state = next_state(Event.DISCRETE, self.state)
+        self._start_ramp("feedstop", 0.0, self.cfg.a_max, self.cfg.j_max)
+
+    # -- ContinuousUpdate ----------------------------------------------------------------------
+    def _find_job(self, handle: Handle) -> _Job | None:
+        act = self.active
+        if act is not None and act.handle is handle:
+            return act
+        for job in self.queue:
+            if job.handle is handle:
+                return job
+        for job in self._inbox:
+            if job.handle is handle:
+                return job
+        return None
+
+    def update(self, handle: Handle, cmd: Command) -> None:
+        """ContinuousUpdate: new (validated) inputs for the busy command of ``handle``.
+
+        Applied in this cycle's kernel step (so FB outputs stay independent of the call order):
+        an active command is re-planned from the current set state (position, velocity and
+        acceleration: jerk-limited, no jump); a queued one takes the new values when it starts.
+        Relative inputs refer to the initial condition: the target of MoveRelative/Additive is
+        the base it was resolved from (at Execute, or the predecessor's target) plus the new
+        distance. BufferMode is not updated. If the new values cannot be used (software limit,
+        direction not enabled) the command ends with Error as in :meth:`fail_command`.
+        """
+        self._pending.append((handle, cmd))
+
+    def fail_command(self, handle: Handle, error_id: ErrorID) -> None:
+        """End a busy command with Error in this cycle's kernel step (e.g. an invalid
+        ContinuousUpdate input).
+
+        A queued command is removed. An active one: the next queued command takes over from the
+        current set state at once (spec 2.4); without one the axis stops with its own limits
+        (DiscreteMotion until standstill, like MC_Halt).
+        """
+        self._pending.append((handle, error_id))
+
+    def _apply_pending(self) -> None:
+        pending = self._pending
+        self._pending = []
+        for handle, what in pending:
+            if isinstance(what, Command):
+                self._apply_update(handle, what)
+            else:
+                self._fail_command(handle, what)
+
+    def _apply_update(self, handle: Handle, cmd: Command) -> ErrorID:
+        if handle.status >= Status.DONE:
+            return ErrorID.OK
+        job = self._find_job(handle)
+        if job is None or job.kind != cmd.kind:
+            return ErrorID.OK
+        old_cmd, old_target, old_base = job.cmd, job.target, job.base
+        job.cmd = Command(
+            kind=cmd.kind,
+            mode=old_cmd.mode,
+            position=cmd.position,
+            velocity=cmd.velocity,
+            acceleration=cmd.acceleration,
+            deceleration=cmd.deceleration,
+            jerk=cmd.jerk,
+            direction=cmd.direction,
+        )
+        if job.cmd.is_move and old_base is not None:
+            err = self._resolve(job, old_base)
+            if err is not ErrorID.OK:
+                job.cmd, job.target, job.base = old_cmd, old_target, old_base
+                self._fail_command(handle, err)
+                return err
+            if self.last_target is not None and self.last_target == old_target:
+                self.last_target = job.target
+        if not self._feed_all:
+            d = self._direction_of(job, self.p if job is self.active else job.base)
+            if not self._dir_enabled(d):
+                self._fail_command(handle, ErrorID.DIRECTION_NOT_ENABLED)
+                return ErrorID.DIRECTION_NOT_ENABLED
+        try:
+            if job is self.active:
+                if job.kind == "velocity":
+                    self._prepare_velocity(job, self._tau_state())
+                    # InVelocity stays only if the axis is at the (new) velocity already
+                    job.handle.in_target = job.handle.in_target and job.duration <= 0.0
+                elif job.cmd.is_move:
+                    self._prepare_move(job, self._tau_state())
+                job.dir = self._direction_of(job, self.p)
+            elif self.queue and job is self.queue[0]:
+                act = self.active
+                if act is not None and act.cmd.is_move and not act.handle.terminal:
+                    if job.cmd.mode >= BufferMode.BLENDING_LOW:
+                        self._prepare_move(act, self._tau_state())  # new junction
+        except PlanningError as exc:
+            self.axis_error_reason = f"planner (continuous update): {exc}"
+            self._fail_command(handle, ErrorID.PLANNING_FAILED)
+            return ErrorID.PLANNING_FAILED
+        return ErrorID.OK
+
+    def _fail_command(self, handle: Handle, error_id: ErrorID) -> None:
+        if handle.status >= Status.DONE:
+            return
+        job = self._find_job(handle)
+        handle._finish(Status.ERROR, error_id)
+        if job is None:
+            return
+        if job is not self.active:
+            if job in self.queue:
+                self.queue.remove(job)
+            elif job in self._inbox:
+                self._inbox.remove(job)
+            return
+        self.active = None
+        if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
+            self.state = next_state(Event.DISCRETE, self.state)
+        if self.state is S.DISCRETE_MOTION and self._activate_queued() is not None:
+            return
+        if self.state in (S.DISCRETE_MOTION, S.HOMING):
+            self._start_ramp("feedstop", 0.0, self.cfg.a_max, self.cfg.j_max)
 
     # -- output phase ----------------------------------------------------------------------
     def write_outputs(self, t: float) -> None:

@@ -82,6 +82,9 @@ class ErrorID(IntEnum):
     STATE_SYNCHRONIZED_MOTION = 0x2005
     STATE_STOPPING = 0x2006
     STATE_ERROR_STOP = 0x2007
+    # MC_Power.EnablePositive/EnableNegative: a command moving in a direction that is not
+    # enabled is refused; a running one ends with this error and a controlled stop
+    DIRECTION_NOT_ENABLED = 0x2100
     QUEUE_FULL = 0x3001
     BLENDING_NOT_SUPPORTED_BY_PREVIOUS = 0x3002
     AXIS_ERROR_STOP = 0x4000  # the axis went to ErrorStop while this FB was busy

@@ -12,11 +12,23 @@ Rules pinned for motionplc (spec 1.4 leaves them open):
 * On modulo axes Position must be in [0, modulo); Direction picks the way (SHORTEST: a tie at
   half a period goes the positive way; CURRENT: the sign of the set velocity, SHORTEST at rest).
   Direction is ignored on linear axes.
+* ContinuousUpdate (spec 2.3): only its value at the rising edge of Execute counts. If TRUE, the
+  FB keeps applying changed inputs (position/distance, velocity, acceleration, deceleration,
+  jerk, direction; not buffer_mode) while it is Busy and continuous_update stays TRUE; once it
+  falls, updates stop for this command. An active command is re-planned from the current set
+  state (jerk-limited, no acceleration jump), a queued one starts with the new values. Relative
+  inputs refer to the initial condition (Distance counts from where the command started). An
+  invalid updated input ends the command with Error (its input's ErrorID; the next queued
+  command takes over at once, otherwise a controlled stop); no update after Done.
+* MC_Power.enable_positive / enable_negative: a command that would move in a direction that is
+  not enabled is refused (Error DIRECTION_NOT_ENABLED, the axis unaffected); a running one whose
+  direction loses its enable ends with that Error and a controlled stop (see Axis).
 """
 
 from __future__ import annotations
 
-from typing import Any
+from operator import attrgetter
+from typing import Any, ClassVar
 
 from motionplc.blocks.axis import Axis, Command, Handle
 from motionplc.blocks.base import InputError, MotionFB, check_number
@@ -44,7 +56,54 @@ def _dynamics(fb: Any, axis: Axis) -> tuple[float, float, float]:
     return acc, dec, jerk
 
 
-class _MoveFB(MotionFB):
+class _ContinuousUpdate(MotionFB):
+    """ContinuousUpdate for the motion FBs: ``_command`` builds the (validated) command from the
+    current inputs; ``_CU_INPUTS`` are the inputs that are watched while Busy."""
+
+    _CU_INPUTS: ClassVar[tuple[str, ...]] = ()
+    _cu_get: ClassVar[Any] = staticmethod(lambda fb: ())
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        if cls._CU_INPUTS:
+            cls._cu_get = staticmethod(attrgetter(*cls._CU_INPUTS))
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self._cu = False  # ContinuousUpdate latched at Execute and still TRUE
+        self._cu_values: Any = None
+        super().__init__(name, **inputs)
+
+    def _command(self, axis: Axis) -> Command:
+        raise NotImplementedError
+
+    def _start(self, axis: Axis) -> Handle:
+        self._cu = False
+        cmd = self._command(axis)
+        self._cu = bool(self.continuous_update)
+        self._cu_values = self._cu_get(self) if self._cu else None
+        return axis.submit(cmd)
+
+    def _continuous_update(self, h: Handle) -> None:
+        if not self.continuous_update:
+            self._cu = False  # no more updates for this command
+            return
+        values = self._cu_get(self)
+        if values == self._cu_values:
+            return
+        self._cu_values = values
+        axis = self.axis
+        if axis is None:
+            return
+        try:
+            cmd = self._command(axis)
+        except InputError as exc:
+            self.error_text = str(exc)
+            axis.fail_command(h, exc.error_id)
+            return
+        axis.update(h, cmd)
+
+
+class _MoveFB(_ContinuousUpdate):
     """Common pins of the discrete moves."""
 
     OUTPUTS = ("busy", "active", "done", "command_aborted", "error")
@@ -64,25 +123,27 @@ class _MoveFB(MotionFB):
         self.end_velocity = h.end_velocity
 
     def _busy_outputs(self, h: Handle) -> None:
+        if self._cu:
+            self._continuous_update(h)
         self.end_velocity = h.end_velocity
 
-    def _move_command(self, axis: Axis, kind: str, position: float, direction: Direction) -> Handle:
+    def _move_command(
+        self, axis: Axis, kind: str, position: float, direction: Direction
+    ) -> Command:
         v = check_number(
             "velocity", self.velocity, ErrorID.INVALID_VELOCITY, 0.0, axis.cfg.v_max, lo_open=True
         )
         acc, dec, jerk = _dynamics(self, axis)
         mode = _buffer_mode(self.buffer_mode)
-        return axis.submit(
-            Command(
-                kind=kind,
-                mode=mode,
-                position=position,
-                velocity=v,
-                acceleration=acc,
-                deceleration=dec,
-                jerk=jerk,
-                direction=direction,
-            )
+        return Command(
+            kind=kind,
+            mode=mode,
+            position=position,
+            velocity=v,
+            acceleration=acc,
+            deceleration=dec,
+            jerk=jerk,
+            direction=direction,
         )
 
 
@@ -102,12 +163,14 @@ class MC_MoveAbsolute(_MoveFB):
         "buffer_mode",
     )
 
+    _CU_INPUTS = ("position", "velocity", "acceleration", "deceleration", "jerk", "direction")
+
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.position = 0.0
         self.direction = Direction.SHORTEST
         super().__init__(name, **inputs)
 
-    def _start(self, axis: Axis) -> Handle:
+    def _command(self, axis: Axis) -> Command:
         m = axis.cfg.modulo
         if m is None:
             pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
@@ -140,12 +203,13 @@ class MC_MoveRelative(_MoveFB):
         "buffer_mode",
     )
     _KIND = "relative"
+    _CU_INPUTS = ("distance", "velocity", "acceleration", "deceleration", "jerk")
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.distance = 0.0
         super().__init__(name, **inputs)
 
-    def _start(self, axis: Axis) -> Handle:
+    def _command(self, axis: Axis) -> Command:
         d = check_number("distance", self.distance, ErrorID.INVALID_DISTANCE)
         return self._move_command(axis, self._KIND, d, Direction.POSITIVE)
 
@@ -157,7 +221,7 @@ class MC_MoveAdditive(MC_MoveRelative):
     _KIND = "additive"
 
 
-class MC_MoveVelocity(MotionFB):
+class MC_MoveVelocity(_ContinuousUpdate):
     """Endless motion at a velocity; ``in_velocity`` once the set velocity reaches it."""
 
     INPUTS = (
@@ -173,6 +237,7 @@ class MC_MoveVelocity(MotionFB):
     )
     OUTPUTS = ("busy", "active", "in_velocity", "command_aborted", "error")
     _BUSY_HOOK_UNTRACED = True  # _busy_outputs sets _dirty when in_velocity changes
+    _CU_INPUTS = ("velocity", "acceleration", "deceleration", "jerk", "direction")
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.continuous_update = False
@@ -185,7 +250,7 @@ class MC_MoveVelocity(MotionFB):
         self.in_velocity = False
         super().__init__(name, **inputs)
 
-    def _start(self, axis: Axis) -> Handle:
+    def _command(self, axis: Axis) -> Command:
         vm = axis.cfg.v_max
         v = check_number("velocity", self.velocity, ErrorID.INVALID_VELOCITY, -vm, vm)
         d = self.direction
@@ -201,15 +266,13 @@ class MC_MoveVelocity(MotionFB):
                 f"direction must be POSITIVE, NEGATIVE or CURRENT for MC_MoveVelocity, got {d!r}",
             )
         acc, dec, jerk = _dynamics(self, axis)
-        return axis.submit(
-            Command(
-                kind="velocity",
-                mode=_buffer_mode(self.buffer_mode),
-                velocity=v,
-                acceleration=acc,
-                deceleration=dec,
-                jerk=jerk,
-            )
+        return Command(
+            kind="velocity",
+            mode=_buffer_mode(self.buffer_mode),
+            velocity=v,
+            acceleration=acc,
+            deceleration=dec,
+            jerk=jerk,
         )
 
     def _clear(self) -> None:
@@ -220,6 +283,8 @@ class MC_MoveVelocity(MotionFB):
         self.in_velocity = False
 
     def _busy_outputs(self, h: Handle) -> None:
+        if self._cu:
+            self._continuous_update(h)
         iv = h.in_target and self.active
         if iv != self.in_velocity:
             self.in_velocity = iv
