@@ -10,9 +10,14 @@ This is the only module of motionplc that reads the clock or sleeps.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import os
 import time
 from typing import Protocol
+
+_MCL_CURRENT = 1
+_MCL_FUTURE = 2
 
 
 class Clock(Protocol):
@@ -63,16 +68,30 @@ class RealtimeClock:
     ``spin_ns``: the last part of each wait is a busy loop (the OS sleep typically wakes 50-100
     us late). A larger value lowers lateness and costs CPU. ``fifo_priority``: if given, the
     process switches to ``SCHED_FIFO`` with that priority at :meth:`start` (Linux; needs the
-    privilege, otherwise it stays as it is and ``fifo_active`` is False). The policy stays for
-    the rest of the process.
+    privilege, otherwise it stays as it is and ``fifo_active`` is False). ``cpu``: pin the
+    process to that CPU (``os.sched_setaffinity``; ``affinity_active``). ``lock_memory``:
+    ``mlockall(MCL_CURRENT | MCL_FUTURE)`` through the C library, so no page of the process is
+    paged out (``mlock_active``; needs the privilege or a large enough RLIMIT_MEMLOCK). Each
+    setting stays for the rest of the process; a refused one is reported, never raised.
     """
 
     realtime = True
 
-    def __init__(self, spin_ns: int = 200_000, fifo_priority: int | None = None) -> None:
+    def __init__(
+        self,
+        spin_ns: int = 200_000,
+        fifo_priority: int | None = None,
+        *,
+        cpu: int | None = None,
+        lock_memory: bool = False,
+    ) -> None:
         self.spin_ns = spin_ns
         self.fifo_priority = fifo_priority
+        self.cpu = cpu
+        self.lock_memory = lock_memory
         self.fifo_active = False
+        self.affinity_active = False
+        self.mlock_active = False
         self._t0 = 0
 
     def start(self) -> None:
@@ -83,6 +102,14 @@ class RealtimeClock:
                 self.fifo_active = True
             except (OSError, AttributeError):
                 self.fifo_active = False
+        if self.cpu is not None and not self.affinity_active:
+            try:
+                os.sched_setaffinity(0, {self.cpu})
+                self.affinity_active = True
+            except (OSError, AttributeError, ValueError):
+                self.affinity_active = False
+        if self.lock_memory and not self.mlock_active:
+            self.mlock_active = _mlockall()
         self._t0 = time.monotonic_ns()  # noqa: TID251 - the one place that reads the clock
 
     def now_ns(self) -> int:
@@ -101,3 +128,15 @@ class RealtimeClock:
 
     def spend(self, ns: int) -> None:
         """Real time cannot be faked: ignored."""
+
+
+def _mlockall() -> bool:
+    """Lock all current and future pages of the process in RAM; False if refused."""
+    name = ctypes.util.find_library("c")
+    if name is None:
+        return False
+    try:
+        libc = ctypes.CDLL(name, use_errno=True)
+        return int(libc.mlockall(_MCL_CURRENT | _MCL_FUTURE)) == 0
+    except (OSError, AttributeError):
+        return False

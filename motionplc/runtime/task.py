@@ -40,6 +40,8 @@ class TaskStats:
     omitted_cycles: int
     cycle_time_exceeded: bool
     watchdog_tripped: bool
+    exec_p50: float = 0.0
+    exec_p99: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         """Plain dict (JSON-ready)."""
@@ -97,6 +99,7 @@ class Task:
         self.lat_max_ns = 0
         # lateness histogram (1 us bins); a list: a numpy item increment per cycle costs more
         self._lat_counts = [0] * (_HIST_BINS + 1)
+        self._exec_counts = [0] * (_HIST_BINS + 1)  # execution time histogram (1 us bins)
         self.overruns = 0
         self.omitted_cycles = 0
         self.consecutive_overruns = 0
@@ -124,6 +127,8 @@ class Task:
             self.lat_max_ns = lateness_ns
         b = lateness_ns // _HIST_BIN_NS
         self._lat_counts[b if 0 <= b < _HIST_BINS else (0 if b < 0 else _HIST_BINS)] += 1
+        b = exec_ns // _HIST_BIN_NS
+        self._exec_counts[b if b < _HIST_BINS else _HIST_BINS] += 1
         self.cycle_time_exceeded = overrun
         if overrun:
             self.overruns += 1
@@ -160,16 +165,17 @@ class Task:
         """Lateness [s] below which a fraction ``q`` of the cycles started (1 us resolution)."""
         return self._lat_percentile(q)
 
+    @property
+    def exec_hist(self) -> np.ndarray:
+        """Execution time histogram: counts per 1 us bin (the last bin collects the rest)."""
+        return np.asarray(self._exec_counts, dtype=np.int64)
+
+    def exec_percentile(self, q: float) -> float:
+        """Execution time [s] within which a fraction ``q`` of the cycles ran (1 us bins)."""
+        return _percentile(self.exec_hist, q, self.exec_min_ns, self.exec_max_ns)
+
     def _lat_percentile(self, q: float) -> float:
-        hist = self.lat_hist
-        total = int(hist.sum())
-        if total == 0:
-            return 0.0
-        idx = int(np.searchsorted(np.cumsum(hist), math.ceil(q * total)))
-        # upper edge of the bin, clamped to the observed range (the overflow bin: the maximum)
-        edge = (idx + 1) * _HIST_BIN_NS if idx < _HIST_BINS else self.lat_max_ns
-        ns = min(max(edge, self.lat_min_ns), self.lat_max_ns)
-        return ns * 1e-9
+        return _percentile(self.lat_hist, q, self.lat_min_ns, self.lat_max_ns)
 
     def stats(self) -> TaskStats:
         """Current statistics."""
@@ -189,4 +195,17 @@ class Task:
             omitted_cycles=self.omitted_cycles,
             cycle_time_exceeded=self.cycle_time_exceeded,
             watchdog_tripped=self.watchdog_tripped,
+            exec_p50=self.exec_percentile(0.5),
+            exec_p99=self.exec_percentile(0.99),
         )
+
+
+def _percentile(hist: np.ndarray, q: float, lo_ns: float, hi_ns: float) -> float:
+    """Upper edge of the 1 us bin holding the ceil(q * n)-th sample, clamped to [lo, hi] (the
+    overflow bin: the maximum)."""
+    total = int(hist.sum())
+    if total == 0:
+        return 0.0
+    idx = int(np.searchsorted(np.cumsum(hist), math.ceil(q * total)))
+    edge = (idx + 1) * _HIST_BIN_NS if idx < _HIST_BINS else hi_ns
+    return float(min(max(edge, lo_ns), hi_ns)) * 1e-9
