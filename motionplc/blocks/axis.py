@@ -909,29 +909,32 @@ class Axis:
                 return [first, plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
         return [plan(start, State(target, v_end, 0.0), lim_hi)]
 
-    def _junction_ok(
+    def _junction_chain(
         self, job: _Job, start: State, s: float, vj: float, nxt: _Job, p2: float | None
-    ) -> bool:
+    ) -> list[Profile] | None:
+        """The chain of ``job`` to junction speed ``vj`` if it (and the successor from there)
+        has no reversal or overshoot, else None (the chain is kept: no second planning)."""
         target = job.target
         assert target is not None
         chain = self._move_chain(job.cmd, start, target, s * vj)
         v0 = start.v
         for prof in chain:
             if not _clean(prof, s, target, v0):
-                return False
+                return None
             v0 = prof.end.v
         if p2 is None:
-            return True
+            return chain
         acc, dec, jerk = self._dyn(nxt.cmd)
         lim2 = _limits(nxt.cmd.velocity, acc, dec, jerk, s)
         prof2 = plan(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
-        return _clean(prof2, s, p2, s * vj)
+        return chain if _clean(prof2, s, p2, s * vj) else None
 
     def _prepare_move(self, job: _Job, start: State) -> None:
         target = job.target
         assert target is not None
         v_req, nxt = self._successor_junction(job)
         vj = 0.0
+        chain: list[Profile] | None = None
         s = _sign(target - start.p)
         if nxt is not None and v_req > 0.0 and s != 0.0:
             p2: float | None = None
@@ -944,20 +947,24 @@ class Axis:
             elif nxt.kind == "velocity":
                 s2 = _sign(nxt.cmd.velocity)
             if s2 == s:
-                if self._junction_ok(job, start, s, v_req, nxt, p2):
+                chain = self._junction_chain(job, start, s, v_req, nxt, p2)
+                if chain is not None:
                     vj = v_req
                 else:
                     lo, hi = 0.0, v_req
                     for _ in range(30):
                         mid = 0.5 * (lo + hi)
-                        if self._junction_ok(job, start, s, mid, nxt, p2):
-                            lo = mid
+                        c = self._junction_chain(job, start, s, mid, nxt, p2)
+                        if c is not None:
+                            lo, chain = mid, c
                         else:
                             hi = mid
                         if hi - lo <= 1e-9 * v_req:
                             break
                     vj = lo
-        job.set_chain(self._move_chain(job.cmd, start, target, s * vj))
+        if chain is None:  # no junction speed (or only 0 reachable): plan to rest
+            chain = self._move_chain(job.cmd, start, target, s * vj)
+        job.set_chain(chain)
         job.handle.end_velocity = s * vj
 
     def _replan_active(self) -> None:
