@@ -113,6 +113,23 @@ def realtime(
         spin_ns=round(spin_us * 1000), fifo_priority=fifo, cpu=cpu, lock_memory=mlock
     )
     rt = build(n_axes, clock=clock, seconds=seconds)
+    # attribute slow cycles: did any axis plan a new profile chain in that cycle?
+    axes = list(rt.axes.values())
+    chains = [None] * len(axes)
+    spikes: list[tuple[int, int, int]] = []  # (cycle, exec us, axes that planned)
+
+    def hook(rt: Runtime, k: int) -> None:
+        planned = 0
+        for i, ax in enumerate(axes):
+            c = id(ax.active.chain) if ax.active is not None else None
+            if c != chains[i]:
+                chains[i] = c
+                planned += 1
+        e = rt.tasks[0].exec_last_ns
+        if e > 500_000:
+            spikes.append((k, e // 1000, planned))
+
+    rt.add_cycle_hook(hook)
     hz = os.sysconf("SC_CLK_TCK")
     ru0 = resource.getrusage(resource.RUSAGE_SELF)
     busy0, steal0 = _proc_stat()
@@ -166,8 +183,16 @@ def realtime(
         f" other processes used {others:.1f} CPU-s ({others / seconds:.2f} CPUs) during the run;"
         f" hypervisor steal {steal:.2f} s"
     )
+    planning = [x for x in spikes if x[2] > 0]
     print(
-        f"  (the cycle itself needs ~{eq[0]:.0f} us; an execution time above 1 ms means the"
+        f"  cycles with exec > 0.5 ms: {len(spikes)}, of which {len(planning)} re-planned"
+        f" (max {max((x[1] for x in planning), default=0)} us, up to"
+        f" {max((x[2] for x in planning), default=0)} axes in one cycle: the benchmark's axes"
+        " run their legs in lockstep, ~60-90 us per planned profile); the others"
+        f" (max {max((x[1] for x in spikes if not x[2]), default=0)} us) were preempted"
+    )
+    print(
+        f"  (a normal cycle needs ~{eq[0]:.0f} us; exec above 1 ms without planning means the"
         " process was descheduled inside the cycle)"
     )
     moved = sum(1 for ax in rt.axes.values() if abs(ax.p) > 0.0 or ax.v != 0.0)
