@@ -7,11 +7,21 @@ Also times ``Profile.at`` (random t on random profiles) and ``Profile.sample`` o
 times::
 
     python tools/bench_planning.py --cases 100000 --seed 42
+
+Synchronised planning (issue 3): ``plan_sync`` (time synchronisation) against Ruckig's
+``Synchronization.Time`` on the same 3- and 6-axis cases, rest to rest (every v and a zero:
+exact limit scaling) and general (Ruckig's ``random_3`` distributions); each is also
+expressed per axis relative to the single-axis ``plan`` mean of the same run and kind
+(targets: rest to rest <= 2x, general <= 10x). Finally ``OnlineGenerator.update`` when the
+target is unchanged (no re-plan), per axis (target: <= 3 us)::
+
+    python tools/bench_planning.py --sync-cases 2000 --update-calls 200000
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import gc
 import sys
 import time
@@ -22,8 +32,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from motionplc.planning import Profile, plan  # noqa: E402
-from tests.planning._cases import RuckigOracle, import_ruckig, iter_cases  # noqa: E402
+from motionplc.planning import Limits, OnlineGenerator, Profile, State, plan, plan_sync  # noqa: E402
+from tests.planning._cases import (  # noqa: E402
+    MultiCase,
+    RuckigOracle,
+    import_ruckig,
+    iter_cases,
+    iter_multi_cases,
+)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
@@ -39,6 +55,18 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--sample-times", type=int, default=10_000, help="times per Profile.sample call (10000)"
     )
     ap.add_argument("--sample-calls", type=int, default=200, help="Profile.sample calls (200)")
+    ap.add_argument(
+        "--sync-cases",
+        type=int,
+        default=2000,
+        help="plan_sync calls per configuration (3/6 axes x rest/general) (2000; 0 skips)",
+    )
+    ap.add_argument(
+        "--update-calls",
+        type=int,
+        default=200_000,
+        help="OnlineGenerator.update calls per configuration (200000; 0 skips)",
+    )
     return ap.parse_args(argv)
 
 
@@ -81,6 +109,122 @@ def time_ruckig(rk: Any, inputs: list[Any]) -> np.ndarray:
         otg.calculate(inp, traj)
         out[i] = clock() - t0
     return out
+
+
+def rest_to_rest(case: MultiCase) -> MultiCase:
+    """The same positions and limits with every velocity and acceleration zero."""
+    axes = tuple(
+        dataclasses.replace(c, v0=0.0, a0=0.0, vf=0.0, af=0.0, tag="rest") for c in case.axes
+    )
+    return dataclasses.replace(case, axes=axes, tag="rest")
+
+
+def time_plan_cases(problems: list[tuple[Any, Any, Any]]) -> np.ndarray:
+    out = np.empty(len(problems), dtype=np.int64)
+    clock = time.perf_counter_ns
+    for i, (s, t, lim) in enumerate(problems):
+        t0 = clock()
+        plan(s, t, lim)
+        out[i] = clock() - t0
+    return out
+
+
+def time_sync(cases: list[MultiCase]) -> np.ndarray:
+    args = [(c.starts(), c.targets(), c.limits()) for c in cases]
+    for s, t, lim in args[:20]:  # warm-up
+        plan_sync(s, t, lim)
+    out = np.empty(len(args), dtype=np.int64)
+    clock = time.perf_counter_ns
+    for i, (s, t, lim) in enumerate(args):
+        t0 = clock()
+        plan_sync(s, t, lim)
+        out[i] = clock() - t0
+    return out
+
+
+def time_ruckig_sync(rk: Any, cases: list[MultiCase]) -> np.ndarray:
+    dofs = cases[0].dofs
+    otg, traj = rk.Ruckig(dofs), rk.Trajectory(dofs)
+    inputs = [c.ruckig_input(rk) for c in cases]
+    for inp in inputs[:20]:
+        otg.calculate(inp, traj)
+    out = np.empty(len(inputs), dtype=np.int64)
+    clock = time.perf_counter_ns
+    for i, inp in enumerate(inputs):
+        t0 = clock()
+        otg.calculate(inp, traj)
+        out[i] = clock() - t0
+    return out
+
+
+def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> None:
+    """plan_sync vs Ruckig, rest to rest and general, 3 and 6 axes; per axis vs ``single``
+    (single-axis plan means of the same kind, in us)."""
+    print(
+        f"\nsynchronised planning (time sync), {args.sync_cases} cases per row; "
+        f"single-axis plan mean: general {single['general']:.1f} us, "
+        f"rest to rest {single['rest']:.1f} us"
+    )
+    print(
+        f"{'':22}{'motionplc mean':>15}{'p99':>10}{'ruckig mean':>13}{'p99':>9}"
+        f"{'ratio':>8}{'per axis / single':>19}{'target':>8}"
+    )
+    for kind, target in (("rest", 2.0), ("general", 10.0)):
+        for dofs in (3, 6):
+            stream = iter_multi_cases(args.seed + dofs, dofs, sync="time")
+            cases = [next(stream) for _ in range(args.sync_cases)]
+            if kind == "rest":
+                cases = [rest_to_rest(c) for c in cases]
+            ours = stats_us(time_sync(cases))
+            row = f"{kind + f' {dofs} axes':<22}{ours['mean']:>12.1f} us{ours['p99']:>7.0f} us"
+            if rk is not None:
+                theirs = stats_us(time_ruckig_sync(rk, cases))
+                row += (
+                    f"{theirs['mean']:>10.1f} us{theirs['p99']:>6.0f} us"
+                    f"{ours['mean'] / theirs['mean']:>7.0f}x"
+                )
+            else:
+                row += f"{'-':>13}{'-':>9}{'-':>8}"
+            per_axis = ours["mean"] / (dofs * single[kind])
+            ok = "ok" if per_axis <= target else "MISSED"
+            row += f"{per_axis:>16.2f}x{f'<= {target:g}x':>9} {ok}"
+            print(row)
+
+
+def time_updates(gen: OnlineGenerator, target: Any, calls: int) -> float:
+    """Mean ns per ``update`` with an unchanged target (batch-timed, loop overhead removed)."""
+    gen.update(target)  # plans once
+    replans = gen.replans
+    update = gen.update
+    rng = range(calls)
+    t0 = time.perf_counter_ns()
+    for _ in rng:
+        update(target)
+    total = time.perf_counter_ns() - t0
+    t0 = time.perf_counter_ns()
+    for _ in rng:
+        pass
+    loop = time.perf_counter_ns() - t0
+    assert gen.replans == replans, "update re-planned with an unchanged target"
+    return (total - loop) / calls
+
+
+def bench_updates(args: argparse.Namespace) -> None:
+    """OnlineGenerator.update without re-plan: one axis and groups of 3 and 6."""
+    lim = Limits(v_max=1.0, a_max=2.0, j_max=10.0)
+    far = State(p=1e6)  # a long move: every timed call is mid-profile
+    print(f"\nOnlineGenerator.update without re-plan ({args.update_calls} calls each):")
+    gen = OnlineGenerator(lim, 0.001)
+    ns = time_updates(gen, far, args.update_calls)
+    print(f"  1 axis                {ns / 1e3:6.3f} us per call  {ns / 1e3:6.3f} us per axis")
+    for dofs in (3, 6):
+        group = OnlineGenerator([lim] * dofs, 0.001)
+        ns = time_updates(group, [far] * dofs, args.update_calls)
+        print(
+            f"  group of {dofs}            {ns / 1e3:6.3f} us per call  "
+            f"{ns / 1e3 / dofs:6.3f} us per axis"
+        )
+    print("  target: <= 3 us per axis")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -164,6 +308,19 @@ def main(argv: list[str] | None = None) -> int:
                 traj.at_time(t)
             dt = (time.perf_counter_ns() - t0) / len(ts_list) / 1e3
             print(f"(ruckig Trajectory.at_time for reference: mean {dt:.3f} us per call)")
+
+        if args.sync_cases > 0:
+            rest_problems = [
+                (State(c.p0), State(c.pf), c.limits()) for c in cases[: args.sync_cases * 3]
+            ]
+            time_plan_cases(rest_problems[:200])
+            single = {
+                "general": ours["mean"],
+                "rest": stats_us(time_plan_cases(rest_problems))["mean"],
+            }
+            bench_sync(args, rk, single)
+        if args.update_calls > 0:
+            bench_updates(args)
     finally:
         gc.enable()
     return 0

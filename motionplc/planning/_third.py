@@ -519,8 +519,8 @@ def single_ramp(
     if af == a0:
         j = 0.0
         if a0 == 0.0:
-            if v0 == 0.0:
-                return (0.0, [], "hold") if d == 0.0 else None
+            if v0 == 0.0 or vf != v0:
+                return (0.0, [], "hold") if d == 0.0 and vf == v0 else None
             t = d / v0
         else:
             t = (vf - v0) / a0
@@ -550,6 +550,16 @@ def time_optimal(
 ) -> Candidate | None:
     """Fastest verified profile over both shapes, or None if no family yields one."""
     best = single_ramp(v0, a0, d, vf, af, J)
+    if best is None and v0 == 0.0 and a0 == 0.0 and vf == 0.0 and af == 0.0 and d != 0.0:
+        # rest to rest without reaching a limit: four ramps of t = cbrt(|d| / (2J)) -- in
+        # closed form, which also serves distances so small that the polynomials underflow
+        t = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+        if J * t <= min(amax, -amin) and J * t * t <= min(vmax, -vmin):
+            s = J if d > 0.0 else -J
+            ph: Phases = [(t, s), (2.0 * t, -s), (t, s)]
+            r = _verify(ph, 0.0, 0.0, d, 0.0, 0.0, vmax, vmin, amax, amin)
+            if r is not None:
+                return r[0], r[1], "none-rest"
     t_best = best[0] if best is not None else math.inf
     best_down = False
     up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
@@ -592,7 +602,10 @@ def extremal_profiles(
     """
     cands: list[Candidate] = []
     sr = single_ramp(v0, a0, d, vf, af, J)
-    if sr is not None:
+    # A constant-acceleration piece (zero jerk) is not an extremal profile: it lies inside a
+    # range of feasible durations, and counting it would misplace the blocked intervals. It
+    # stays only when it is the only profile (a start that is already on the target's path).
+    if sr is not None and (not sr[1] or sr[1][0][1] != 0.0):
         cands.append(sr)
     up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
     down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
@@ -602,6 +615,8 @@ def extremal_profiles(
         fam(*down, math.inf, mirrored)
         for t, ph, name in mirrored:
             cands.append((t, [mirror(x) for x in ph], name + "-down"))
+    if not cands and sr is not None:
+        cands.append(sr)
     cands.sort(key=lambda c: c[0])
     unique: list[Candidate] = []
     for c in cands:

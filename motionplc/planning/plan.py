@@ -85,8 +85,23 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
             "limits: at least one of v_max, a_max, j_max must be finite for a position move"
         )
     _check_target_va(vf, af, lim)
+    if arrived(p0, v0, a0, pf, vf, af):
+        return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
     return Profile(State(p0, v0, a0), phases, kind)
+
+
+def arrived(p0: float, v0: float, a0: float, pf: float, vf: float, af: float) -> bool:
+    """The start is the target up to rounding (e.g. the end state of a profile re-planned):
+    moving would only chase rounding errors (a needless extra phase or even a loop)."""
+    # a few units in the last place, and at least 1e-15 (a femtometre: far below any real
+    # resolution and the 1e-8 end-state tolerance)
+    eps = 8.0 * 2.220446049250313e-16
+    return (
+        abs(pf - p0) <= max(1e-15, eps * max(abs(p0), abs(pf)))
+        and abs(vf - v0) <= max(1e-15, eps * max(abs(v0), abs(vf)))
+        and abs(af - a0) <= max(1e-15, eps * max(abs(a0), abs(af)))
+    )
 
 
 def position_phases(
@@ -176,6 +191,8 @@ def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float
     if not amin <= af <= amax:
         raise PlanningError(f"a_target = {af!r} is outside the allowed range [{amin}, {amax}]")
     J = lim.j_max
+    if arrived(0.0, v0, a0, 0.0, vf, af):
+        return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     if J == _INF and af != 0.0:
         raise PlanningError(
             f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"

@@ -50,6 +50,7 @@ from motionplc.planning.plan import (
     _check_limits,
     _check_state,
     _check_target_va,
+    arrived,
     position_phases,
     velocity_phases,
 )
@@ -60,6 +61,17 @@ from motionplc.planning.trajectory import Trajectory
 _INF = math.inf
 _SYNC_TOL = 2e-10  # target accuracy of a synchronised duration [s] (scaled up for T > 5e4 s)
 Phases = list[tuple[float, ...]]
+
+
+# Longest synchronised duration planned (Ruckig stops at about 7.6e3 s): beyond it double
+# precision no longer keeps the axes' end times within 1e-9 s of each other.
+MAX_SYNC_DURATION = 1e4
+
+
+def _dur_tol(T: float) -> float:
+    """Accuracy of a synchronised duration: 2e-10 s, relaxed to 1e-13 T for long moves (the
+    sum of many phases is not more exact than that); below 1e-9 s up to 1e4 s."""
+    return max(_SYNC_TOL, 1e-13 * T)
 
 
 class _Axis(NamedTuple):
@@ -102,6 +114,8 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
             )
         _check_target_va(vf, af, lim, name=name)
     pre: Phases = []
+    if arrived(p0, v0, a0, pf, vf, af):
+        pf, vf, af = p0, v0, a0  # a target within rounding of the start is the start
     d = pf - p0
     if J != _INF:
         if velocity:
@@ -114,6 +128,11 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
                 a0 = lim_a
         else:
             pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
+            if pre3 and vmin <= v0 <= vmax and amin <= a0 <= amax:
+                # braking only for an overshoot that looks inevitable: not needed where a
+                # profile within the limits reaches the target first (as in plan())
+                if _third.time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J):
+                    pre3 = []
             if pre3:
                 pb = 0.0
                 vb, ab = v0, a0
@@ -148,6 +167,10 @@ def _extremals(ax: _Axis) -> list[tuple[float, Phases, str]]:
     )
     if not ext:
         return [_optimal(ax)]  # raises the planner's error if there really is no profile
+    if len(ext) % 2 == 0 and ext[0][0] <= 0.0:
+        # already at a moving target: the zero duration is an isolated feasible point, a
+        # degenerate pair of extremals; count it twice so that (0, next) is blocked
+        ext = [ext[0], *ext]
     return ext
 
 
@@ -230,7 +253,7 @@ def _by_limit_bisection(
     if s_floor >= 1.0:
         return None
     x_floor = math.log(s_floor) if s_floor > 0.0 else -80.0
-    tol = max(_SYNC_TOL, 4e-15 * T)
+    tol = _dur_tol(T)
     log_t = math.log(T)
     found: list[tuple[float, Phases, str]] = []
 
@@ -294,10 +317,10 @@ def _by_limit_bisection(
     width = abs(xa - xb)
     since_halved = 0
     for _ in range(80):
-        lo, hi = (xa, xb) if xa < xb else (xb, xa)
-        x = xc - fc * (xc - xp) / (fc - fp) if fc != fp else 0.5 * (lo + hi)
-        if since_halved >= 3 or not lo < x < hi:
-            x = 0.5 * (lo + hi)
+        x_lo, x_hi = (xa, xb) if xa < xb else (xb, xa)
+        x = xc - fc * (xc - xp) / (fc - fp) if fc != fp else 0.5 * (x_lo + x_hi)
+        if since_halved >= 3 or not x_lo < x < x_hi:
+            x = 0.5 * (x_lo + x_hi)
         fx = g(x)
         if found:
             return done()
@@ -336,7 +359,8 @@ def _velocity_change(
 
 
 def _by_cruise_velocity(ax: _Axis, T: float) -> tuple[Phases, str] | None:
-    """Exact profile of duration T cruising at an intermediate velocity (fallback)."""
+    """Exact profile of duration T cruising at an intermediate velocity vp between two
+    time-optimal velocity changes (fallback); vp is found by :func:`_scan_family`."""
     if ax.velocity or ax.J == _INF:
         return None
     v0, a0, vf, af, d = ax.v0, ax.a0, ax.vf, ax.af, ax.d
@@ -344,40 +368,16 @@ def _by_cruise_velocity(ax: _Axis, T: float) -> tuple[Phases, str] | None:
     lo = max(ax.vmin, -span)
     hi = min(ax.vmax, span)
 
-    def residual(vp: float) -> tuple[float, float]:
-        t1, _, d1 = _velocity_change(v0, a0, vp, 0.0, ax)
-        t2, _, d2 = _velocity_change(vp, 0.0, vf, af, ax)
+    def phases_of(vp: float) -> Phases | None:
+        t1, ph1 = _velocity.velocity_third(v0, a0, vp, 0.0, ax.amax, ax.amin, ax.J)
+        t2, ph2 = _velocity.velocity_third(vp, 0.0, vf, af, ax.amax, ax.amin, ax.J)
         c = T - t1 - t2
-        return d1 + d2 + vp * c - d, c
+        if c < 0.0:
+            return None
+        return [*ph1, (c, 0.0, 0.0, vp), *ph2]
 
-    n = 48
-    grid = [lo + (hi - lo) * k / n for k in range(n + 1)]
-    vals = [residual(vp) for vp in grid]
-    for k in range(n):
-        (f0, c0), (f1, c1) = vals[k], vals[k + 1]
-        if c0 < 0.0 or c1 < 0.0 or (f0 < 0.0) == (f1 < 0.0):
-            continue
-        a, b, fa = grid[k], grid[k + 1], f0
-        for _ in range(100):
-            m = 0.5 * (a + b)
-            fm, _cm = residual(m)
-            if (fm < 0.0) == (fa < 0.0):
-                a, fa = m, fm
-            else:
-                b = m
-            if b - a <= 1e-15 * max(1.0, abs(m)):
-                break
-        vp = 0.5 * (a + b)
-        t1, ph1, _ = _velocity_change(v0, a0, vp, 0.0, ax)
-        t2, ph2, _ = _velocity_change(vp, 0.0, vf, af, ax)
-        c = T - t1 - t2
-        if c < -1e-12:
-            continue
-        phases: Phases = [*ph1, (max(c, 0.0), 0.0, 0.0, vp), *ph2]
-        r = _third._verify(phases, v0, a0, d, vf, af, ax.vmax, ax.vmin, ax.amax, ax.amin)
-        if r is not None and abs(r[0] - T) <= 1e-9 * max(1.0, T):
-            return list(r[1]), "cruise-sync"
-    return None
+    r = _scan_family(lo, hi, phases_of, ax, T, 1.0, n=48)
+    return None if r is None else (r, "cruise-sync")
 
 
 def _scan_family(
@@ -410,7 +410,9 @@ def _scan_family(
                 a += dur * j
         return p - d, ph
 
-    xs = [x_lo + (x_hi - x_lo) * (k + 0.5) / n for k in range(n)]
+    # the ends too: an admissible window often touches one (e.g. a cruise just below v_max)
+    xs = [x_lo, *(x_lo + (x_hi - x_lo) * (k + 0.5) / n for k in range(n)), x_hi]
+    n = len(xs)
     ok = [resid(x) is not None for x in xs]
     if sum(ok) < n // 2:
         # the admissible part is narrow: find its edges and sample it densely instead
@@ -465,7 +467,7 @@ def _scan_family(
                 if rm is not None:
                     ph = [(max(x[0], 0.0), *x[1:]) for x in rm[1]]
                     ver = _third._verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-                    if ver is not None and abs(ver[0] - T) <= 1e-9 * max(1.0, T):
+                    if ver is not None and abs(ver[0] - T) <= _dur_tol(T):
                         out = list(ver[1])
                         return out if sign > 0 else [_third.mirror(q) for q in out]
         prev = (x, f)
@@ -534,12 +536,15 @@ def _free_plateau_oriented(ax: _Axis, T: float, sign: float) -> tuple[Phases, st
             return None
         return [((P - a0) / J, J), ((P - Q) / J, -J), ((R - Q) / J, J), ((R - af) / J, -J)]
 
-    q_lo = amin if amin != -_INF else -(abs(a0) + abs(af) + J * T)
-    q_hi = min(amax, S0 + abs(a0) + abs(af)) if amax != _INF else abs(a0) + abs(af) + J * T
-    for first_high in (True, False):
-        r = _scan_family(q_lo, q_hi, lambda q, fh=first_high: udud(q, fh), ax, T, sign, n=64)
-        if r is not None:
-            return r, "udud"
+    # admissible troughs: Q <= min(P, R) needs M0 <= S0^2 and Q <= q1 = S0 - sqrt(2(S0^2 - M0));
+    # P >= a0 and R >= af need Q >= (a0 + af - J T) / 2
+    if M0 <= S0 * S0:
+        q_hi = S0 - math.sqrt(2.0 * (S0 * S0 - M0))
+        q_lo = max(amin, 0.5 * (a0 + af - J * T))
+        for first_high in (True, False):
+            r = _scan_family(q_lo, q_hi, lambda q, fh=first_high: udud(q, fh), ax, T, sign, n=64)
+            if r is not None:
+                return r, "udud"
     if amax != _INF:
 
         def acc0_trough(Q: float) -> Phases | None:
@@ -585,22 +590,98 @@ def _free_plateau_oriented(ax: _Axis, T: float, sign: float) -> tuple[Phases, st
     return None
 
 
+def _velocity_fixed(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Velocity interface, exact duration T: ramp to a free plateau P (or trough) and ramp to
+    the target acceleration: P^2 - P (a0 + af + J T) + (a0^2 + af^2 + 2 J dv) / 2 = 0."""
+    J = ax.J
+    if J == _INF:
+        return None
+    for sign in (1.0, -1.0):
+        v0, a0, vf, af = sign * ax.v0, sign * ax.a0, sign * ax.vf, sign * ax.af
+        amax = ax.amax if sign > 0 else -ax.amin
+        vmax, vmin = (ax.vmax, ax.vmin) if sign > 0 else (-ax.vmin, -ax.vmax)
+        S = a0 + af + J * T
+        for P in _third.quadratic_roots(1.0, -S, 0.5 * (a0 * a0 + af * af + 2.0 * J * (vf - v0))):
+            h = T - (2.0 * P - a0 - af) / J
+            if P < max(a0, af) - 1e-12 or P > amax + 1e-12 or h < -1e-12:
+                continue
+            t1 = (P - a0) / J
+            t3 = (P - af) / J
+            # velocity extremes at a = 0 on the ramps stay within the limits
+            v1 = v0 + t1 * (a0 + 0.5 * t1 * J)
+            v2 = v1 + max(h, 0.0) * P
+            ok = True
+            if a0 < 0.0 < P:
+                ok = ok and v0 - 0.5 * a0 * a0 / J >= vmin - 1e-12 * max(1.0, abs(vmin))
+            if af < 0.0 < P:
+                ok = ok and v2 + 0.5 * P * P / J <= vmax + 1e-12 * max(1.0, abs(vmax))
+            if not ok:
+                continue
+            ph: Phases = [(t1, J), (max(h, 0.0), 0.0, P), (t3, -J)]
+            if sign < 0:
+                ph = [_third.mirror(x) for x in ph]
+            return ph, "velocity-fixed"
+    # monotone acceleration: ramp from a0 to a plateau Q between a0 and af, then on to af;
+    # the plateau lasts h = T - |af - a0| / J and dv fixes Q
+    a0, af, v0, vf = ax.a0, ax.af, ax.v0, ax.vf
+    h = T - abs(af - a0) / J
+    if h > 0.0:
+        Q = (vf - v0 - (af * af - a0 * a0) / (2.0 * J) * (1.0 if af >= a0 else -1.0)) / h
+        lo, hi = min(a0, af), max(a0, af)
+        if lo - 1e-12 <= Q <= hi + 1e-12 and ax.amin <= Q <= ax.amax:
+            j1 = J if Q >= a0 else -J
+            j2 = J if af >= Q else -J
+            ph = [((Q - a0) / j1 if j1 else 0.0, j1), (h, 0.0, Q), ((af - Q) / j2, j2)]
+            if _velocity_within(ax, ph):
+                return ph, "velocity-fixed"
+    return None
+
+
+def _velocity_within(ax: _Axis, phases: Phases) -> bool:
+    v, a = ax.v0, ax.a0
+    hi = ax.vmax + 1e-12 * max(1.0, abs(ax.vmax))
+    lo = ax.vmin - 1e-12 * max(1.0, abs(ax.vmin))
+    for ph in phases:
+        dur, j = ph[0], ph[1]
+        if len(ph) > 2:
+            a = ph[2]
+        if dur <= 0.0:
+            continue
+        a1 = a + dur * j
+        if j != 0.0 and (a < 0.0) != (a1 < 0.0):
+            tz = -a / j
+            vz = v + tz * (a + 0.5 * tz * j)
+            if not lo <= vz <= hi:
+                return False
+        v += dur * (a + 0.5 * dur * j)
+        a = a1
+        if not lo <= v <= hi:
+            return False
+    return True
+
+
 def _solve_for(
     ax: _Axis, T: float, ext: list[tuple[float, Phases, str]]
 ) -> tuple[Phases, str] | None:
     """Phases of duration T (after the prefix) for this axis, or None."""
     for t, ph, kind in ext:
-        if abs(t - T) <= _SYNC_TOL * max(1.0, T):
+        if abs(t - T) <= _dur_tol(T):
             return ph, kind
     t_min = ext[0][0]
     if T < t_min:
         return None
     rest = ax.v0 == 0.0 and ax.a0 == 0.0 and ax.vf == 0.0 and ax.af == 0.0
+    if rest and not ax.velocity and abs(ax.d) <= 1e-13 * max(1.0, abs(ax.p0)):
+        return [(T, 0.0, 0.0, 0.0)], "hold"  # at rest on its target: wait for the others
     if rest and not ax.velocity and t_min > 0.0:
         k = T / t_min
         ph = _scaled_rest(ax, k, ext[0])
         if ph is not None:
             return ph
+    if ax.velocity:
+        r = _velocity_fixed(ax, T)
+        if r is not None:
+            return r
     durs = [t for t, _, _ in ext]
     branch = 0
     while 2 * branch + 2 < len(durs) and T >= durs[2 * branch + 2] - _SYNC_TOL:
@@ -675,6 +756,12 @@ def _time_sync(
     for T in ordered:
         if T < t_lim - _SYNC_TOL:
             continue
+        if T > MAX_SYNC_DURATION:
+            raise PlanningError(
+                f"the axes can only end together after {T:.6g} s, beyond the supported "
+                f"{MAX_SYNC_DURATION:g} s (e.g. an axis already at a moving target would have "
+                "to loop to wait for the others)"
+            )
         profiles: list[Profile] = []
         for ax, e in zip(axes, exts, strict=True):
             durs = [t for t, _, _ in e]
@@ -823,14 +910,22 @@ def plan_sync(
     ]
     if sync == "none":
         profiles = []
+        tmins = []
         for ax in axes:
             t, ph, kind = _optimal(ax)
+            tmins.append(ax.t_pre + t)
             if dt is not None:
-                r = _solve_for(ax, _round_up(ax.t_pre + t, dt) - ax.t_pre, _extremals(ax))
-                if r is not None:
-                    ph, kind = r
+                # each axis on its own, cycle-exact (skipping its own blocked durations)
+                res = _time_sync([ax], dt)
+                if res is None:
+                    raise PlanningError(
+                        "no cycle-exact duration found for an axis (planner defect: please "
+                        "report these inputs)"
+                    )
+                profiles.append(res[0][0])
+                continue
             profiles.append(_profile(ax, ph, kind))
-        return Trajectory(profiles, "none", "", [p.duration for p in profiles])
+        return Trajectory(profiles, "none", "", tmins)
     res = _time_sync(axes, dt)
     if res is None:
         raise PlanningError(

@@ -14,6 +14,12 @@ Distributions (Ruckig ``test/test_target.cpp``, "position-random"):
 Inputs whose *target* Ruckig rejects (``validate_input(inp, False, True)``) are redrawn when
 ``redraw_invalid`` is set; Ruckig's check is mirrored in pure Python by :func:`target_is_valid`
 so that generation also works without Ruckig installed.
+
+Several axes (``plan_sync``): :class:`MultiCase` holds one :class:`Case` per axis plus the
+synchronisation, ``dt`` and interfaces; :func:`iter_multi_cases` draws every axis
+independently from the distributions above (Ruckig's ``random_3`` test), optionally
+*collinear* (v0, a0, vf, af parallel to the move, for phase synchronisation), and
+:class:`RuckigSyncOracle` answers with Ruckig's synchronised duration.
 """
 
 from __future__ import annotations
@@ -363,4 +369,206 @@ def iter_cases(
 def generate_cases(n: int, seed: int, **kwargs: Any) -> list[Case]:
     """The first ``n`` cases of :func:`iter_cases` (same keyword arguments)."""
     it = iter_cases(seed, **kwargs)
+    return [next(it) for _ in range(n)]
+
+
+# -- multi-DoF cases (plan_sync) -------------------------------------------------------------
+SYNC_MODES = ("time", "phase", "none")
+
+
+@dataclass(frozen=True, slots=True)
+class MultiCase:
+    """One ``plan_sync`` problem: one :class:`Case` per axis, the synchronisation and ``dt``.
+
+    ``sync`` is ``"time"``, ``"phase"`` or ``"none"``; ``dt`` (cycle time) asks for a duration
+    that is a whole number of cycles (Ruckig's ``DurationDiscretization.Discrete``).
+    ``interface`` holds one ``"position"`` / ``"velocity"`` per axis (``None``: all position).
+    """
+
+    axes: tuple[Case, ...]
+    sync: str = "time"
+    dt: float | None = None
+    interface: tuple[str, ...] | None = None
+    tag: str = field(default="", compare=False)
+
+    @property
+    def dofs(self) -> int:
+        return len(self.axes)
+
+    def starts(self) -> list[State]:
+        return [c.start() for c in self.axes]
+
+    def targets(self) -> list[State]:
+        return [c.target() for c in self.axes]
+
+    def limits(self) -> list[Limits]:
+        return [c.limits() for c in self.axes]
+
+    def velocity_axes(self) -> list[bool]:
+        if self.interface is None:
+            return [False] * self.dofs
+        return [kind == "velocity" for kind in self.interface]
+
+    def code(self) -> str:
+        """A ``plan_sync(...)`` call reproducing this case (needs ``math``, ``State``...)."""
+        ind = "\n    "
+        starts = ind.join(f"    {state_code(c.p0, c.v0, c.a0)}," for c in self.axes)
+        targets = ind.join(f"    {state_code(c.pf, c.vf, c.af)}," for c in self.axes)
+        lims = ind.join(f"    {c.limits_code()}," for c in self.axes)
+        extra = f",{ind}sync={self.sync!r}"
+        if self.dt is not None:
+            extra += f", dt={fmt_float(self.dt)}"
+        if self.interface is not None:
+            extra += f",{ind}interface={list(self.interface)!r}"
+        return (
+            f"plan_sync({ind}[{ind}{starts}{ind}],{ind}[{ind}{targets}{ind}],"
+            f"{ind}[{ind}{lims}{ind}]{extra},\n)"
+        )
+
+    def __str__(self) -> str:
+        return self.code()
+
+    def ruckig_input(self, rk: ModuleType) -> Any:
+        """A ``ruckig.InputParameter`` with this case's synchronisation and discretisation."""
+        n = self.dofs
+        inp = rk.InputParameter(n)
+        inp.synchronization = {
+            "time": rk.Synchronization.Time,
+            "phase": rk.Synchronization.Phase,
+            "none": rk.Synchronization.No,
+        }[self.sync]
+        if self.dt is not None:
+            inp.duration_discretization = rk.DurationDiscretization.Discrete
+        if self.interface is not None:
+            inp.per_dof_control_interface = [
+                rk.ControlInterface.Velocity if k == "velocity" else rk.ControlInterface.Position
+                for k in self.interface
+            ]
+        ax = self.axes
+        inp.current_position = [c.p0 for c in ax]
+        inp.current_velocity = [c.v0 for c in ax]
+        inp.current_acceleration = [c.a0 for c in ax]
+        inp.target_position = [c.pf for c in ax]
+        inp.target_velocity = [c.vf for c in ax]
+        inp.target_acceleration = [c.af for c in ax]
+        inp.max_velocity = [c.v_max for c in ax]
+        inp.max_acceleration = [c.a_max for c in ax]
+        inp.max_jerk = [c.j_max for c in ax]
+        if any(c.v_min is not None for c in ax):
+            inp.min_velocity = [c.lo_v for c in ax]
+        if any(c.a_min is not None for c in ax):
+            inp.min_acceleration = [c.lo_a for c in ax]
+        return inp
+
+
+class RuckigSyncAnswer(NamedTuple):
+    """Ruckig's synchronised duration and its per-DoF minimum durations, or the error."""
+
+    duration: float | None
+    error: str
+    independent: tuple[float, ...] = ()
+
+
+class RuckigSyncOracle:
+    """Ruckig instances (one per number of DoFs and cycle time) for :class:`MultiCase`.
+
+    Ruckig's ``delta_time`` only matters for ``DurationDiscretization.Discrete``: a case with
+    a ``dt`` is solved by ``Ruckig(dofs, dt)``, one without by ``Ruckig(dofs, default_dt)``.
+    """
+
+    def __init__(self, rk: ModuleType, default_dt: float = 0.001) -> None:
+        self.rk = rk
+        self.default_dt = default_dt
+        self._otg: dict[tuple[int, float], tuple[Any, Any]] = {}
+
+    def _pair(self, dofs: int, dt: float) -> tuple[Any, Any]:
+        pair = self._otg.get((dofs, dt))
+        if pair is None:
+            pair = (self.rk.Ruckig(dofs, dt), self.rk.Trajectory(dofs))
+            self._otg[(dofs, dt)] = pair
+        return pair
+
+    def solve(self, case: MultiCase) -> RuckigSyncAnswer:
+        dt = self.default_dt if case.dt is None else case.dt
+        otg, traj = self._pair(case.dofs, dt)
+        try:
+            res = otg.calculate(case.ruckig_input(self.rk), traj)
+        except (self.rk.RuckigError, ValueError) as exc:
+            return RuckigSyncAnswer(None, f"{type(exc).__name__}: {str(exc).strip()}")
+        if res not in (self.rk.Result.Working, self.rk.Result.Finished):
+            return RuckigSyncAnswer(None, str(res))
+        return RuckigSyncAnswer(
+            float(traj.duration), "", tuple(float(x) for x in traj.independent_min_durations)
+        )
+
+
+def _collinear_axes(rng: np.random.Generator, dofs: int, nonzero: bool) -> tuple[Case, ...]:
+    """Ruckig's distributions with v0, a0, vf, af parallel to ``target - start``."""
+    pr = {k: (1.0 if nonzero else v) for k, v in NONZERO_PROBABILITY.items()}
+    p0 = rng.normal(0.0, POSITION_SD, dofs)
+    pf = rng.normal(0.0, POSITION_SD, dofs)
+    u = (pf - p0) / float(np.linalg.norm(pf - p0))
+    s = {k: _maybe(rng, pr[k]) for k in ("v0", "a0", "vf", "af")}
+    axes = []
+    for i in range(dofs):
+        v0, a0, vf, af = (float(s[k] * u[i]) for k in ("v0", "a0", "vf", "af"))
+        v_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(vf)
+        a_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH)) + abs(af)
+        j_max = float(rng.uniform(LIMIT_LOW, LIMIT_HIGH))
+        axes.append(
+            Case(float(p0[i]), v0, a0, float(pf[i]), vf, af, v_max, a_max, j_max, tag="collinear")
+        )
+    return tuple(axes)
+
+
+def draw_multi_case(
+    rng: np.random.Generator,
+    dofs: int,
+    *,
+    sync: str = "time",
+    dt: float | None = None,
+    collinear: bool = False,
+    nonzero: bool = False,
+) -> MultiCase:
+    """One multi-DoF case: every axis from :func:`draw_case` (Ruckig's ``random_3``
+    distributions, independent per DoF), or with ``collinear`` start/target velocities and
+    accelerations parallel to the move (each axis' component of one random scalar, drawn
+    with the same probabilities of being zero)."""
+    if collinear:
+        axes = _collinear_axes(rng, dofs, nonzero)
+    else:
+        axes = tuple(draw_case(rng, nonzero=nonzero) for _ in range(dofs))
+    return MultiCase(axes, sync, dt, tag="collinear" if collinear else "random")
+
+
+def iter_multi_cases(
+    seed: int,
+    dofs: int,
+    *,
+    sync: str = "time",
+    dt: float | None = None,
+    collinear_fraction: float = 0.0,
+    nonzero: bool = False,
+    redraw_invalid: bool = True,
+) -> Iterator[MultiCase]:
+    """Endless reproducible stream of :class:`MultiCase` for ``np.random.default_rng(seed)``.
+
+    ``collinear_fraction`` of the cases are collinear (see :func:`draw_multi_case`). With
+    ``redraw_invalid`` a case is redrawn (all axes, as Ruckig's test does) when any axis'
+    target fails Ruckig's target check (:func:`case_target_valid`).
+    """
+    if sync not in SYNC_MODES:
+        raise ValueError(f"sync must be one of {SYNC_MODES}, got {sync!r}")
+    rng = np.random.default_rng(seed)
+    while True:
+        collinear = collinear_fraction > 0.0 and rng.random() < collinear_fraction
+        case = draw_multi_case(rng, dofs, sync=sync, dt=dt, collinear=collinear, nonzero=nonzero)
+        if redraw_invalid and not all(case_target_valid(c) for c in case.axes):
+            continue
+        yield case
+
+
+def generate_multi_cases(n: int, seed: int, dofs: int, **kwargs: Any) -> list[MultiCase]:
+    """The first ``n`` cases of :func:`iter_multi_cases` (same keyword arguments)."""
+    it = iter_multi_cases(seed, dofs, **kwargs)
     return [next(it) for _ in range(n)]

@@ -14,7 +14,8 @@ Tolerances (absolute unless stated):
   the whole profile when the start is inside the limits (see :func:`state_is_inside`), and
   from the first knot that is inside the limits on when it is not;
 * segment jerk in {-j_max, 0, +j_max} within ``JERK_RTOL * j_max`` (1e-12) for finite j_max,
-  exactly 0 for infinite j_max;
+  exactly 0 for infinite j_max; with ``jerk_within=True`` (synchronised axes, whose jerk limit
+  was lowered) only |jerk| <= j_max * (1 + ``JERK_RTOL``);
 * continuity at every joint: each segment is integrated from its knot and compared with the
   next knot (and the last one with ``prof.end``) within ``JOINT_TOL * max(1, |value|)``
   (1e-9); p always, v unless j_max and a_max are both infinite, a when j_max is finite.
@@ -108,12 +109,14 @@ def profile_problems(
     start_inside: bool = True,
     check_target_p: bool = True,
     check_limits: bool = True,
+    jerk_within: bool = False,
 ) -> list[str]:
     """Everything wrong with ``prof`` as a plan from ``start`` to ``target`` under ``lim``.
 
     ``check_target_p=False`` skips the end position (velocity interface);
     ``check_limits=False`` skips the velocity/acceleration limits (velocity interface with a
-    target that cannot be reached inside them, which ``plan_velocity`` accepts).
+    target that cannot be reached inside them, which ``plan_velocity`` accepts);
+    ``jerk_within=True`` accepts any jerk of magnitude up to j_max (synchronised axes).
     """
     problems: list[str] = []
     v_min, v_max, a_min, a_max, j_max = lims(lim)
@@ -143,6 +146,9 @@ def profile_problems(
         if j_inf:
             if s.jerk != 0.0:
                 problems.append(f"segment {i} jerk {s.jerk!r} != 0 with infinite j_max")
+        elif jerk_within:
+            if abs(s.jerk) > j_max * (1.0 + JERK_RTOL):
+                problems.append(f"segment {i} jerk {s.jerk!r} beyond j_max={j_max!r}")
         elif min(abs(s.jerk - j_max), abs(s.jerk), abs(s.jerk + j_max)) > JERK_RTOL * j_max:
             problems.append(f"segment {i} jerk {s.jerk!r} not in {{-j_max, 0, +j_max}}")
     if segs and not _close(total, dur, 1e-12):
@@ -256,6 +262,7 @@ def check_profile(
     start_inside: bool = True,
     check_target_p: bool = True,
     check_limits: bool = True,
+    jerk_within: bool = False,
 ) -> None:
     """Assert that ``prof`` is a valid plan from ``start`` to ``target`` (see module docs)."""
     problems = profile_problems(
@@ -266,6 +273,7 @@ def check_profile(
         start_inside=start_inside,
         check_target_p=check_target_p,
         check_limits=check_limits,
+        jerk_within=jerk_within,
     )
     if problems:
         raise AssertionError(

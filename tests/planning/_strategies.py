@@ -1,4 +1,5 @@
-"""Hypothesis strategies for planner inputs: limits, starts inside/outside, reachable targets."""
+"""Hypothesis strategies for planner inputs: limits, starts inside/outside, reachable targets;
+several axes (independent or collinear) for ``plan_sync``."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from hypothesis import HealthCheck, assume, settings
 from hypothesis import strategies as st
 
 from motionplc.planning import Limits, State
+from tests.planning._cases import start_is_inside, target_is_valid
 from tests.planning._checks import lims
 
 INF = math.inf
@@ -154,3 +156,63 @@ def infinite_problems(draw: st.DrawFn) -> Problem:
     assume(not (math.isinf(lim.v_max) and math.isinf(lim.a_max) and math.isinf(lim.j_max)))
     start = draw(inside_states(lim))
     return start, draw(reachable_targets(lim, start.p)), lim
+
+
+# -- several axes (plan_sync) ----------------------------------------------------------------
+MultiProblem = tuple[list[State], list[State], list[Limits]]
+
+
+@st.composite
+def multi_problems(
+    draw: st.DrawFn, *, min_axes: int = 2, max_axes: int = 3, rest: bool = False
+) -> MultiProblem:
+    """Independent :func:`inside_problems` per axis; ``rest``: every v and a zero."""
+    n = draw(st.integers(min_axes, max_axes))
+    starts: list[State] = []
+    targets: list[State] = []
+    lims_: list[Limits] = []
+    for _ in range(n):
+        start, target, lim = draw(inside_problems())
+        if rest:
+            start, target = State(start.p), State(target.p)
+        starts.append(start)
+        targets.append(target)
+        lims_.append(lim)
+    return starts, targets, lims_
+
+
+@st.composite
+def collinear_problems(
+    draw: st.DrawFn, *, min_axes: int = 2, max_axes: int = 3, rest: bool = False
+) -> MultiProblem:
+    """A move along a random direction u (p_f - p_0 = L u, L > 0) with v0, a0, vf, af all
+    parallel to u, inside every axis' limits (redrawn otherwise); ``rest``: all zero."""
+    n = draw(st.integers(min_axes, max_axes))
+    lims_ = [draw(limits()) for _ in range(n)]
+    u = [draw(st.floats(-1.0, 1.0)) for _ in range(n)]
+    norm = math.sqrt(sum(x * x for x in u))
+    assume(norm > 0.1)
+    u = [x / norm for x in u]
+    length = draw(st.floats(-2.0, 1.5).map(lambda e: 10.0**e))
+    p0 = [draw(positions) for _ in range(n)]
+    # the scalars along u, as a fraction of the most restrictive axis' limits
+    if rest:
+        v0 = a0 = vf = af = 0.0
+    else:
+        v_cap = min(
+            min(abs(lm.v_max), abs(lims(lm)[0])) / max(abs(x), 1e-12)
+            for lm, x in zip(lims_, u, strict=True)
+        )
+        a_cap = min(
+            min(abs(lm.a_max), abs(lims(lm)[2])) / max(abs(x), 1e-12)
+            for lm, x in zip(lims_, u, strict=True)
+        )
+        v0, vf = draw(unit) * v_cap * 0.5, draw(unit) * v_cap * 0.5
+        a0, af = draw(unit) * a_cap * 0.5, draw(unit) * a_cap * 0.5
+    starts = [State(p, v0 * x, a0 * x) for p, x in zip(p0, u, strict=True)]
+    targets = [State(p + length * x, vf * x, af * x) for p, x in zip(p0, u, strict=True)]
+    for s, t, lm in zip(starts, targets, lims_, strict=True):
+        v_min, v_max, a_min, a_max, j_max = lims(lm)
+        assume(start_is_inside(s.v, s.a, v_min, v_max, a_min, a_max, j_max))
+        assume(target_is_valid(t.v, t.a, v_min, v_max, a_min, a_max, j_max))
+    return starts, targets, lims_
