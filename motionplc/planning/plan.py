@@ -11,6 +11,7 @@ from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
 _INF = math.inf
+MAX_DURATION = 1e5  # [s] the longest single-axis profile planned (about 28 h)
 
 
 def _finite(name: str, value: object) -> float:
@@ -88,6 +89,12 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
     if arrived(p0, v0, a0, pf, vf, af):
         return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
+    if T > MAX_DURATION:
+        raise PlanningError(
+            f"the profile would last {T:.6g} s, beyond the supported {MAX_DURATION:g} s "
+            "(limits far too small for the states: double precision cannot keep its end state "
+            "and continuity; Ruckig stops at about 7.6e3 s)"
+        )
     return Profile(State(p0, v0, a0), phases, kind)
 
 
@@ -211,6 +218,13 @@ def velocity_phases(
         acc = amax if vf > v0 else amin
         t = (vf - v0) / acc
         return t, [(t, 0.0, acc), (0.0, 0.0, 0.0)], "velocity-second-order"
+    # a state a rounding error off the last ramp into the target: that ramp (re-planning near
+    # the end must not add a square-root-of-rounding correction)
+    if amin <= a0 <= amax and a0 != af:
+        j = J if af > a0 else -J
+        t = (af - a0) / j
+        if abs(v0 + t * (a0 + 0.5 * t * j) - vf) <= 1e-12 * max(1.0, abs(vf)):
+            return t, [(t, j)], "velocity-ramp"
     pre: list[tuple[float, ...]] = []
     v, a = v0, a0
     t_pre = 0.0

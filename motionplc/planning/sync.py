@@ -116,6 +116,8 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
     pre: Phases = []
     if arrived(p0, v0, a0, pf, vf, af):
         pf, vf, af = p0, v0, a0  # a target within rounding of the start is the start
+        if abs(v0) <= 1e-15 and abs(a0) <= 1e-15:
+            v0 = vf = a0 = af = 0.0  # at rest up to rounding: hold still
     d = pf - p0
     if J != _INF:
         if velocity:

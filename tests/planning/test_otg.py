@@ -118,13 +118,6 @@ def test_replan_velocity_interface(problem: strat.Problem, u: float) -> None:
     assert not problems, problems
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known planner gap (issue 3 stays open): the fixed-duration solver misses some "
-    "durations just above an axis' minimum when the minimum jumps as the jerk is lowered, so a "
-    "group re-planned mid-motion can take a later common duration; see "
-    "test_replan_group_from_a_plateau_state for the exact case",
-)
 @hsettings(150)
 @given(strat.multi_problems(), st.floats(0.0, 1.0, exclude_max=True))
 def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> None:
@@ -152,7 +145,12 @@ def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> Non
         assert not problems, problems
 
 
-@pytest.mark.xfail(strict=True, reason="known planner gap (issue 3 stays open), see above")
+@pytest.mark.xfail(
+    strict=True,
+    reason="known planner gap (issue 3 stays open): the fixed-duration solver misses some "
+    "durations just above an axis' minimum when the minimum jumps as the jerk is lowered, so a "
+    "group re-planned mid-motion can take a later common duration",
+)
 def test_replan_group_from_a_plateau_state() -> None:
     """Found by hypothesis: axis 1 is re-planned from a state on its a_min plateau; its old
     (jerk-lowered) profile proves the remaining 43.3232 s are feasible, but the solver only
