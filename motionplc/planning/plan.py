@@ -11,7 +11,7 @@ from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
 _INF = math.inf
-MAX_DURATION = 1e5  # [s] the longest single-axis profile planned (about 28 h)
+MAX_DURATION = 1e8  # [s] the longest single-axis profile planned (about 3 years)
 
 
 def _finite(name: str, value: object) -> float:
