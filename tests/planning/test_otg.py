@@ -100,7 +100,11 @@ def test_replan_on_the_profile_inside(problem: strat.Problem, u: float) -> None:
 def test_replan_on_the_profile_from_outside(problem: strat.Problem, u: float) -> None:
     """Also while braking back into the limits from a start outside them."""
     start, target, lim = problem
-    old = plan(start, target, lim)
+    try:
+        old = plan(start, target, lim)
+    except PlanningError as exc:  # beyond the duration envelope; Ruckig rejects these too
+        assume("beyond the supported" not in str(exc))
+        raise
     t, mid = _replan_at(old, u)
     new = plan(mid, target, lim)
     problems, _, _ = bellman_problems(old, new, t)
