@@ -212,7 +212,7 @@ def time_updates(gen: OnlineGenerator, target: Any, calls: int) -> float:
 def bench_updates(args: argparse.Namespace) -> None:
     """OnlineGenerator.update without re-plan: one axis and groups of 3 and 6."""
     lim = Limits(v_max=1.0, a_max=2.0, j_max=10.0)
-    far = State(p=1e6)  # a long move: every timed call is mid-profile
+    far = State(p=5e3)  # a long move (5,000 s): every timed call is mid-profile
     print(f"\nOnlineGenerator.update without re-plan ({args.update_calls} calls each):")
     gen = OnlineGenerator(lim, 0.001)
     ns = time_updates(gen, far, args.update_calls)
