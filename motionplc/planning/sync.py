@@ -202,7 +202,7 @@ def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
                 floor = max(floor, af * af / (2.0 * max(ax.vmax - vf, 1e-300)))
             if af > 0.0 and ax.vmin != -_INF:
                 floor = max(floor, af * af / (2.0 * max(vf - ax.vmin, 1e-300)))
-        return floor / J * (1.0 + 1e-9)
+        return floor / J * (1.0 + 1e-12)
     if what == "a":
         vals = (a0, af)
     else:
@@ -214,7 +214,7 @@ def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
             floor = max(floor, x / lim_hi)
         elif x < 0.0:
             floor = max(floor, x / lim_lo)
-    return floor * (1.0 + 1e-9)
+    return floor * (1.0 + 1e-12)
 
 
 def _by_limit_bisection(
@@ -662,6 +662,96 @@ def _velocity_within(ax: _Axis, phases: Phases) -> bool:
     return True
 
 
+def _by_family_jerk(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Jerk bisection within one profile family at a time (last fallback).
+
+    Where the minimum duration T(J') jumps over T, because another family becomes the
+    fastest, the family that was fastest before the jump (or any other) may still reach T
+    when its own best duration is followed as J' falls. Each family's duration is sampled in
+    log J' (densely inside the windows where the family has a valid profile) and every bracket
+    of T is bisected."""
+    if ax.velocity or ax.J == _INF or T <= 0.0:
+        return None
+    J = ax.J
+    s_floor = _scale_floor(ax, "j", 0.0, 0.0)
+    if s_floor >= 1.0:
+        return None
+    x_floor = math.log(s_floor) if s_floor > 0.0 else -12.0
+    tol = _dur_tol(T)
+    up = (ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin)
+    down = (-ax.v0, -ax.a0, -ax.d, -ax.vf, -ax.af, -ax.vmin, -ax.vmax, -ax.amin, -ax.amax)
+    for fam in _third._FAMILIES:
+        for args, sign in ((up, 1.0), (down, -1.0)):
+
+            def g(x: float, fam: object = fam, args: tuple[float, ...] = args) -> object:
+                return fam(*args, J * math.exp(x), _INF)  # type: ignore[operator]
+
+            r = _scan_1d(g, x_floor, 0.0, T, tol)
+            if r is not None:
+                return _family_result(r, sign)
+    return None
+
+
+def _scan_1d(
+    g: object, lo: float, hi: float, T: float, tol: float, n: int = 24
+) -> tuple[float, Phases, str] | None:
+    """A candidate c = g(x) with |c[0] - T| <= tol for x in [lo, hi] (g returns None where
+    there is no valid profile): samples, refines narrow valid windows, bisects brackets."""
+
+    def val(x: float) -> tuple[float, tuple[float, Phases, str] | None]:
+        c = g(x)  # type: ignore[operator]
+        return (math.nan, None) if c is None else (c[0] - T, c)
+
+    xs = [lo + (hi - lo) * k / (n - 1) for k in range(n)]
+    vs = [val(x) for x in xs]
+    ok = [c is not None for _, c in vs]
+    if sum(ok) < n // 2:
+        edges = [lo] if ok[0] else []
+        for k in range(n - 1):
+            if ok[k] != ok[k + 1]:
+                a, b = xs[k], xs[k + 1]
+                for _ in range(40):
+                    m = 0.5 * (a + b)
+                    if (val(m)[1] is not None) == ok[k]:
+                        a = m
+                    else:
+                        b = m
+                edges.append(a if ok[k] else b)
+        if ok[-1]:
+            edges.append(hi)
+        xs = []
+        for e0, e1 in zip(edges[::2], edges[1::2], strict=False):
+            xs.extend(e0 + (e1 - e0) * k / (n - 1) for k in range(n))
+        vs = [val(x) for x in xs]
+    prev: tuple[float, float] | None = None
+    for x, (f, c) in zip(xs, vs, strict=True):
+        if c is None:
+            prev = None
+            continue
+        if abs(f) <= tol:
+            return c
+        if prev is not None and (prev[1] < 0.0) != (f < 0.0):
+            a, fa, b = prev[0], prev[1], x
+            for _ in range(60):
+                m = 0.5 * (a + b)
+                fm, cm = val(m)
+                if cm is None:
+                    break
+                if abs(fm) <= tol:
+                    return cm
+                if (fm < 0.0) == (fa < 0.0):
+                    a, fa = m, fm
+                else:
+                    b = m
+        prev = (x, f)
+    return None
+
+
+def _family_result(c: tuple[float, Phases, str], sign: float) -> tuple[Phases, str]:
+    ph = list(c[1]) if sign > 0 else [_third.mirror(x) for x in c[1]]
+    return ph, c[2] + ("" if sign > 0 else "-down") + "+family-j"
+
+
 def _solve_for(
     ax: _Axis, T: float, ext: list[tuple[float, Phases, str]]
 ) -> tuple[Phases, str] | None:
@@ -696,6 +786,9 @@ def _solve_for(
     if r is not None:
         return r
     r = _by_free_plateau(ax, T)
+    if r is not None:
+        return r
+    r = _by_family_jerk(ax, T)
     if r is not None:
         return r
     if ax.velocity and ax.af == 0.0:

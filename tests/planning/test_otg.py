@@ -149,16 +149,11 @@ def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> Non
         assert not problems, problems
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known planner gap (issue 3 stays open): the fixed-duration solver misses some "
-    "durations just above an axis' minimum when the minimum jumps as the jerk is lowered, so a "
-    "group re-planned mid-motion can take a later common duration",
-)
 def test_replan_group_from_a_plateau_state() -> None:
     """Found by hypothesis: axis 1 is re-planned from a state on its a_min plateau; its old
-    (jerk-lowered) profile proves the remaining 43.3232 s are feasible, but the solver only
-    finds 217.0 s (its minimum is 43.3064 s and the lowered-jerk minimum jumps to 123 s)."""
+    (jerk-lowered) profile proves the remaining 43.3232 s are feasible. Its minimum is 43.3064 s
+    and the lowered-jerk minimum jumps to 123 s, so plain jerk bisection cannot land; the
+    family-following jerk bisection does."""
     starts = [State(0.0, -8.659643233600654, 0.0), State(-7.0, -0.18704453601495707, 0.0)]
     targets = [State(0.0, 8.659643233600654, 0.0), State(0.0, -11.970850304957299, 0.0)]
     lims = [
