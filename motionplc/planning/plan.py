@@ -101,13 +101,14 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
 def arrived(p0: float, v0: float, a0: float, pf: float, vf: float, af: float) -> bool:
     """The start is the target up to rounding (e.g. the end state of a profile re-planned):
     moving would only chase rounding errors (a needless extra phase or even a loop)."""
-    # a few units in the last place, and at least 1e-15 (a femtometre: far below any real
-    # resolution and the 1e-8 end-state tolerance)
+    # a few units in the last place, and at least 1e-15 in position (a femtometre: far below
+    # any real resolution and the 1e-8 end-state tolerance) and 1e-12 in velocity and
+    # acceleration (the rounding of a state sampled a few ulp before a profile's end)
     eps = 8.0 * 2.220446049250313e-16
     return (
         abs(pf - p0) <= max(1e-15, eps * max(abs(p0), abs(pf)))
-        and abs(vf - v0) <= max(1e-15, eps * max(abs(v0), abs(vf)))
-        and abs(af - a0) <= max(1e-15, eps * max(abs(a0), abs(af)))
+        and abs(vf - v0) <= max(1e-12, eps * max(abs(v0), abs(vf)))
+        and abs(af - a0) <= max(1e-12, eps * max(abs(a0), abs(af)))
     )
 
 
