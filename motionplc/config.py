@@ -406,13 +406,6 @@ class LimitsSpec:
     v_min: float | None = None
     a_min: float | None = None
 
-    @property
-    def symmetric(self) -> tuple[float, float, float]:
-        """The symmetric limits an axis runs with (the tighter side of asymmetric ones)."""
-        v = self.v_max if self.v_min is None else min(self.v_max, -self.v_min)
-        a = self.a_max if self.a_min is None else min(self.a_max, -self.a_min)
-        return v, a, self.j_max
-
 
 @dataclass(frozen=True, slots=True)
 class HomingSpec:
@@ -947,8 +940,10 @@ def build(
         modbus_first: set[str] = set()
         for ax in config.axes:
             drive = _make_drive(machine, ax, masters, modbus_first, unique_channels)
-            v, a, j = ax.limits.symmetric
+            lim = ax.limits
             options: dict[str, Any] = {
+                "v_min": lim.v_min,  # asymmetric limits run as given (None: symmetric)
+                "a_min": lim.a_min,
                 "modulo": ax.modulo,
                 "following_error_limit": ax.following_error,
                 "sw_limit_pos": ax.sw_limit_max,
@@ -959,7 +954,7 @@ def build(
                 options["home_switch"] = ax.homing.switch
                 options["home_velocity"] = ax.homing.velocity
             machine.axes[ax.name] = rt.add_axis(
-                ax.name, v, a, j, drive=drive, task=ax.task, **options
+                ax.name, lim.v_max, lim.a_max, lim.j_max, drive=drive, task=ax.task, **options
             )
     except BaseException:
         machine.close()

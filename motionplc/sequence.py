@@ -547,7 +547,13 @@ class _SyncBlock:
                 continue
             ax = blk.fb.axis
             cfg = ax.cfg
-            lim = Limits(v_max=cfg.v_max, a_max=cfg.a_max, j_max=cfg.j_max)
+            lim = Limits(
+                v_max=cfg.v_max,
+                a_max=cfg.a_max,
+                j_max=cfg.j_max,
+                v_min=-cfg.v_neg,
+                a_min=-cfg.a_neg,
+            )
             durations[name] = plan(State(ax.p, ax.v, ax.a), State(targets[name]), lim).duration
         t_max = max(durations.values(), default=0.0)
         for name, blk in self.members.items():
@@ -560,13 +566,19 @@ class _SyncBlock:
             if r <= 0.0:
                 continue
             jerk = cfg.j_max * r**3 if math.isfinite(cfg.j_max) else 0.0
+            # the limits of the move's direction (asymmetric axes): speeding up positively is
+            # a > 0 (a_max), negatively a < 0 (|a_min|); slowing down the other way round
+            fwd = targets[name] >= ax.p
+            v_lim, a_up, a_down = (
+                (cfg.v_max, cfg.a_max, cfg.a_neg) if fwd else (cfg.v_neg, cfg.a_neg, cfg.a_max)
+            )
             _issue(
                 blk,
                 {
                     "position": targets[name],
-                    "velocity": cfg.v_max * r,
-                    "acceleration": cfg.a_max * r * r,
-                    "deceleration": cfg.a_max * r * r,
+                    "velocity": v_lim * r,
+                    "acceleration": a_up * r * r,
+                    "deceleration": a_down * r * r,
                     "jerk": min(jerk, cfg.j_max),
                 },
             )

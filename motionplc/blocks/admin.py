@@ -245,7 +245,11 @@ class MC_ReadMotionState(EnableFB):
         if self.source is Source.ACTUAL_VALUE:
             _check_comm(axis)
             win = check_number(
-                "acc_window", self.acc_window, ErrorID.INVALID_ACCELERATION, 0.0, axis.cfg.a_max
+                "acc_window",
+                self.acc_window,
+                ErrorID.INVALID_ACCELERATION,
+                0.0,
+                max(axis.cfg.a_max, axis.cfg.a_neg),
             )
             v = axis.img_act_v
             a = axis.img_act_a

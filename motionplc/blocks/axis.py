@@ -20,6 +20,8 @@ Rules pinned here (the spec leaves them open):
   by cruising at its Velocity and accelerating just before its end (spec Appendix A, Ex. 6).
 * Blending after a MoveVelocity acts like Buffered with the velocity of the first block
   (``blend_after_continuous="previous"``) or is an error (``"error"``).
+* Asymmetric axis limits (``AxisConfig.v_min`` / ``a_min``) are used as they are; the FB
+  dynamic inputs only cap them (:meth:`Axis._limits`), they never widen them.
 * MC_SetOverride scales time: the set velocity is ``f * v``; ``f`` follows the requested factor
   along a jerk-limited ramp so the set values stay continuous. Stop, Halt, Home and the
   ErrorStop ramp are not scaled. AccFactor/JerkFactor scale the limits of moves planned later.
@@ -80,8 +82,20 @@ class AxisConfig:
     sw_limit_pos: float | None = None
     sw_limit_neg: float | None = None
     home_switch: float | None = None  # virtual reference switch, in drive coordinates
-    home_velocity: float | None = None  # homing search velocity (default 10 % of v_max)
+    home_velocity: float | None = None  # search velocity (default 10 % of the direction limit)
     blend_after_continuous: str = "previous"  # or "error"
+    v_min: float | None = None  # most negative velocity (< 0); None: -v_max (symmetric)
+    a_min: float | None = None  # most negative acceleration (< 0); None: -a_max (symmetric)
+
+    @property
+    def v_neg(self) -> float:
+        """Speed limit in the negative direction: ``-v_min`` (``v_max`` if symmetric)."""
+        return self.v_max if self.v_min is None else -self.v_min
+
+    @property
+    def a_neg(self) -> float:
+        """Limit of a negative acceleration: ``-a_min`` (``a_max`` if symmetric)."""
+        return self.a_max if self.a_min is None else -self.a_min
 
     def __post_init__(self) -> None:
         def pos(name: str, x: Any, inf_ok: bool = False) -> None:
@@ -93,6 +107,12 @@ class AxisConfig:
         pos("v_max", self.v_max)
         pos("a_max", self.a_max)
         pos("j_max", self.j_max, inf_ok=True)
+        for name in ("v_min", "a_min"):
+            x = getattr(self, name)
+            if x is not None:
+                ok = isinstance(x, (int, float)) and not isinstance(x, bool)
+                if not ok or not (-_INF < x < 0.0):
+                    raise ValueError(f"axis {self.name!r}: {name} must be in (-inf, 0), got {x!r}")
         if self.modulo is not None:
             pos("modulo", self.modulo)
         if self.following_error_limit is not None:
@@ -254,13 +274,6 @@ class _Job:
 
 def _sign(x: float) -> float:
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
-
-
-def _limits(v: float, acc: float, dec: float, jerk: float, s: float) -> Limits:
-    """Limits of a move in direction ``s``: Acceleration raises |v|, Deceleration lowers it."""
-    if s >= 0.0:
-        return Limits(v_max=v, a_max=acc, j_max=jerk, v_min=-v, a_min=-dec)
-    return Limits(v_max=v, a_max=dec, j_max=jerk, v_min=-v, a_min=-acc)
 
 
 def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
@@ -484,7 +497,7 @@ class Axis:
         self.state = next_state(Event.AXIS_ERROR, prev)
         self._fail_all(ErrorID.AXIS_ERROR_STOP)
         if prev is not S.DISABLED:
-            self._start_ramp("estop", 0.0, self.cfg.a_max, self.cfg.j_max)
+            self._start_ramp("estop", 0.0, 0.0, self.cfg.j_max)
 
     def _fail_all(self, eid: ErrorID, status: Status = Status.ERROR) -> None:
         jobs = list(self._inbox) + list(self.queue)
@@ -561,8 +574,10 @@ class Axis:
         if vel == old_vel:
             return
         cfg = self.cfg
-        fa = cfg.a_max / cfg.v_max
-        fj = cfg.j_max / cfg.v_max
+        # f' * v must stay within the tighter acceleration side at the faster velocity side
+        vm = max(cfg.v_max, cfg.v_neg)
+        fa = min(cfg.a_max, cfg.a_neg) / vm
+        fj = cfg.j_max / vm
         lim = Limits(v_max=_INF, a_max=fa, j_max=fj)
         fd = self._fd if fj != _INF else 0.0
         self._f_prof = plan_velocity(State(0.0, self._f, fd), vel, lim)
@@ -840,31 +855,75 @@ class Axis:
         self.active = job
 
     def _axis_limits(self, acc: float, dec: float, jerk: float, v: float | None = None) -> Limits:
+        """Limits of a ramp (Halt, Stop, ErrorStop, homing): ``max(acc, dec)`` caps both
+        acceleration signs (0: the axis' own ``a_max`` / ``|a_min|``), ``v`` both speeds."""
         cfg = self.cfg
         af, jf = self.override[1], self.override[2]
-        acc = (acc or cfg.a_max) * af
-        dec = (dec or cfg.a_max) * af
+        cap = max(acc, dec) or _INF
         jerk = (jerk or cfg.j_max) * jf
-        vv = cfg.v_max if v is None else v
-        return Limits(v_max=vv, a_max=max(acc, dec), j_max=jerk, v_min=-vv, a_min=-max(acc, dec))
+        vv = _INF if v is None else v
+        return Limits(
+            v_max=min(vv, cfg.v_max),
+            a_max=min(cap, cfg.a_max) * af,
+            j_max=jerk,
+            v_min=-min(vv, cfg.v_neg),
+            a_min=-min(cap, cfg.a_neg) * af,
+        )
+
+    def _limits(self, v: float, acc: float, dec: float, jerk: float, s: float) -> Limits:
+        """Planner limits of a move in direction ``s`` (``acc`` / ``dec`` from :meth:`_dyn`).
+
+        The FB inputs cap the axis' own (possibly asymmetric) limits, never widen them:
+
+        * Velocity ``v`` caps the speed of both directions, but never above the axis' limit of
+          the direction (``v_max`` for v > 0, ``|v_min|`` for v < 0).
+        * Acceleration caps the acceleration that raises |v| in direction ``s``, Deceleration
+          the one that lowers it; each never above the axis' limit of the sign of that
+          acceleration (``a_max`` for a > 0, ``|a_min|`` for a < 0). Moving positively,
+          Acceleration caps ``a_max`` and Deceleration ``|a_min|``; moving negatively, the
+          other way round. 0 (not given) means the axis' limit.
+        * MC_SetOverride's AccFactor scales both acceleration sides after the capping.
+        """
+        cfg = self.cfg
+        af = self.override[1]
+        up, down = (acc, dec) if s >= 0.0 else (dec, acc)  # caps of a > 0, of a < 0
+        return Limits(
+            v_max=min(v, cfg.v_max),
+            a_max=min(up, cfg.a_max) * af,
+            j_max=jerk,
+            v_min=-min(v, cfg.v_neg),
+            a_min=-min(down, cfg.a_neg) * af,
+        )
+
+    def _v_side(self, s: float) -> float:
+        """The axis' speed limit in direction ``s``."""
+        return self.cfg.v_max if s >= 0.0 else self.cfg.v_neg
 
     def _dyn(self, cmd: Command) -> tuple[float, float, float]:
-        cfg = self.cfg
-        af, jf = self.override[1], self.override[2]
+        """FB Acceleration / Deceleration caps (inf if not given, unscaled) and the jerk."""
+        jf = self.override[2]
         return (
-            (cmd.acceleration or cfg.a_max) * af,
-            (cmd.deceleration or cfg.a_max) * af,
-            (cmd.jerk or cfg.j_max) * jf,
+            cmd.acceleration or _INF,
+            cmd.deceleration or _INF,
+            (cmd.jerk or self.cfg.j_max) * jf,
         )
 
     def _prepare_velocity(self, job: _Job, start: State) -> None:
         acc, dec, jerk = self._dyn(job.cmd)
         v0 = start.v
-        # raising |v| uses Acceleration, lowering it Deceleration (judged at the start)
+        # raising |v| uses Acceleration, lowering it Deceleration (judged at the start); each
+        # capped by the axis' limit of that acceleration sign, then scaled by AccFactor
         a_pos = acc if v0 >= 0.0 else dec
         a_neg = acc if v0 <= 0.0 else dec
-        vm = self.cfg.v_max
-        lim = Limits(v_max=vm, a_max=a_pos, j_max=jerk, v_min=-vm, a_min=-a_neg)
+        cfg = self.cfg
+        af = self.override[1]
+        lim = Limits(
+            v_max=cfg.v_max,
+            a_max=min(a_pos, cfg.a_max) * af,
+            j_max=jerk,
+            v_min=-cfg.v_neg,
+            a_min=-min(a_neg, cfg.a_neg) * af,
+        )
         job.set_chain([plan_velocity(start, job.cmd.velocity, lim)])
 
     # -- discrete moves and blending -------------------------------------------------------
@@ -894,16 +953,16 @@ class Axis:
 
     def _move_chain(self, cmd: Command, start: State, target: float, v_end: float) -> list[Profile]:
         acc, dec, jerk = self._dyn(cmd)
-        v = cmd.velocity
         s = _sign(target - start.p) or _sign(v_end) or 1.0
+        v = min(cmd.velocity, self._v_side(s))
         if abs(v_end) <= v:
-            return [plan(start, State(target, v_end, 0.0), _limits(v, acc, dec, jerk, s))]
+            return [plan(start, State(target, v_end, 0.0), self._limits(v, acc, dec, jerk, s))]
         vj = abs(v_end)
-        lim_hi = _limits(vj, acc, dec, jerk, s)
+        lim_hi = self._limits(vj, acc, dec, jerk, s)
         ramp = plan_velocity(State(0.0, s * v, 0.0), v_end, lim_hi)
         p_mid = target - ramp.end.p
         if s * (p_mid - start.p) > 0.0:
-            first = plan(start, State(p_mid, s * v, 0.0), _limits(v, acc, dec, jerk, s))
+            first = plan(start, State(p_mid, s * v, 0.0), self._limits(v, acc, dec, jerk, s))
             if _clean(first, s, p_mid, start.v):
                 e = first.end
                 return [first, plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
@@ -925,7 +984,7 @@ class Axis:
         if p2 is None:
             return chain
         acc, dec, jerk = self._dyn(nxt.cmd)
-        lim2 = _limits(nxt.cmd.velocity, acc, dec, jerk, s)
+        lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
         prof2 = plan(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
         return chain if _clean(prof2, s, p2, s * vj) else None
 
@@ -936,6 +995,8 @@ class Axis:
         vj = 0.0
         chain: list[Profile] | None = None
         s = _sign(target - start.p)
+        if s != 0.0:
+            v_req = min(v_req, self._v_side(s))  # the junction within the direction's limit
         if nxt is not None and v_req > 0.0 and s != 0.0:
             p2: float | None = None
             s2 = s
@@ -987,7 +1048,7 @@ class Axis:
             return False
         drive_p = self.p - self.offset
         s = _sign(sw - drive_p) or 1.0
-        vh = self.cfg.home_velocity or 0.1 * self.cfg.v_max
+        vh = self.cfg.home_velocity or 0.1 * self._v_side(s)
         lim = self._axis_limits(0.0, 0.0, 0.0)
         job.set_chain([plan_velocity(State(self.p, self.v, self.a), s * vh, lim)])
         job.home_phase = 1
@@ -1142,7 +1203,7 @@ class Axis:
         self.last_target = None
         if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             self.state = next_state(Event.DISCRETE, self.state)
-        self._start_ramp("feedstop", 0.0, self.cfg.a_max, self.cfg.j_max)
+        self._start_ramp("feedstop", 0.0, 0.0, self.cfg.j_max)
 
     # -- ContinuousUpdate ----------------------------------------------------------------------
     def _find_job(self, handle: Handle) -> _Job | None:
@@ -1258,7 +1319,7 @@ class Axis:
         if self.state is S.DISCRETE_MOTION and self._activate_queued() is not None:
             return
         if self.state in (S.DISCRETE_MOTION, S.HOMING):
-            self._start_ramp("feedstop", 0.0, self.cfg.a_max, self.cfg.j_max)
+            self._start_ramp("feedstop", 0.0, 0.0, self.cfg.j_max)
 
     # -- output phase ----------------------------------------------------------------------
     def write_outputs(self, t: float) -> None:

@@ -44,14 +44,17 @@ def _buffer_mode(value: Any) -> BufferMode:
         ) from None
 
 
+def _a_top(axis: Axis) -> float:
+    """Upper bound of the Acceleration / Deceleration inputs: the larger axis acceleration
+    side (asymmetric limits: the input caps each side, see ``Axis._limits``)."""
+    return max(axis.cfg.a_max, axis.cfg.a_neg)
+
+
 def _dynamics(fb: Any, axis: Axis) -> tuple[float, float, float]:
     cfg = axis.cfg
-    acc = check_number(
-        "acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, 0.0, cfg.a_max
-    )
-    dec = check_number(
-        "deceleration", fb.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
-    )
+    a_top = _a_top(axis)
+    acc = check_number("acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, 0.0, a_top)
+    dec = check_number("deceleration", fb.deceleration, ErrorID.INVALID_DECELERATION, 0.0, a_top)
     jerk = check_number("jerk", fb.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
     return acc, dec, jerk
 
@@ -130,8 +133,10 @@ class _MoveFB(_ContinuousUpdate):
     def _move_command(
         self, axis: Axis, kind: str, position: float, direction: Direction
     ) -> Command:
+        # Velocity caps the speed of both directions (each within its own axis limit)
+        v_top = max(axis.cfg.v_max, axis.cfg.v_neg)
         v = check_number(
-            "velocity", self.velocity, ErrorID.INVALID_VELOCITY, 0.0, axis.cfg.v_max, lo_open=True
+            "velocity", self.velocity, ErrorID.INVALID_VELOCITY, 0.0, v_top, lo_open=True
         )
         acc, dec, jerk = _dynamics(self, axis)
         mode = _buffer_mode(self.buffer_mode)
@@ -251,7 +256,8 @@ class MC_MoveVelocity(_ContinuousUpdate):
         super().__init__(name, **inputs)
 
     def _command(self, axis: Axis) -> Command:
-        vm = axis.cfg.v_max
+        cfg = axis.cfg
+        vm = max(cfg.v_max, cfg.v_neg)
         v = check_number("velocity", self.velocity, ErrorID.INVALID_VELOCITY, -vm, vm)
         d = self.direction
         if d is Direction.POSITIVE:
@@ -264,6 +270,12 @@ class MC_MoveVelocity(_ContinuousUpdate):
             raise InputError(
                 ErrorID.INVALID_DIRECTION,
                 f"direction must be POSITIVE, NEGATIVE or CURRENT for MC_MoveVelocity, got {d!r}",
+            )
+        if not -cfg.v_neg <= v <= cfg.v_max:  # asymmetric limits: the direction's own one
+            raise InputError(
+                ErrorID.INVALID_VELOCITY,
+                f"velocity {v!r} in direction {d.name} outside the axis limits "
+                f"[{-cfg.v_neg:g}, {cfg.v_max:g}]",
             )
         acc, dec, jerk = _dynamics(self, axis)
         return Command(
@@ -305,7 +317,7 @@ class MC_Halt(MotionFB):
     def _start(self, axis: Axis) -> Handle:
         cfg = axis.cfg
         dec = check_number(
-            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
+            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, _a_top(axis)
         )
         jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
         return axis.submit(
@@ -331,7 +343,7 @@ class MC_Stop(MotionFB):
     def _start(self, axis: Axis) -> Handle:
         cfg = axis.cfg
         dec = check_number(
-            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, cfg.a_max
+            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, _a_top(axis)
         )
         jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
         return axis.submit(Command(kind="stop", deceleration=dec, jerk=jerk))

@@ -8,8 +8,9 @@ Installed by ``Runtime(check_invariants=True)``; raises :class:`InvariantError` 
   Execute falls, shown exactly one scan after a pulse; done/error/command_aborted only rise from
   busy (or at the edge that started the command); busy only rises at a rising edge.
 * C: the axis state changes only along the diagram's arrows (at most two per cycle: an input
-  phase event plus a program/kernel one); set values: |v| <= v_max, |a| <= a_max (without
-  override), no position jump, v continuous within a_max * dt, a continuous within
+  phase event plus a program/kernel one); set values: v_min <= v <= v_max, a_min <= a <= a_max
+  (without override; the axis' own, possibly asymmetric, limits), no position jump, v continuous
+  within a_max * dt (|a_min| * dt downwards), a continuous within
   j_max * dt for finite j_max; zero velocity in Standstill and Disabled.
 * H: tasks of a tick ran in (priority, declaration) order; virtual time t = k * cycle; in
   virtual time without injected overruns all latencies are 0.
@@ -103,14 +104,19 @@ class InvariantChecker:
         prev = self._ax_prev.get(ax.name)
         self._ax_prev[ax.name] = cur
         who = f"axis {ax.name}"
-        tol_v = 1e-9 * cfg.v_max + 1e-12
+        v_neg, a_neg = cfg.v_neg, cfg.a_neg  # |v_min|, |a_min| (v_max, a_max if symmetric)
+        tol_v = 1e-9 * min(cfg.v_max, v_neg) + 1e-12
         if state in (S.STANDSTILL, S.DISABLED) and abs(ax.v) > tol_v:
             _fail(cycle, who, "C", f"velocity {ax.v!r} in {state.name}")
-        if abs(ax.v) > cfg.v_max * (1 + 1e-9) + 1e-12:
-            _fail(cycle, who, "C", f"|v| = {abs(ax.v)!r} > v_max {cfg.v_max}")
+        if ax.v > cfg.v_max * (1 + 1e-9) + 1e-12:
+            _fail(cycle, who, "C", f"v = {ax.v!r} > v_max {cfg.v_max}")
+        if -ax.v > v_neg * (1 + 1e-9) + 1e-12:
+            _fail(cycle, who, "C", f"v = {ax.v!r} < v_min {-v_neg}")
         no_override = cur[5]
-        if no_override and abs(ax.a) > cfg.a_max * (1 + 1e-9) + 1e-9:
-            _fail(cycle, who, "C", f"|a| = {abs(ax.a)!r} > a_max {cfg.a_max}")
+        if no_override and ax.a > cfg.a_max * (1 + 1e-9) + 1e-9:
+            _fail(cycle, who, "C", f"a = {ax.a!r} > a_max {cfg.a_max}")
+        if no_override and -ax.a > a_neg * (1 + 1e-9) + 1e-9:
+            _fail(cycle, who, "C", f"a = {ax.a!r} < a_min {-a_neg}")
         if prev is None:
             return
         pstate, pp, pv, pa, poff, pno, pcycle = prev
@@ -119,15 +125,17 @@ class InvariantChecker:
         if S.DISABLED in (state, pstate) or poff != ax.offset:
             return  # power off / coordinate shift: no continuity requirement
         dt = rt.cycle * (cycle - pcycle)  # ticks may have been skipped after an overrun
-        amax = cfg.a_max * (1.0 if no_override and pno else 4.0)
+        k = 1.0 if no_override and pno else 4.0
+        amax = k * max(cfg.a_max, a_neg)
         dp_max = max(abs(pv), abs(ax.v)) * dt + amax * dt * dt + 1e-9 * (1 + abs(ax.p))
         if abs(ax.p - pp) > dp_max:
             _fail(cycle, who, "C", f"position jump {ax.p - pp!r} > {dp_max!r}")
-        dv_max = amax * dt * (1 + 1e-6) + 1e-9
-        if abs(ax.v - pv) > dv_max:
-            _fail(cycle, who, "C", f"velocity jump {ax.v - pv!r} > {dv_max!r}")
+        dv = ax.v - pv
+        dv_max = k * (cfg.a_max if dv >= 0.0 else a_neg) * dt * (1 + 1e-6) + 1e-9
+        if abs(dv) > dv_max:
+            _fail(cycle, who, "C", f"velocity jump {dv!r} > {dv_max!r}")
         if math.isfinite(cfg.j_max) and no_override and pno:
-            da_max = cfg.j_max * dt * (1 + 1e-6) + 1e-6 * cfg.a_max
+            da_max = cfg.j_max * dt * (1 + 1e-6) + 1e-6 * amax
             if abs(ax.a - pa) > da_max:
                 _fail(cycle, who, "C", f"acceleration jump {ax.a - pa!r} > {da_max!r}")
 

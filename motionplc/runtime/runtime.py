@@ -107,11 +107,16 @@ class Runtime:
         a_max: float,
         j_max: float = math.inf,
         *,
+        v_min: float | None = None,
+        a_min: float | None = None,
         drive: Drive | None = None,
         task: str | None = None,
         **options: Any,
     ) -> Axis:
         """Create an axis (AXIS_REF) with its drive (an ideal in-process drive by default).
+
+        ``v_min`` / ``a_min`` (< 0): asymmetric limits of the negative side (default
+        ``-v_max`` / ``-a_max``); the axis plans with them as given.
 
         ``task``: name of the task whose cycle steps this axis (default: the first task
         declared). ``options`` are :class:`~motionplc.blocks.axis.AxisConfig` fields
@@ -126,7 +131,9 @@ class Runtime:
         if not isinstance(name, str) or not name or "." in name or name in self.axes:
             raise ValueError(f"axis name must be a new non-empty string without '.', got {name!r}")
         options.setdefault("queue_depth", self.queue_depth)
-        cfg = AxisConfig(name=name, v_max=v_max, a_max=a_max, j_max=j_max, **options)
+        cfg = AxisConfig(
+            name=name, v_max=v_max, a_max=a_max, j_max=j_max, v_min=v_min, a_min=a_min, **options
+        )
         ax = Axis(cfg, drive if drive is not None else IdealDrive(name))
         ax.task_name = task
         self.axes[name] = ax
