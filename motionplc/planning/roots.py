@@ -134,7 +134,7 @@ def quartic_roots_in(
     if abs(f0) <= 1e-13 * scale:
         roots.append(x0)
         f0 = 0.0
-    elif abs(f0) <= 1e-10 * scale:
+    elif abs(f0) <= 1e-7 * scale:
         # The ends of the interval are family boundaries: a near-root there is also offered
         # (the caller's verification by integration decides), so that a state a rounding error
         # away from a boundary gets the boundary profile and not a needless tiny extra phase.
@@ -156,7 +156,7 @@ def quartic_roots_in(
                 r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
                 if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
                     roots.append(r)
-            if k == n - 1 and abs(f1) <= 1e-10 * scale:
+            if k == n - 1 and abs(f1) <= 1e-7 * scale:
                 if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
                     roots.append(x1)
         x0 = x1

@@ -181,7 +181,9 @@ def test_realtime_clock_runs_and_reports_statistics() -> None:
     rt.add_task("t", lambda ctx: None)
     rt.run(cycles=40)
     st = rt.stats()["t"]
-    assert st.cycle_count + st.omitted_cycles == 40
+    # executed cycles never exceed the requested ticks; with omitted ones (a late cycle under
+    # load) they cover them (the last late cycle may omit a tick beyond the run)
+    assert st.cycle_count <= 40 <= st.cycle_count + st.omitted_cycles
     assert 0.0 <= st.lateness_min <= st.lateness_p50 <= st.lateness_max
     assert st.exec_max >= st.exec_mean >= st.exec_min >= 0.0
     assert set(st.as_dict()) >= {"lateness_p99", "overruns", "exec_mean"}
