@@ -676,7 +676,7 @@ def _by_family_jerk(ax: _Axis, T: float) -> tuple[Phases, str] | None:
     s_floor = _scale_floor(ax, "j", 0.0, 0.0)
     if s_floor >= 1.0:
         return None
-    x_floor = math.log(s_floor) if s_floor > 0.0 else -12.0
+    x_floor = max(math.log(s_floor), -30.0) if s_floor > 0.0 else -12.0
     tol = _dur_tol(T)
     up = (ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin)
     down = (-ax.v0, -ax.a0, -ax.d, -ax.vf, -ax.af, -ax.vmin, -ax.vmax, -ax.amin, -ax.amax)
@@ -699,7 +699,10 @@ def _scan_1d(
     there is no valid profile): samples, refines narrow valid windows, bisects brackets."""
 
     def val(x: float) -> tuple[float, tuple[float, Phases, str] | None]:
-        c = g(x)  # type: ignore[operator]
+        try:
+            c = g(x)  # type: ignore[operator]
+        except ArithmeticError:  # extreme scaled limits: no usable profile there
+            c = None
         return (math.nan, None) if c is None else (c[0] - T, c)
 
     xs = [lo + (hi - lo) * k / (n - 1) for k in range(n)]
