@@ -18,6 +18,10 @@ Rules pinned here (the spec leaves them open):
   either block), the highest reachable one is used (bisection) and reported as
   ``Handle.end_velocity``. A junction velocity above the first block's own Velocity is reached
   by cruising at its Velocity and accelerating just before its end (spec Appendix A, Ex. 6).
+* A queued move's start profile is planned ahead of its hand-over, in a cycle without other
+  planning (at most one profile per task cycle: :meth:`Axis.plan_ahead`), and the hand-over
+  reuses it only if its planner inputs are bit-identical (:meth:`Axis._plan_memo`): axes
+  handing over in the same cycle do not all plan at once, and the trace does not change.
 * Blending after a MoveVelocity acts like Buffered with the velocity of the first block
   (``blend_after_continuous="previous"``) or is an error (``"error"``).
 * Asymmetric axis limits (``AxisConfig.v_min`` / ``a_min``) are used as they are; the FB
@@ -30,6 +34,7 @@ Rules pinned here (the spec leaves them open):
 from __future__ import annotations
 
 import math
+import struct
 from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
@@ -44,6 +49,29 @@ from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan
 
 if TYPE_CHECKING:
     from motionplc.runtime.trace import Trace
+
+_planner_calls = 0  # planner calls made by the motion kernels (all axes), see planner_calls()
+
+
+def planner_calls() -> int:
+    """Number of profiles planned so far by all axes (the runtime budgets planning ahead)."""
+    return _planner_calls
+
+
+def _plan(start: State, target: State, limits: Limits) -> Profile:
+    global _planner_calls
+    _planner_calls += 1
+    return plan(start, target, limits)
+
+
+def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
+    global _planner_calls
+    _planner_calls += 1
+    return plan_velocity(start, v_target, limits)
+
+
+_KEY = struct.Struct("<11d")
+_MEMO_SIZE = 64
 
 _INF = math.inf
 S = AxisState
@@ -345,6 +373,10 @@ class Axis:
         self.queue: deque[_Job] = deque()
         self._stops: list[Handle] = []
         self.last_target: float | None = None
+        # profiles planned ahead (exact planner inputs -> the immutable profile planned from
+        # them): a queued move's start profile is planned in a quiet cycle before the hand-over
+        self._memo: dict[bytes, Profile] = {}
+        self._ahead = False  # the queue or the active chain changed: look again (plan_ahead)
         # override: factor f(t) along a ramp profile
         self.override = (1.0, 1.0, 1.0)
         self._f = 1.0
@@ -580,7 +612,7 @@ class Axis:
         fj = cfg.j_max / vm
         lim = Limits(v_max=_INF, a_max=fa, j_max=fj)
         fd = self._fd if fj != _INF else 0.0
-        self._f_prof = plan_velocity(State(0.0, self._f, fd), vel, lim)
+        self._f_prof = _plan_velocity(State(0.0, self._f, fd), vel, lim)
         self._f_t = 0.0
 
     def _advance_override(self, dt: float) -> float:
@@ -743,8 +775,10 @@ class Axis:
         """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise."""
         if self._inbox:
             self._process_inbox()
+            self._ahead = True
         if self._pending:
             self._apply_pending()
+            self._ahead = True
         # the override factor ramps in real time, also while no scalable job runs
         ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
         state = self.state
@@ -841,7 +875,7 @@ class Axis:
 
     def _prepare_ramp(self, job: _Job, v_target: float, dec: float, jerk: float) -> None:
         lim = self._axis_limits(dec, dec, jerk)
-        job.set_chain([plan_velocity(State(self.p, self.v, self.a), v_target, lim)])
+        job.set_chain([_plan_velocity(State(self.p, self.v, self.a), v_target, lim)])
 
     def _start_job_ramp(self, job: _Job, dec: float, jerk: float) -> None:
         self._prepare_ramp(job, 0.0, dec, jerk)
@@ -924,7 +958,7 @@ class Axis:
             v_min=-cfg.v_neg,
             a_min=-min(a_neg, cfg.a_neg) * af,
         )
-        job.set_chain([plan_velocity(start, job.cmd.velocity, lim)])
+        job.set_chain([_plan_velocity(start, job.cmd.velocity, lim)])
 
     # -- discrete moves and blending -------------------------------------------------------
     def _successor_junction(self, job: _Job) -> tuple[float, _Job | None]:
@@ -951,22 +985,84 @@ class Axis:
         }[mode]
         return vj, nxt
 
+    def _plan_memo(self, start: State, target: State, lim: Limits) -> Profile:
+        """``plan(start, target, lim)``, reusing a profile planned ahead from the very same
+        inputs (bit for bit; the planner is a pure function and profiles are immutable)."""
+        vals = (start.p, start.v, start.a, target.p, target.v, target.a)
+        vals += (lim.v_max, lim.a_max, lim.j_max, lim.v_min, lim.a_min)
+        if any(type(x) is not float for x in vals):
+            return _plan(start, target, lim)
+        key = _KEY.pack(*vals)
+        memo = self._memo
+        prof = memo.get(key)
+        if prof is None:
+            prof = _plan(start, target, lim)
+            if len(memo) >= _MEMO_SIZE:
+                memo.clear()
+            memo[key] = prof
+        return prof
+
+    def plan_ahead(self) -> bool:
+        """Plan the start profile of the queued move ahead of its hand-over (called by the
+        runtime in a cycle without other planning; True if a profile was planned).
+
+        At the hand-over the successor is planned from the active move's end state (exactly
+        :meth:`_Job.end_state`) to rest, unless a blending successor is queued behind it by
+        then. That profile is computed here already and kept in :attr:`_memo`, keyed by the
+        exact planner inputs: the hand-over takes it only if its inputs are bit-identical, so
+        the trace cannot change (any later change, e.g. an override or ContinuousUpdate,
+        just misses and plans as before).
+        """
+        self._ahead = False
+        act = self.active
+        queue = self.queue
+        if (
+            act is None
+            or len(queue) != 1
+            or self._inbox
+            or self._pending
+            or not act.cmd.is_move
+            or act.handle.terminal
+            or self._f != 1.0
+            or self._fd != 0.0
+            or self._f_prof is not None
+        ):
+            return False
+        nxt = queue[0]
+        target = nxt.target
+        if not nxt.cmd.is_move or target is None or not act.chain:
+            return False
+        start = act.end_state()  # the set state at the hand-over (_finish_job, _tau_state)
+        v_end = _sign(target - start.p) * 0.0  # _prepare_move without a successor: vj = 0
+        n0 = _planner_calls
+        try:  # the same call as _move_chain's
+            acc, dec, jerk = self._dyn(nxt.cmd)
+            s = _sign(target - start.p) or _sign(v_end) or 1.0
+            v = min(nxt.cmd.velocity, self._v_side(s))
+            if abs(v_end) <= v:
+                lim = self._limits(v, acc, dec, jerk, s)
+                self._plan_memo(start, State(target, v_end, 0.0), lim)
+        except Exception:  # only an optimisation: the hand-over plans (and reports) it again
+            pass
+        return _planner_calls != n0
+
     def _move_chain(self, cmd: Command, start: State, target: float, v_end: float) -> list[Profile]:
         acc, dec, jerk = self._dyn(cmd)
         s = _sign(target - start.p) or _sign(v_end) or 1.0
         v = min(cmd.velocity, self._v_side(s))
         if abs(v_end) <= v:
-            return [plan(start, State(target, v_end, 0.0), self._limits(v, acc, dec, jerk, s))]
+            lim = self._limits(v, acc, dec, jerk, s)
+            return [self._plan_memo(start, State(target, v_end, 0.0), lim)]
         vj = abs(v_end)
         lim_hi = self._limits(vj, acc, dec, jerk, s)
-        ramp = plan_velocity(State(0.0, s * v, 0.0), v_end, lim_hi)
+        ramp = _plan_velocity(State(0.0, s * v, 0.0), v_end, lim_hi)
         p_mid = target - ramp.end.p
         if s * (p_mid - start.p) > 0.0:
-            first = plan(start, State(p_mid, s * v, 0.0), self._limits(v, acc, dec, jerk, s))
+            first = _plan(start, State(p_mid, s * v, 0.0), self._limits(v, acc, dec, jerk, s))
             if _clean(first, s, p_mid, start.v):
                 e = first.end
-                return [first, plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
-        return [plan(start, State(target, v_end, 0.0), lim_hi)]
+                return [first, _plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
+        return [_plan(start, State(target, v_end, 0.0), lim_hi)]
 
     def _junction_chain(
         self, job: _Job, start: State, s: float, vj: float, nxt: _Job, p2: float | None
@@ -985,7 +1081,7 @@ class Axis:
             return chain
         acc, dec, jerk = self._dyn(nxt.cmd)
         lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
-        prof2 = plan(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
+        prof2 = self._plan_memo(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
         return chain if _clean(prof2, s, p2, s * vj) else None
 
     def _prepare_move(self, job: _Job, start: State) -> None:
@@ -1050,7 +1146,7 @@ class Axis:
         s = _sign(sw - drive_p) or 1.0
         vh = self.cfg.home_velocity or 0.1 * self._v_side(s)
         lim = self._axis_limits(0.0, 0.0, 0.0)
-        job.set_chain([plan_velocity(State(self.p, self.v, self.a), s * vh, lim)])
+        job.set_chain([_plan_velocity(State(self.p, self.v, self.a), s * vh, lim)])
         job.home_phase = 1
         job.target = s  # search direction
         return True
@@ -1062,7 +1158,7 @@ class Axis:
         if job.home_phase == 1 and s * (self.act_p - self.offset - sw) >= 0.0:
             job.home_phase = 2  # switch reached: stop (the position is set at standstill)
             lim = self._axis_limits(0.0, 0.0, 0.0)
-            job.set_chain([plan_velocity(State(self.p, self.v, self.a), 0.0, lim)])
+            job.set_chain([_plan_velocity(State(self.p, self.v, self.a), 0.0, lim)])
 
     # -- stepping --------------------------------------------------------------------------
     def _advance(self, job: _Job, dt: float, ftau: float) -> None:
@@ -1084,6 +1180,7 @@ class Axis:
                 break  # still searching the switch at constant velocity
             excess = tau - job.duration
             end = job.end_state()
+            self._ahead = True
             nxt = self._finish_job(job)  # sets p (shifted by homing / queued SetPosition)
             if nxt is None:
                 self.active = None

@@ -7,6 +7,8 @@ order (priority, declaration):
 2. PROGRAM       - ``program(ctx)`` calls the FB instances (they submit commands to the axes);
 3. MOTION KERNEL - every axis of the task steps its command queue and samples its profile;
 4. WRITE OUTPUTS - every axis writes its setpoints to its drive; the output image is published;
+   if no axis planned in step 3, one axis plans a queued move's start profile ahead
+   (``Axis.plan_ahead``: spreads the planning of axes that hand over in the same cycle);
 5. STATISTICS    - execution time, lateness, overruns, watchdog.
 
 Then the trace records one row (all axes) and the per-cycle hooks (invariant checks) run.
@@ -22,6 +24,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from motionplc.blocks.axis import planner_calls
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
 from motionplc.runtime.task import Program, Task, TaskStats
@@ -296,10 +299,17 @@ class Runtime:
             for ax in axes:
                 ax.read_inputs(t_virtual)
             task.program(ctx)
+            n_plans = planner_calls()
             for ax in axes:
                 ax.step(dt)
             for ax in axes:
                 ax.write_outputs(t_virtual)
+            if planner_calls() == n_plans:
+                # a quiet cycle: plan (at most) one queued move's start profile ahead of its
+                # hand-over, so axes handing over in the same cycle do not plan all at once
+                for ax in axes:
+                    if ax._ahead and ax.plan_ahead():
+                        break
             image.publish_outputs()
             t1 = clock.now_ns()
             overrun = t1 > deadline + task.period_ticks * self.tick_ns
