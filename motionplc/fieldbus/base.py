@@ -97,3 +97,12 @@ class Drive(ABC):
     @abstractmethod
     def write_outputs(self, t: float, command: DriveCommand) -> None:
         """Send this cycle's setpoints, without blocking."""
+
+
+def reset_in_progress(reset_until: float | None, t: float, done: bool) -> float | None:
+    """The fault-reset window of a drive backend after this cycle: ``None`` once the reset is
+    done (communication good, no fault) or its deadline ``reset_until`` has passed; while it
+    is not None the backend reports ``reset_pending``."""
+    if reset_until is None or done or t > reset_until + 1e-9:
+        return None
+    return reset_until

@@ -63,6 +63,7 @@ from motionplc.fieldbus.base import (
     DriveFeedback,
     FieldbusError,
     LockstepPeer,
+    reset_in_progress,
 )
 from motionplc.fieldbus.cia402 import (
     SUPPORTED_MODE_BIT,
@@ -466,13 +467,8 @@ class CanopenDrive(Drive):
         elif not self._opened:
             comm_ok, detail = False, "not opened"
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
-        reset_pending = False
-        if self._reset_until is not None:
-            done = comm_ok and not fault
-            if done or t > self._reset_until + 1e-9:
-                self._reset_until = None
-            else:
-                reset_pending = True
+        self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
+        reset_pending = self._reset_until is not None
         return DriveFeedback(
             position=self.scaling.position_to_si(self.position_counts),
             velocity=self.scaling.velocity_to_si(self.velocity_counts),

@@ -42,7 +42,13 @@ from pymodbus.client import ModbusTcpClient
 from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ModbusException
 
-from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback, FieldbusError
+from motionplc.fieldbus.base import (
+    Drive,
+    DriveCommand,
+    DriveFeedback,
+    FieldbusError,
+    reset_in_progress,
+)
 from motionplc.fieldbus.cia402 import (
     Cia402State,
     OperationMode,
@@ -259,13 +265,8 @@ class ModbusDrive(Drive):
         if fresh and st.life_sign_echo != self.life_sign and self.config.exchange == "fc23":
             fresh = False  # the drive has not seen our last command
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
-        reset_pending = False
-        if self._reset_until is not None:
-            done = comm_ok and not fault
-            if done or t > self._reset_until + 1e-9:
-                self._reset_until = None
-            else:
-                reset_pending = True
+        self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
+        reset_pending = self._reset_until is not None
         return DriveFeedback(
             position=self.scaling.position_to_si(st.position),
             velocity=self.scaling.velocity_to_si(st.velocity),

@@ -72,21 +72,30 @@ def needs_lower_brake(v: float, a: float, vmin: float, J: float) -> bool:
     return v < lim or (a < 0.0 and v - 0.5 * a * a / J < lim)
 
 
+def acceleration_brake(
+    v: float, a: float, amax: float, amin: float, J: float, out: Phases, margin: float = 0.0
+) -> tuple[float, float]:
+    """Full jerk until an acceleration beyond [amin, amax] (by more than ``margin`` relative)
+    is back at the limit; appends the phase to ``out`` and returns the state after it."""
+    if a > amax + margin * max(1.0, abs(amax)):
+        t = (a - amax) / J
+        out.append((t, -J))
+        v, a = _advance(v, a, t, -J)
+        a = amax
+    elif a < amin - margin * max(1.0, abs(amin)):
+        t = (amin - a) / J
+        out.append((t, J))
+        v, a = _advance(v, a, t, J)
+        a = amin
+    return v, a
+
+
 def brake(
     v: float, a: float, vmax: float, vmin: float, amax: float, amin: float, J: float
 ) -> tuple[Phases, float, float]:
     """Phases (duration, jerk) that bring (v, a) inside the limits, and the state after them."""
     out: Phases = []
-    if a > amax + 1e-12 * max(1.0, abs(amax)):
-        t = (a - amax) / J
-        out.append((t, -J))
-        v, a = _advance(v, a, t, -J)
-        a = amax
-    elif a < amin - 1e-12 * max(1.0, abs(amin)):
-        t = (amin - a) / J
-        out.append((t, J))
-        v, a = _advance(v, a, t, J)
-        a = amin
+    v, a = acceleration_brake(v, a, amax, amin, J, out, 1e-12)
     upper = needs_upper_brake(v, a, vmax, J)
     lower = needs_lower_brake(v, a, vmin, J)
     if upper and lower:
@@ -102,3 +111,40 @@ def brake(
         v, a = -v, -a
         out.extend((t, -j) for t, j in mirrored)
     return out, v, a
+
+
+def brake_prefix(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+) -> tuple[Phases, float, float, float, float]:
+    """The brake a position move needs before its time-optimal part: (phases, v and a after
+    them, the distance left, their duration); no phases when none is needed.
+
+    A start inside the limits that brakes only because an overshoot looks inevitable gets no
+    brake when a profile within the limits reaches the target first (one whose own
+    continuation overshoots too)."""
+    out, v, a = brake(v0, a0, vmax, vmin, amax, amin, J)
+    if not out:
+        return out, v0, a0, d, 0.0
+    if vmin <= v0 <= vmax and amin <= a0 <= amax:
+        from motionplc.planning._third import time_optimal
+
+        if time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J) is not None:
+            return [], v0, a0, d, 0.0
+    pb = 0.0
+    t_brake = 0.0
+    vb, ab = v0, a0
+    for dur, j in out:
+        pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
+        vb += dur * (ab + 0.5 * dur * j)
+        ab += dur * j
+        t_brake += dur
+    return out, v, a, d - pb, t_brake

@@ -148,25 +148,7 @@ def position_phases(
             v = vmin
         t, ph = _lower.second_order(v, d, vf, vmax, vmin, amax, amin)
         return t + sum(x[0] for x in pre), pre + ph, "second-order"
-    pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
-    if pre3 and vmin <= v0 <= vmax and amin <= a0 <= amax:
-        # Inside the limits, braking only because an overshoot looks inevitable: a target
-        # reached before the overshoot happens (one whose own continuation overshoots too)
-        # is planned without a brake when a profile within the limits exists.
-        best = _third.time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
-        if best is not None:
-            return best[0], best[1], best[2]
-    t_brake = 0.0
-    if pre3:
-        # distance covered while braking
-        pb = 0.0
-        vb, ab = v0, a0
-        for dur, j in pre3:
-            pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
-            vb += dur * (ab + 0.5 * dur * j)
-            ab += dur * j
-            t_brake += dur
-        d -= pb
+    pre3, v, a, d, t_brake = _brake.brake_prefix(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
     best = _third.time_optimal(v, a, d, vf, af, vmax, vmin, amax, amin, J)
     if best is None:
         raise PlanningError(
@@ -226,18 +208,7 @@ def velocity_phases(
         t = (af - a0) / j
         if abs(v0 + t * (a0 + 0.5 * t * j) - vf) <= 1e-12 * max(1.0, abs(vf)):
             return t, [(t, j)], "velocity-ramp"
-    pre: list[tuple[float, ...]] = []
-    v, a = v0, a0
-    t_pre = 0.0
-    if a > amax:
-        t_pre = (a - amax) / J
-        pre.append((t_pre, -J))
-        v += t_pre * (a - 0.5 * t_pre * J)
-        a = amax
-    elif a < amin:
-        t_pre = (amin - a) / J
-        pre.append((t_pre, J))
-        v += t_pre * (a + 0.5 * t_pre * J)
-        a = amin
+    pre: list[tuple[float, float]] = []
+    v, a = _brake.acceleration_brake(v0, a0, amax, amin, J, pre)
     t, ph = _velocity.velocity_third(v, a, vf, af, amax, amin, J)
-    return t + t_pre, pre + ph, "velocity"
+    return t + sum(x[0] for x in pre), [*pre, *ph], "velocity"

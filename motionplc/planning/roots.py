@@ -1,11 +1,13 @@
 """Real roots of low-degree polynomials, robust enough for the planner.
 
-Quadratics and cubics are solved in closed form and polished with Newton steps. A quartic is
-solved on an interval: the roots of its derivative split the interval into monotone pieces,
-and each piece with a sign change holds exactly one root, found by a safeguarded Newton
-iteration (Newton steps that stay inside a shrinking bracket, bisection otherwise). This
-always terminates (at most ``_MAX_ITER`` steps per root) and cannot miss a simple root in the
-interval; a double root shows up as a critical point where the polynomial vanishes.
+Quadratics are solved in closed form (numerically stable). A quartic is solved on an
+interval: its inflection points (a quadratic) and then its critical points (found by a
+bracketed Newton iteration on the monotone derivative between them) split the interval into
+monotone pieces, and each piece with a sign change holds exactly one root, found by a
+safeguarded Newton iteration (steps that stay inside a shrinking bracket, bisection
+otherwise). This always terminates (at most ``_MAX_ITER`` steps per root) and cannot miss a
+simple root in the interval; a double root shows up as a critical point where the polynomial
+vanishes.
 """
 
 from __future__ import annotations
@@ -35,66 +37,14 @@ def quadratic_roots(a: float, b: float, c: float) -> list[float]:
     return [r1, r2] if r1 <= r2 else [r2, r1]
 
 
-def cubic_roots(a: float, b: float, c: float, d: float) -> list[float]:
-    """Real roots of a*x^3 + b*x^2 + c*x + d, ascending, polished by Newton steps."""
-    if a == 0.0:
-        return quadratic_roots(b, c, d)
-    b /= a
-    c /= a
-    d /= a
-    # depressed cubic t^3 + p t + q with x = t - b/3
-    b3 = b / 3.0
-    p = c - b * b3
-    q = (2.0 * b3 * b3 - c) * b3 + d
-    if p == 0.0 and q == 0.0:
-        roots = [-b3]
-    else:
-        disc = (q * q) / 4.0 + (p * p * p) / 27.0
-        if disc > 0.0:
-            s = math.sqrt(disc)
-            u = -0.5 * q + (s if q <= 0.0 else -s)
-            u = math.copysign(abs(u) ** (1.0 / 3.0), u)
-            t = u - p / (3.0 * u) if u != 0.0 else 0.0
-            roots = [t - b3]
-        else:
-            m = 2.0 * math.sqrt(-p / 3.0)
-            arg = 3.0 * q / (p * m) if p != 0.0 else 0.0
-            arg = max(-1.0, min(1.0, arg))
-            th = math.acos(arg) / 3.0
-            roots = [
-                m * math.cos(th) - b3,
-                m * math.cos(th - 2.0943951023931957) - b3,
-                m * math.cos(th - 4.1887902047863905) - b3,
-            ]
-    out = []
-    for x in roots:
-        for _ in range(3):
-            f = ((x + b) * x + c) * x + d
-            df = (3.0 * x + 2.0 * b) * x + c
-            if df == 0.0:
-                break
-            dx = f / df
-            x -= dx
-            if abs(dx) <= 1e-16 * max(1.0, abs(x)):
-                break
-        out.append(x)
-    out.sort()
-    return out
-
-
-def _quartic(c3: float, c2: float, c1: float, c0: float, x: float) -> float:
-    return (((x + c3) * x + c2) * x + c1) * x + c0
-
-
 def quartic_roots_in(
     c3: float, c2: float, c1: float, c0: float, lo: float, hi: float
 ) -> list[float]:
     """Real roots of the monic quartic x^4 + c3 x^3 + c2 x^2 + c1 x + c0 in [lo, hi], ascending.
 
-    The critical and inflection points split [lo, hi] into pieces on which the quartic is
-    monotone and convex or concave; a piece whose ends differ in sign holds exactly one root,
-    which Newton's method started at the end where f * f'' > 0 reaches monotonically (Fourier's
-    condition), so it needs no bracketing. Infinite bounds are replaced by the Cauchy bound.
+    The inflection and critical points split [lo, hi] into monotone pieces; a piece whose ends
+    differ in sign holds exactly one root, found by Newton steps from the regula-falsi point
+    inside the shrinking bracket. Infinite bounds are replaced by the Cauchy bound.
     Roots at (or a rounding error beyond) the ends of [lo, hi] and near-double roots at
     critical points are included.
     """

@@ -121,30 +121,10 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
     d = pf - p0
     if J != _INF:
         if velocity:
-            if a0 > amax or a0 < amin:
-                lim_a = amax if a0 > amax else amin
-                j = -J if a0 > amax else J
-                t = (lim_a - a0) / j
-                pre.append((t, j))
-                v0 += t * (a0 + 0.5 * t * j)
-                a0 = lim_a
+            v0, a0 = _brake.acceleration_brake(v0, a0, amax, amin, J, pre)
         else:
-            pre3, v, a = _brake.brake(v0, a0, vmax, vmin, amax, amin, J)
-            if pre3 and vmin <= v0 <= vmax and amin <= a0 <= amax:
-                # braking only for an overshoot that looks inevitable: not needed where a
-                # profile within the limits reaches the target first (as in plan())
-                if _third.time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J):
-                    pre3 = []
-            if pre3:
-                pb = 0.0
-                vb, ab = v0, a0
-                for dur, j in pre3:
-                    pb += dur * (vb + dur * (0.5 * ab + dur * j / 6.0))
-                    vb += dur * (ab + 0.5 * dur * j)
-                    ab += dur * j
-                d -= pb
-                pre.extend(pre3)
-                v0, a0 = v, a
+            pre3, v0, a0, d, _ = _brake.brake_prefix(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
+            pre.extend(pre3)
     t_pre = sum(x[0] for x in pre)
     return _Axis(
         velocity, p0, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, tuple(pre), t_pre, start
@@ -345,19 +325,6 @@ def _by_limit_bisection(
         if new_width <= 1e-15 * (1.0 + abs(xa)):
             return None
     return None
-
-
-def _velocity_change(
-    v0: float, a0: float, v1: float, a1: float, ax: _Axis
-) -> tuple[float, Phases, float]:
-    t, ph = _velocity.velocity_third(v0, a0, v1, a1, ax.amax, ax.amin, ax.J)
-    p = 0.0
-    v, a = v0, a0
-    for dur, j in ph:
-        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
-        v += dur * (a + 0.5 * dur * j)
-        a += dur * j
-    return t, list(ph), p
 
 
 def _by_cruise_velocity(ax: _Axis, T: float) -> tuple[Phases, str] | None:
