@@ -117,6 +117,12 @@ def _verify(
         return None
     if abs(a - af) > _A_TOL * max(1.0, abs(af)):
         return None
+    # Drop phases of no duration: in a jerk-limited profile the acceleration is continuous, so
+    # the exact plateau value such a phase carries must not act as a jump (it may differ by a
+    # rounding error from where a skipped, rounding-negative ramp left the acceleration).
+    for ph in phases:
+        if ph[0] <= 0.0:
+            return t, [x for x in phases if x[0] > 0.0]
     return t, phases
 
 
