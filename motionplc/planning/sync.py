@@ -174,11 +174,9 @@ def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
     floor = 0.0
     if what == "j":
         if not ax.velocity:
-            # (a start heading for a limit is not bounded when the target heads there too: the
-            # profile may reach it before the overshoot; the verification checks the limits)
-            if a0 > 0.0 and ax.vmax != _INF and af <= 0.0:
+            if a0 > 0.0 and ax.vmax != _INF:
                 floor = max(floor, a0 * a0 / (2.0 * max(ax.vmax - v0, 1e-300)))
-            if a0 < 0.0 and ax.vmin != -_INF and af >= 0.0:
+            if a0 < 0.0 and ax.vmin != -_INF:
                 floor = max(floor, a0 * a0 / (2.0 * max(v0 - ax.vmin, 1e-300)))
             if af < 0.0 and ax.vmax != _INF:
                 floor = max(floor, af * af / (2.0 * max(ax.vmax - vf, 1e-300)))
