@@ -122,6 +122,11 @@ def test_replan_velocity_interface(problem: strat.Problem, u: float) -> None:
     assert not problems, problems
 
 
+@pytest.mark.xfail(
+    strict=False,
+    reason="issue 3 open: hypothesis still finds group re-plans where the fixed-duration "
+    "fallbacks miss a feasible duration (see test_replan_group_needing_a_lowered_jerk below)",
+)
 @hsettings(150)
 @given(strat.multi_problems(), st.floats(0.0, 1.0, exclude_max=True))
 def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> None:
@@ -168,6 +173,26 @@ def test_replan_group_from_a_plateau_state() -> None:
     ]
     old = plan_sync(starts, targets, lims)
     t = 0.75 * old.duration
+    new = plan_sync([State(s.p, s.v, s.a) for s in old.at(t)], targets, lims)
+    assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
+
+
+@pytest.mark.xfail(strict=True, reason="issue 3 open: known fixed-duration gap")
+def test_replan_group_needing_a_lowered_jerk() -> None:
+    """Found by hypothesis: re-planned at 15/16 of the move, axis 1 (a0 = 1.69 toward a target at
+    v_max with a positive acceleration) can take the remaining 2.8953 s -- its old, jerk-lowered
+    profile does -- but the solver finds only 71.26 s (its feasible set starts [2.878, 2.917])."""
+    starts = [State(0.0, -31.622776601683793, 0.0), State(0.0, -3.9528470752104745, 0.0)]
+    targets = [
+        State(0.0, -31.622776601683793, 0.0),
+        State(0.0, 31.62277660168379, 0.8891397050194614),
+    ]
+    lims = [
+        Limits(10**1.5, 10**0.5, 1.0, v_min=-31.622776601683793, a_min=-3.1622776601683795),
+        Limits(10**1.5, 10**0.25, 1.0, v_min=-31.622776601683793, a_min=-1.7782794100389228),
+    ]
+    old = plan_sync(starts, targets, lims)
+    t = 0.9375 * old.duration
     new = plan_sync([State(s.p, s.v, s.a) for s in old.at(t)], targets, lims)
     assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
 
