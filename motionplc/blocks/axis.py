@@ -247,6 +247,7 @@ class _Job:
         "single",
         "base",
         "dir",
+        "rest_target",
     )
 
     def __init__(self, cmd: Command, handle: Handle) -> None:
@@ -265,6 +266,7 @@ class _Job:
         self.single: Profile | None = None  # the profile of a one-profile chain
         self.base: float | None = None  # position a discrete move's target was resolved from
         self.dir = 0.0  # direction of the motion while running (+1 / -1, 0 = none)
+        self.rest_target: float | None = None  # the chain ends at rest here (_prepare_move)
 
     def set_chain(self, chain: list[Profile]) -> None:
         self.chain = chain
@@ -278,6 +280,7 @@ class _Job:
         self.duration = t
         self.tau = 0.0
         self.shift = 0.0
+        self.rest_target = None
 
     def sample(self, tau: float) -> tuple[float, float, float, float]:
         chain = self.chain
@@ -300,8 +303,33 @@ class _Job:
         return State(e.p + self.shift, e.v, e.a)
 
 
+class ReplanBudget:
+    """How many blending re-plans of running moves the axes of a runtime may still do in the
+    current cycle (reset by the runtime every tick; axes step in declaration order, so which
+    axis waits is deterministic)."""
+
+    __slots__ = ("per_cycle", "left")
+
+    def __init__(self, per_cycle: int) -> None:
+        self.per_cycle = per_cycle
+        self.left = per_cycle
+
+
 def _sign(x: float) -> float:
     return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+def _stop_distance(v: float, a: float, j: float) -> float:
+    """Shortest distance to stop from speed ``v`` >= 0 at zero acceleration, braking with at
+    most ``a`` and jerk ``j`` (either may be inf): the brake's acceleration is a symmetric
+    trapezoid (triangle if ``a`` is not reached), so the distance is v * duration / 2."""
+    if v <= 0.0:
+        return 0.0
+    if j == _INF:
+        return 0.0 if a == _INF else v * v / (2.0 * a)
+    if a == _INF or v * j < a * a:
+        return v * math.sqrt(v / j)
+    return 0.5 * v * (v / a + a / j)
 
 
 def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
@@ -377,6 +405,10 @@ class Axis:
         # them): a queued move's start profile is planned in a quiet cycle before the hand-over
         self._memo: dict[bytes, Profile] = {}
         self._ahead = False  # the queue or the active chain changed: look again (plan_ahead)
+        # blending re-plan of the running move, due since a successor was queued (the job
+        # it is for); served within the runtime's per-cycle budget (None: no budget)
+        self._junction_due: _Job | None = None
+        self.replan_budget: ReplanBudget | None = None
         # override: factor f(t) along a ramp profile
         self.override = (1.0, 1.0, 1.0)
         self._f = 1.0
@@ -779,6 +811,8 @@ class Axis:
         if self._pending:
             self._apply_pending()
             self._ahead = True
+        if self._junction_due is not None:
+            self._serve_junction()
         # the override factor ramps in real time, also while no scalable job runs
         ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
         state = self.state
@@ -833,7 +867,30 @@ class Axis:
             if len(self.queue) == 1 and job.cmd.mode >= BufferMode.BLENDING_LOW:
                 act = self.active
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
-                    self._replan_active()
+                    self._junction_due = act
+
+    def _serve_junction(self) -> None:
+        """Re-plan the running move to the junction with its newly queued blending successor,
+        now if the runtime's budget of such re-plans in this cycle allows, else in a later
+        cycle (then from the set state of that cycle; the move runs on meanwhile)."""
+        act = self._junction_due
+        queue = self.queue
+        if (
+            act is not self.active
+            or act is None
+            or act.handle.terminal
+            or not queue
+            or queue[0].cmd.mode < BufferMode.BLENDING_LOW
+        ):
+            self._junction_due = None  # handed over, aborted or stopped meanwhile
+            return
+        budget = self.replan_budget
+        if budget is not None:
+            if budget.left <= 0:
+                return
+            budget.left -= 1
+        self._junction_due = None
+        self._replan_active()
 
     def _abort_motion(self) -> None:
         for q in self.queue:
@@ -1081,10 +1138,25 @@ class Axis:
             return chain
         acc, dec, jerk = self._dyn(nxt.cmd)
         lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
-        prof2 = self._plan_memo(State(chain[-1].end.p, s * vj, 0.0), State(p2, 0.0, 0.0), lim2)
-        return chain if _clean(prof2, s, p2, s * vj) else None
+        # The successor from (p_j, s vj, 0) to rest at p2 runs without reversal or overshoot
+        # iff it can stop within |p2 - p_j|: its time-optimal profile is then monotonic.
+        brake = -lim2.a_min if s > 0.0 else lim2.a_max
+        room = s * (p2 - chain[-1].end.p)
+        return (
+            chain
+            if _stop_distance(vj, brake, lim2.j_max) <= room + 1e-12 * (1.0 + abs(p2))
+            else None
+        )
 
-    def _prepare_move(self, job: _Job, start: State) -> None:
+    def _prepare_move(self, job: _Job, start: State, keep_rest: bool = False) -> None:
+        """Plan ``job`` from ``start`` to its target, through the junction speed to a blending
+        successor (the highest reachable one without reversal or overshoot).
+
+        ``keep_rest``: ``job`` runs already (its chain, planned by this method, brings it to
+        rest at its target) and only its successor changed; if the junction speed comes out
+        0, the running chain is kept instead of re-planning the same motion from ``start``
+        (re-planning from a state on a profile gives that profile again, issue 3 rule 4).
+        """
         target = job.target
         assert target is not None
         v_req, nxt = self._successor_junction(job)
@@ -1120,15 +1192,26 @@ class Axis:
                             break
                     vj = lo
         if chain is None:  # no junction speed (or only 0 reachable): plan to rest
+            if (
+                keep_rest
+                and job.rest_target == target
+                and job.shift == 0.0
+                and self._f == 1.0
+                and self._fd == 0.0
+                and self._f_prof is None
+            ):
+                return
             chain = self._move_chain(job.cmd, start, target, s * vj)
         job.set_chain(chain)
         job.handle.end_velocity = s * vj
+        if vj == 0.0:
+            job.rest_target = target
 
     def _replan_active(self) -> None:
         job = self.active
         assert job is not None
         try:
-            self._prepare_move(job, self._tau_state())
+            self._prepare_move(job, self._tau_state(), keep_rest=True)
         except PlanningError as exc:
             self.axis_error_reason = f"planner (blending ignored): {exc}"
 
@@ -1163,7 +1246,13 @@ class Axis:
     # -- stepping --------------------------------------------------------------------------
     def _advance(self, job: _Job, dt: float, ftau: float) -> None:
         scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
-        tau = job.tau = job.tau + (ftau if scaled else dt)
+        inc = ftau if scaled else dt
+        tau = job.tau = job.tau + inc
+        if job.kind == "velocity" and self.queue and tau - inc > job.duration:
+            # cruising at its velocity since before this step, now taken over by a buffered
+            # job: it ends at the current set state, the successor runs for this step only
+            job.shift += job.chain[-1].end.v * (tau - inc - job.duration)
+            tau = job.tau = job.duration + inc
         if tau < job.duration and not scaled and job.single is not None and job.kind != "home":
             # fast path: a one-profile job still running, no override scaling
             p, self.v, self.a, self.j = job.single.at(tau)
@@ -1390,7 +1479,7 @@ class Axis:
                 act = self.active
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
                     if job.cmd.mode >= BufferMode.BLENDING_LOW:
-                        self._prepare_move(act, self._tau_state())  # new junction
+                        self._prepare_move(act, self._tau_state(), keep_rest=True)  # new junction
         except PlanningError as exc:
             self.axis_error_reason = f"planner (continuous update): {exc}"
             self._fail_command(handle, ErrorID.PLANNING_FAILED)

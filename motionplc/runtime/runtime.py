@@ -5,7 +5,9 @@ order (priority, declaration):
 
 1. READ INPUTS   - latch the I/O image; every axis of the task reads its drive feedback;
 2. PROGRAM       - ``program(ctx)`` calls the FB instances (they submit commands to the axes);
-3. MOTION KERNEL - every axis of the task steps its command queue and samples its profile;
+3. MOTION KERNEL - every axis of the task steps its command queue and samples its profile
+   (re-plans of running moves for a newly queued blending successor: at most
+   ``blend_replans_per_cycle`` per tick, the others in the next ticks in axis order);
 4. WRITE OUTPUTS - every axis writes its setpoints to its drive; the output image is published;
    if no axis planned in step 3, one axis plans a queued move's start profile ahead
    (``Axis.plan_ahead``: spreads the planning of axes that hand over in the same cycle);
@@ -24,7 +26,7 @@ import math
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from motionplc.blocks.axis import planner_calls
+from motionplc.blocks.axis import ReplanBudget, planner_calls
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
 from motionplc.runtime.task import Program, Task, TaskStats
@@ -59,6 +61,10 @@ class Runtime:
     grid and the missed cycles are counted as omitted) or ``"catch_up"`` (missed cycles run back
     to back). ``check_invariants`` runs the conformance invariants of the PLCopen spec notes
     (groups A, B, C, H) after every cycle and raises on a violation (used by the test suite).
+    ``blend_replans_per_cycle``: at most this many running moves are re-planned to the junction
+    with a newly queued blending successor per tick (the others in the next ticks, in axis
+    order, from their set state then; None: no limit). Such a re-plan costs one or more full
+    plans; the budget keeps axes that queue in lockstep from planning all in one cycle.
     """
 
     def __init__(
@@ -71,6 +77,7 @@ class Runtime:
         overrun_policy: str = "skip",
         check_invariants: bool = False,
         queue_depth: int = 8,
+        blend_replans_per_cycle: int | None = 4,
     ) -> None:
         if not (isinstance(cycle, (int, float)) and math.isfinite(cycle) and cycle > 0):
             raise ValueError(f"cycle must be a positive number of seconds, got {cycle!r}")
@@ -78,6 +85,16 @@ class Runtime:
             raise ValueError(
                 f"overrun_policy must be one of {OVERRUN_POLICIES}, got {overrun_policy!r}"
             )
+        if blend_replans_per_cycle is not None and not (
+            type(blend_replans_per_cycle) is int and blend_replans_per_cycle >= 1
+        ):
+            raise ValueError(
+                "blend_replans_per_cycle must be an integer >= 1 or None (no limit), got "
+                f"{blend_replans_per_cycle!r}"
+            )
+        self._budget = (
+            None if blend_replans_per_cycle is None else ReplanBudget(blend_replans_per_cycle)
+        )
         self.tick_ns = round(cycle * 1e9)
         if self.tick_ns < 1000:
             raise ValueError(f"cycle must be >= 1 us, got {cycle!r}")
@@ -139,6 +156,7 @@ class Runtime:
         )
         ax = Axis(cfg, drive if drive is not None else IdealDrive(name))
         ax.task_name = task
+        ax.replan_budget = self._budget
         self.axes[name] = ax
         self.trace.add_columns([f"{name}.{f}" for f in AXIS_FIELDS])
         from motionplc.blocks.enums import AxisState
@@ -287,6 +305,9 @@ class Runtime:
             due = [t for t in self._order if k % t.period_ticks == 0]
             self.last_due = [t.name for t in due]
         t_virtual = k * self.cycle
+        budget = self._budget
+        if budget is not None:
+            budget.left = budget.per_cycle
         for task in due:
             t0 = clock.now_ns()
             lateness = t0 - deadline

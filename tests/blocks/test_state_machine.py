@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import math
+
+import numpy as np
 import pytest
 
 from motionplc.blocks import (
@@ -239,3 +242,37 @@ def test_following_error_and_errorstop_ramp() -> None:
     assert mv.error
     b.run(2000)
     assert b.x.v == 0.0  # stopped with the axis limits, jerk-limited (invariants)
+
+
+@pytest.mark.parametrize("velocity", [0.0, 50.0])
+def test_buffered_move_after_a_velocity_cruise_starts_from_the_current_state(
+    velocity: float,
+) -> None:
+    """Found by the stateful test: MC_MoveVelocity at its velocity (InVelocity) for a while,
+    then a Buffered MC_MoveAbsolute. The move takes over from the set state of that cycle --
+    not from where the velocity job reached its velocity, not with the whole cruise time as
+    its first step (that jumped the velocity by several cycles' worth)."""
+    b = Bench(v_max=200.0, a_max=400.0, j_max=math.inf).powered()
+    mv = b.add(MC_MoveVelocity(velocity=velocity, acceleration=100.0, deceleration=100.0))
+    ma = b.add(
+        MC_MoveAbsolute(
+            position=300.0,
+            velocity=50.0,
+            acceleration=100.0,
+            deceleration=100.0,
+            buffer_mode=BufferMode.BUFFERED,
+        )
+    )
+    b.pulse(mv)
+    b.run(1500)  # InVelocity after 0.5 s at most, then cruising
+    assert mv.in_velocity
+    before = b.x.p
+    b.pulse(ma)
+    b.run_until_idle()
+    assert rise(b, ma, "done") and b.x.p == 300.0
+    p = b.col("x.position")
+    v = b.col("x.velocity")
+    k = int(np.argmax(p >= before)) if velocity else 0
+    assert np.all(np.abs(np.diff(p)) <= 50.0 * 0.001 + 1e-9), "position jump"
+    assert np.all(np.abs(np.diff(v)) <= 100.0 * 0.001 + 1e-9), "velocity jump"
+    assert np.all(np.diff(p[k:]) >= -1e-12), "moved back"

@@ -117,3 +117,48 @@ def test_random_trace_is_the_same_without_planning_ahead(
     with_ahead = _digest_random(seed)
     request.getfixturevalue("no_plan_ahead")
     assert _digest_random(seed) == with_ahead
+
+
+def _lockstep_run(budget: int | None) -> tuple[Runtime, list[Axis], dict[int, int]]:
+    """Six lockstep axes; per cycle, how many running moves were re-planned to a junction."""
+    rt = Runtime(cycle=0.001, check_invariants=True, blend_replans_per_cycle=budget)
+    axes = _lockstep(rt, 6)
+    per_cycle: dict[int, int] = {}
+    orig = Axis._replan_active
+
+    def counting(self: Axis) -> None:
+        per_cycle[rt.tick] = per_cycle.get(rt.tick, 0) + 1
+        orig(self)
+
+    for ax in axes:
+        ax._replan_active = counting.__get__(ax)  # type: ignore[method-assign]
+    rt.run(cycles=12_000)
+    return rt, axes, per_cycle
+
+
+def test_blend_replans_are_spread_over_cycles() -> None:
+    """With a budget of 2 junction re-plans per cycle, six axes queueing their next leg in the
+    same cycle re-plan in three consecutive cycles, in axis order; re-planned from their set
+    state a cycle or two later, the moves are the same (re-planning along a profile gives that
+    profile again), so the axes still run in lockstep and reach the same junction speeds."""
+    rt, axes, per_cycle = _lockstep_run(2)
+    free_rt, free_axes, free_per_cycle = _lockstep_run(None)
+    assert max(per_cycle.values()) == 2
+    assert max(free_per_cycle.values()) == 6
+    assert sum(per_cycle.values()) == sum(free_per_cycle.values()) >= 12
+    first = min(free_per_cycle)
+    assert [per_cycle.get(first + i) for i in range(3)] == [2, 2, 2]
+    p0 = free_rt.trace.column("a0.position")
+    for i in range(6):
+        p = rt.trace.column(f"a{i}.position")
+        assert abs(p - p0).max() <= 1e-9 * 1000.0
+        assert (
+            abs(rt.trace.column(f"a{i}.velocity") - free_rt.trace.column("a0.velocity")).max()
+            <= 1e-6
+        )
+
+
+def test_blend_replan_budget_is_validated() -> None:
+    for bad in (0, -1, 1.5, "2", True):
+        with pytest.raises(ValueError, match="blend_replans_per_cycle must be an integer >= 1"):
+            Runtime(blend_replans_per_cycle=bad)  # type: ignore[arg-type]
