@@ -744,6 +744,9 @@ def _solve_for(
         r = _velocity_fixed(ax, T)
         if r is not None:
             return r
+    r = _free_ramp(ax, T)
+    if r is not None:
+        return r
     durs = [t for t, _, _ in ext]
     branch = 0
     while 2 * branch + 2 < len(durs) and T >= durs[2 * branch + 2] - _SYNC_TOL:
@@ -766,6 +769,26 @@ def _solve_for(
         t, ph, kind = ext[0]
         return [*ph, (T - t, 0.0, 0.0)], kind + "+hold"
     return None
+
+
+def _free_ramp(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """The target on one ramp of a lowered jerk, lasting T (within the synchronisation
+    tolerance): the rest of a jerk-lowered profile re-planned in its last phase. The velocity
+    change fixes the ramp's duration, (af - a0) / duration its jerk; the distance must match:
+    an exact check, not a search."""
+    a0, af = ax.a0, ax.af
+    if ax.velocity or ax.J == _INF or af == a0 or a0 + af == 0.0:
+        return None
+    t = 2.0 * (ax.vf - ax.v0) / (a0 + af)
+    if not abs(t - T) <= _dur_tol(T):
+        return None
+    j = (af - a0) / t
+    if abs(j) > ax.J:
+        return None
+    ver = _third._verify([(t, j)], ax.v0, a0, ax.d, ax.vf, af, ax.vmax, ax.vmin, ax.amax, ax.amin)
+    if ver is None or abs(ver[0] - T) > _dur_tol(T):
+        return None
+    return list(ver[1]), "ramp+j"
 
 
 def _scaled_rest(

@@ -177,11 +177,12 @@ def test_replan_group_from_a_plateau_state() -> None:
     assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
 
 
-@pytest.mark.xfail(strict=True, reason="issue 3 open: known fixed-duration gap")
 def test_replan_group_needing_a_lowered_jerk() -> None:
     """Found by hypothesis: re-planned at 15/16 of the move, axis 1 (a0 = 1.69 toward a target at
-    v_max with a positive acceleration) can take the remaining 2.8953 s -- its old, jerk-lowered
-    profile does -- but the solver finds only 71.26 s (its feasible set starts [2.878, 2.917])."""
+    v_max with a positive acceleration) can take the remaining 2.8953 s -- the rest of its old,
+    jerk-lowered profile, one ramp -- but the solver found only 71.26 s (its feasible set starts
+    [2.878, 2.917]); the lowered jerk is below the floor that keeps a start heading for v_max
+    safe, so no jerk bisection reaches it. The one-ramp check (``sync._free_ramp``) does."""
     starts = [State(0.0, -31.622776601683793, 0.0), State(0.0, -3.9528470752104745, 0.0)]
     targets = [
         State(0.0, -31.622776601683793, 0.0),
@@ -195,6 +196,7 @@ def test_replan_group_needing_a_lowered_jerk() -> None:
     t = 0.9375 * old.duration
     new = plan_sync([State(s.p, s.v, s.a) for s in old.at(t)], targets, lims)
     assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
+    assert new.profiles[1].kind == "ramp+j"
 
 
 # -- Bellman: seeded sweep -----------------------------------------------------------------------
