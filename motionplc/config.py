@@ -373,6 +373,7 @@ class RuntimeSpec:
     tasks: tuple[TaskSpec, ...]
     overrun: str = "skip"
     trace_capacity: int = 500_000
+    blend_replans_per_cycle: int = 4
 
     def task(self, name: str) -> TaskSpec:
         return next(t for t in self.tasks if t.name == name)
@@ -467,7 +468,14 @@ class Config:
 
 # ------------------------------------------------------------------------ parsing
 _TOP = {"runtime": True, "buses": False, "axes": True, "groups": False}
-_RUNTIME = {"tick": False, "clock": False, "overrun": False, "trace_capacity": False, "tasks": True}
+_RUNTIME = {
+    "tick": False,
+    "clock": False,
+    "overrun": False,
+    "trace_capacity": False,
+    "blend_replans_per_cycle": False,
+    "tasks": True,
+}
 _TASK = {"period": False, "priority": False, "watchdog": False}
 _WATCHDOG = {"time": True, "sensitivity": False}
 _BUS = {"type": True, "drives": False}
@@ -512,6 +520,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
     clock = c.choice(m, "clock", path, CLOCKS, "simulated")
     overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
     cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
+    budget = c.integer(m, "blend_replans_per_cycle", path, 4, lo=1, hi=1000)
     tasks: list[TaskSpec] = []
     tm = c.mapping(m["tasks"], m.line_of("tasks"), "runtime.tasks", None) if "tasks" in m else None
     if tm is not None:
@@ -546,7 +555,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
             tasks.append(
                 TaskSpec(name, period or tick, prio if prio is not None else 0, wd_time, wd_sens)
             )
-    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000)
+    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000, budget or 4)
 
 
 def _is_loopback(host: str) -> bool:
@@ -922,6 +931,7 @@ def build(
         trace_capacity=rs.trace_capacity,
         overrun_policy=rs.overrun,
         check_invariants=check_invariants,
+        blend_replans_per_cycle=rs.blend_replans_per_cycle,
     )
     machine = Machine(config, rt)
     try:

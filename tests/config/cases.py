@@ -51,8 +51,13 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         _cfg(_X, runtime="  tick: 0.001\n  cycle: 0.002\n  tasks:\n    motion: {}\n"),
         [
             "{f}:3: runtime.cycle: unknown key "
-            "(allowed: tick, clock, overrun, trace_capacity, tasks)"
+            "(allowed: tick, clock, overrun, trace_capacity, blend_replans_per_cycle, tasks)"
         ],
+    ),
+    (
+        "blend re-plan budget out of range",
+        _cfg(_X, runtime="  blend_replans_per_cycle: 0\n  tasks:\n    motion: {}\n"),
+        ["{f}:2: runtime.blend_replans_per_cycle: got 0 (allowed: an integer in 1..1000)"],
     ),
     (
         "tick not a number",
