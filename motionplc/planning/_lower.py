@@ -27,10 +27,13 @@ def _up_second(
     lo = max(v0, vf)
     if vp < lo - 1e-12 * max(1.0, abs(lo)):
         return None
-    vp = max(vp, lo)
     cruise = 0.0
-    if vp > vmax:
-        vp = vmax
+    if vp > vmax or vp < lo:
+        # cruise at v_max; or vp a rounding below max(v0, vf), where the distance left after
+        # the velocity changes must be a rounding error too (else the shape does not fit)
+        vp = vmax if vp > vmax else lo
+        if vp == 0.0:
+            return (0.0, [(0.0, 0.0, 0.0)]) if d == 0.0 else None
         d_acc = (vp * vp - v0 * v0) / (2.0 * amax) + (vf * vf - vp * vp) / (2.0 * amin)
         cruise = (d - d_acc) / vp
         if cruise < -1e-12 * max(1.0, abs(d / vp)):

@@ -169,8 +169,11 @@ def _blocked(durations: Sequence[float], T: float) -> bool:
 
 
 def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
-    """Smallest scale of the chosen limit for which start and target stay inside and safe."""
+    """Smallest scale of the chosen limit for which start and target stay inside and safe
+    (``what`` "a+" / "v+" scales only the upper limit, "a-" / "v-" only the lower one)."""
     v0, a0, vf, af, J = ax.v0, ax.a0, ax.vf, ax.af, ax.J
+    side = what[1:]
+    what = what[:1]
     floor = 0.0
     if what == "j":
         if not ax.velocity:
@@ -190,9 +193,9 @@ def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
         reachf = vf - af * abs(af) / (2.0 * J)
         vals = (v0, vf, reach0, reachf)
     for x in vals:
-        if x > 0.0:
+        if x > 0.0 and side != "-":
             floor = max(floor, x / lim_hi)
-        elif x < 0.0:
+        elif x < 0.0 and side != "+":
             floor = max(floor, x / lim_lo)
     return floor * (1.0 + 1e-12)
 
@@ -213,19 +216,20 @@ def _by_limit_bisection(
     J = ax.J
     if J == _INF or T <= 0.0 or t_ref <= 0.0:
         return None
+    kind, side = what[:1], what[1:]
     hi, lo = 0.0, 0.0
-    if what == "a":
+    if kind == "a":
         hi, lo = ax.amax, ax.amin
-    elif what == "v":
+    elif kind == "v":
         if ax.velocity:
             return None
         hi, lo = ax.vmax, ax.vmin
-    if what != "j" and (hi == _INF or lo == -_INF):
+    if kind != "j" and (hi == _INF or lo == -_INF):
         # an infinite limit: start from the extremes of the optimal profile, which it keeps
         t0, ph0, _ = _optimal(ax)
         prof = Profile(State(0.0, ax.v0, ax.a0), ph0)
         (_, _), (vl, vh), (al, ah) = prof.extrema()
-        if what == "a":
+        if kind == "a":
             hi = min(hi, max(ah, 1e-300) * (1.0 + 1e-12))
             lo = max(lo, min(al, -1e-300) * (1.0 + 1e-12))
         else:
@@ -242,12 +246,14 @@ def _by_limit_bisection(
     def g(x: float) -> float | None:
         sc = math.exp(x)
         jj, amax, amin, vmax, vmin = J, ax.amax, ax.amin, ax.vmax, ax.vmin
-        if what == "j":
+        sc_hi = sc if side != "-" else 1.0
+        sc_lo = sc if side != "+" else 1.0
+        if kind == "j":
             jj = J * sc
-        elif what == "a":
-            amax, amin = hi * sc, lo * sc
+        elif kind == "a":
+            amax, amin = hi * sc_hi, lo * sc_lo
         else:
-            vmax, vmin = hi * sc, lo * sc
+            vmax, vmin = hi * sc_hi, lo * sc_lo
         try:
             if ax.velocity:
                 r = velocity_phases(ax.v0, ax.a0, ax.vf, ax.af, amax, amin, jj)
@@ -272,7 +278,7 @@ def _by_limit_bisection(
 
     # bracket: xb (T(s) <= T) at the full limit, xa (T(s) >= T) below it
     xb, fb = 0.0, math.log(t_ref) - log_t
-    xa = max(3.0 * fb if what == "j" else 2.0 * fb, x_floor)
+    xa = max(3.0 * fb if kind == "j" else 2.0 * fb, x_floor)
     fa = g(xa)
     if found:
         return done()
@@ -370,10 +376,15 @@ def _scan_family(
         if ph is None:
             return None
         p, v, a = 0.0, v0, a0
-        for dur, j, *_ in ph:
+        for x in ph:
+            dur, j = x[0], x[1]
             if dur < -1e-12:
                 return None
             if dur > 0.0:
+                if len(x) > 2:  # exact values carried by the phase (as _third._verify takes them)
+                    a = x[2]
+                    if len(x) > 3:
+                        v = x[3]
                 p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
                 v += dur * (a + 0.5 * dur * j)
                 a += dur * j
@@ -557,6 +568,82 @@ def _free_plateau_oriented(ax: _Axis, T: float, sign: float) -> tuple[Phases, st
         if r is not None:
             return r, "free-peak-acc1"
     return None
+
+
+def _two_plateaus(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Exact profiles of duration T with two acceleration plateaus, one at a limit and one at
+    a free value, joined by ramps of the full jerk in whichever direction the values need:
+    a0 -> A (plateau h1) -> B (plateau h2) -> af. The plateau times follow from the duration
+    and the velocity change (linear in h1); the free value is scanned against the distance."""
+    if ax.velocity or ax.J == _INF:
+        return None
+    J = ax.J
+    a0, af, dv = ax.a0, ax.af, ax.vf - ax.v0
+
+    def shape(A: float, B: float) -> Phases | None:
+        if A == B:
+            return None
+        t1, t2, t3 = abs(A - a0) / J, abs(B - A) / J, abs(af - B) / J
+        S = T - t1 - t2 - t3
+        if S < 0.0:
+            return None
+        ramps = 0.5 * ((a0 + A) * t1 + (A + B) * t2 + (B + af) * t3)
+        h1 = (dv - ramps - B * S) / (A - B)
+        h2 = S - h1
+        if h1 < -1e-12 or h2 < -1e-12:
+            return None
+        return [
+            (t1, J if A >= a0 else -J),
+            (max(h1, 0.0), 0.0, A),
+            (t2, J if B >= A else -J),
+            (max(h2, 0.0), 0.0, B),
+            (t3, J if af >= B else -J),
+        ]
+
+    lo, hi = ax.amin, ax.amax
+    if lo == -_INF or hi == _INF:
+        return None
+    configs = (
+        (lambda x: shape(x, lo), "free-then-amin"),
+        (lambda x: shape(x, hi), "free-then-amax"),
+        (lambda x: shape(hi, x), "amax-then-free"),
+        (lambda x: shape(lo, x), "amin-then-free"),
+    )
+    for fam, name in configs:
+        r = _scan_family(lo, hi, fam, ax, T, 1.0)
+        if r is not None:
+            return r, name
+    return None
+
+
+def _monotone_free_plateau(ax: _Axis, T: float) -> tuple[Phases, str] | None:
+    """Exact profile of duration T whose acceleration runs monotonically from a0 to af: a
+    ramp of a lowered jerk j, a plateau at a free value Q between a0 and af for h, a ramp of
+    the same jerk (step 2, where no time-optimal family of any jerk has this shape).
+
+    With k = |j| = |af - a0| / (T - h) the velocity change is (af^2 - a0^2) / (2 j) + Q h,
+    linear in Q; the distance equation is then one equation in h, scanned and bisected."""
+    if ax.velocity or ax.J == _INF or ax.af == ax.a0:
+        return None
+    a0, af = ax.a0, ax.af
+    span = abs(af - a0)
+    sgn = 1.0 if af > a0 else -1.0
+    h_hi = T - span / ax.J
+    if h_hi <= 0.0:
+        return None
+    dv = ax.vf - ax.v0
+
+    def phases_of(h: float) -> Phases | None:
+        if h <= 0.0 or h >= T:
+            return None
+        j = sgn * span / (T - h)
+        Q = (dv - (af * af - a0 * a0) / (2.0 * j)) / h
+        if sgn * (Q - a0) < 0.0 or sgn * (af - Q) < 0.0 or not ax.amin <= Q <= ax.amax:
+            return None
+        return [((Q - a0) / j, j), (h, 0.0, Q), ((af - Q) / j, j)]
+
+    r = _scan_family(0.0, h_hi, phases_of, ax, T, 1.0, n=48)
+    return None if r is None else (r, "monotone-free-plateau")
 
 
 def _velocity_fixed(ax: _Axis, T: float) -> tuple[Phases, str] | None:
@@ -758,7 +845,17 @@ def _solve_for(
     r = _by_cruise_velocity(ax, T)
     if r is not None:
         return r
+    for what in ("a+", "a-", "v+", "v-"):  # one side only: the other may bound the start
+        r = _by_limit_bisection(ax, T, durs[2 * branch], what, branch)
+        if r is not None:
+            return r
     r = _by_free_plateau(ax, T)
+    if r is not None:
+        return r
+    r = _monotone_free_plateau(ax, T)
+    if r is not None:
+        return r
+    r = _two_plateaus(ax, T)
     if r is not None:
         return r
     r = _by_family_jerk(ax, T)

@@ -78,6 +78,11 @@ def bellman_problems(
 
 def _replan_at(prof: Profile, u: float) -> tuple[float, State]:
     t = u * prof.duration
+    # Within a few ulp of the duration the sample time is as coarse as the remaining time, and
+    # the sampled state is only as exact as the profile's positions (ulp of its largest |p|):
+    # a target that heads out of the limits (v_max reached with a > 0) can then be exactly
+    # unreachable without a loop. Rule 4 is claimed for states the time resolves.
+    assume(prof.duration - t > 16.0 * math.ulp(prof.duration))
     s = prof.at(t)
     return t, State(s.p, s.v, s.a)
 
@@ -142,6 +147,7 @@ def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> Non
         assume("beyond the supported" not in str(exc))
         raise
     t = u * old.duration
+    assume(old.duration - t > 16.0 * math.ulp(old.duration))  # (as in _replan_at)
     mids = [State(s.p, s.v, s.a) for s in old.at(t)]
     new = plan_sync(mids, targets, lims)
     assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration), (

@@ -733,3 +733,15 @@ def test_plan_velocity_infinite_jerk() -> None:
     assert prof.duration == pytest.approx(1.0, rel=1e-12)
     assert prof.end.v == pytest.approx(1.5, abs=1e-12)
     assert all(s.jerk == 0.0 for s in prof.segments)
+
+
+def test_second_order_shape_needing_a_peak_below_the_start_velocity_is_rejected() -> None:
+    """Found by hypothesis: v0 = vf = -100, the target 1e-7 ahead (positive). The shape that
+    peaks at max(|v0|, |vf|) in the negative direction would need its peak a rounding below
+    that (1e-12 relative): it was clamped to a zero-duration profile missing the target by
+    1e-7. The answer is the loop over +100 m/s (4000 s)."""
+    lim = Limits(v_max=math.inf, a_max=0.1, j_max=math.inf)
+    for d, t in ((1e-7, 4000.0), (-1e-7, 0.0)):
+        prof = plan(State(0.0, -100.0, 0.0), State(d, -100.0, 0.0), lim)
+        check_profile(prof, State(0.0, -100.0, 0.0), State(d, -100.0, 0.0), lim)
+        assert prof.duration == pytest.approx(t, abs=1e-8)

@@ -783,3 +783,81 @@ def test_one_axis_sync_equals_plan_near_an_accelerating_target() -> None:
     traj = plan_sync([start], [target], [lim])
     assert traj.independent_min_durations[0] == pytest.approx(single.duration, rel=1e-9)
     assert traj.duration == pytest.approx(single.duration, rel=1e-9)
+
+
+# -- fixed-duration shapes found by PLANNING_THOROUGH hypothesis runs ---------------------------
+_FOUND: list[tuple[str, list[State], list[State], list[Limits], float | None, str]] = [
+    (
+        # axis 1 takes Ruckig's step-2 profile: a free acceleration plateau, then a_min
+        "free-then-amin",
+        [State(0.0, 0.0019764235376052985, -0.5), State(0.0, 0.02421118833566415, -0.5)],
+        [State(0.0, 0.0019764235376052985, 0.5), State(0.0, -0.028225798646424792, -0.75)],
+        [
+            Limits(1.0, 1.0, 10.0**1.5),
+            Limits(10.0**-1.5, 1.0, 10.0**1.5),
+        ],
+        None,
+        "free-then-amin",
+    ),
+    (
+        # axis 1: both ramps down with a lowered jerk around a free plateau
+        "monotone",
+        [State(0.0, 0.0019764235376052985, -0.5), State(0.0, 0.02421118833566415, -0.5)],
+        [State(0.0, 0.0019764235376052985, 0.5), State(0.0, -0.02482882069116579, -0.75)],
+        [
+            Limits(1.0, 1.0, 10.0**1.5),
+            Limits(10.0**-1.5, 1.0, 10.0**1.5),
+        ],
+        None,
+        "monotone-free-plateau",
+    ),
+    (
+        # axis 1 starts exactly on its brake boundary toward v_min: no lower jerk, no lower
+        # a_min or v_min keeps it safe; a lower a_max alone stretches it to the cycle
+        "one-sided",
+        [State(0.0, -1.0, 0.0), State(0.0, 1.24999998875, -4.743416487880861)],
+        [State(0.0, -1.0, 0.0), State(0.0, -5.0, 0.0)],
+        [Limits(1.0, 1.0, 1.0), Limits(10.0, 10.0, 1.0)],
+        0.001,
+        "vel+a+",
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    ("starts", "targets", "lims", "dt", "kind"),
+    [c[1:] for c in _FOUND],
+    ids=[c[0] for c in _FOUND],
+)
+def test_found_fixed_duration_shapes(
+    sync_oracle: RuckigSyncOracle,
+    starts: list[State],
+    targets: list[State],
+    lims: list[Limits],
+    dt: float | None,
+    kind: str,
+) -> None:
+    case = _multi(starts, targets, lims, dt=dt)
+    answer = sync_oracle.solve(case)
+    traj = _check(case, answer)
+    assert traj.profiles[1].kind == kind
+    assert traj.duration == pytest.approx(answer.duration, rel=1e-9, abs=1e-9)
+
+
+def test_replanned_cruise_of_a_long_stretch() -> None:
+    """Axis 0 (time-optimal 21 s) is stretched to the other axis' 5177 s by cruising at
+    1.96 mm/s; re-planned from its state 5 us later, the cruise velocity must be solved with
+    the exact values the phases carry (a distance error of 2.4e-8 m otherwise). Ruckig fails
+    this case in its step 2."""
+    starts = [State(0.0, 100.0, 0.0), State(0.0, -71.66619641959169, 0.0)]
+    targets = [State(0.0, -99.94909241391409, 1.0090350448414473), State(0.0, 10.0**1.125)]
+    lims = [
+        Limits(100.0, 10.0**0.00390625, 10.0, a_min=-10.090350448414473),
+        Limits(10.0**1.125, 10.0**-1.28125, 1.0, v_min=-133.3521432163324),
+    ]
+    old = _check(_multi(starts, targets, lims))
+    t = 1e-9 * old.duration
+    mids = [State(s.p, s.v, s.a) for s in old.at(t)]
+    new = _check(_multi(mids, targets, lims))
+    assert new.duration == pytest.approx(old.duration - t, abs=1e-9)
+    assert new.profiles[0].kind == "cruise-sync"
