@@ -188,11 +188,13 @@ def profile_problems(
         problems.append(f"profile starts at a={first.a!r}, start.a={start.a!r}")
 
     # -- end state vs target ----------------------------------------------------------------
-    (p_lo, p_hi), _, _ = prof.extrema()
+    (p_lo, p_hi), (v_lo, v_hi), _ = prof.extrema()
     p_scale = position_scale(start, target, p_lo, p_hi)
     if check_target_p and not abs(end.p - target.p) <= P_TOL * p_scale:
         problems.append(f"end p={end.p!r} != target p={target.p!r} (err {end.p - target.p:.3g})")
-    if not abs(end.v - target.v) <= V_TOL:
+    # (plus the rounding of double arithmetic on the largest velocity of the profile: a brake
+    # from far outside the limits can swing v by 1e7 m/s and back)
+    if not abs(end.v - target.v) <= V_TOL + 1e-14 * max(abs(v_lo), abs(v_hi)):
         problems.append(f"end v={end.v!r} != target v={target.v!r} (err {end.v - target.v:.3g})")
     if not abs(end.a - target.a) <= A_TOL:
         problems.append(f"end a={end.a!r} != target a={target.a!r} (err {end.a - target.a:.3g})")

@@ -745,3 +745,15 @@ def test_second_order_shape_needing_a_peak_below_the_start_velocity_is_rejected(
         prof = plan(State(0.0, -100.0, 0.0), State(d, -100.0, 0.0), lim)
         check_profile(prof, State(0.0, -100.0, 0.0), State(d, -100.0, 0.0), lim)
         assert prof.duration == pytest.approx(t, abs=1e-8)
+
+
+def test_velocity_brake_from_far_outside_ends_within_double_precision() -> None:
+    """Found by hypothesis: a0 = 3 a_min with j_max = 0.1 brakes for 11,247 s and swings v to
+    -1.4e7 m/s and back over 270,486 s; the end velocity is exact to 3e-8 m/s, ten ulp of the
+    swing (the profile check allows 1e-14 of the largest |v| on top of its 1e-8)."""
+    start = State(0.0, -1.0, -1687.0239755710472)
+    lim = Limits(1.0, 10.0**1.75, 0.1, v_min=-1.0, a_min=-562.341325190349)
+    prof = plan_velocity(start, -1.0, lim)
+    check_profile(prof, start, State(0.0, -1.0, 0.0), lim, start_inside=False, check_target_p=False)
+    _, (v_lo, _), _ = prof.extrema()
+    assert v_lo < -1e7 and abs(prof.end.v + 1.0) <= 1e-14 * abs(v_lo)

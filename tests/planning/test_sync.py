@@ -617,7 +617,11 @@ def test_rest_to_rest_properties(problem: strat.MultiProblem, dt: float | None) 
     """Rest to rest nothing is blocked: the duration is the slowest axis' minimum (rounded up
     to a cycle), and every axis' profile is its own optimal profile, time-stretched."""
     starts, targets, lims = problem
-    traj = _check(_multi(starts, targets, lims, dt=dt))
+    try:
+        traj = _check(_multi(starts, targets, lims, dt=dt))
+    except PlanningError as exc:  # synchronised moves end at MAX_SYNC_DURATION (1e4 s)
+        assume("beyond the supported" not in str(exc))
+        raise
     own = [plan(s, t, lm) for s, t, lm in zip(starts, targets, lims, strict=True)]
     t_max = max(p.duration for p in own)
     expected = t_max if dt is None else math.ceil(t_max / dt - 1e-9) * dt
