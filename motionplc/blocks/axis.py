@@ -300,6 +300,17 @@ class _Job:
 
     def end_state(self) -> State:
         e = self.chain[-1].end
+        t = self.rest_target
+        if (
+            t is not None
+            and self.shift == 0.0
+            and abs(e.p - t) <= 1e-12 * (1.0 + abs(t))
+            and abs(e.v) <= 1e-12
+            and abs(e.a) <= 1e-12
+        ):
+            # a move planned to rest at its target ends there exactly (the profile's end is
+            # integrated, a few ulp off)
+            return State(t, 0.0, 0.0)
         return State(e.p + self.shift, e.v, e.a)
 
 
@@ -330,6 +341,21 @@ def _stop_distance(v: float, a: float, j: float) -> float:
     if a == _INF or v * j < a * a:
         return v * math.sqrt(v / j)
     return 0.5 * v * (v / a + a / j)
+
+
+def _stop_speed(room: float, a: float, j: float) -> float:
+    """Highest speed from which :func:`_stop_distance` is at most ``room`` (its inverse)."""
+    if room <= 0.0:
+        return 0.0
+    if j == _INF:
+        return _INF if a == _INF else math.sqrt(2.0 * a * room)
+    if a != _INF:
+        # with the acceleration plateau: v^2 + (a^2 / j) v - 2 a room = 0
+        b = a * a / j
+        v = 0.5 * (math.sqrt(b * b + 8.0 * a * room) - b)
+        if v * j >= a * a:
+            return v
+    return (room * room * j) ** (1.0 / 3.0)  # a jerk-only brake: room = v sqrt(v / j)
 
 
 def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
@@ -1175,7 +1201,19 @@ class Axis:
                 s2 = _sign(p2 - target) if p2 is not None else 0.0
             elif nxt.kind == "velocity":
                 s2 = _sign(nxt.cmd.velocity)
-            if s2 == s:
+            if s2 == s and p2 is not None:
+                # the successor must stop within its distance: cap the junction speed there
+                # at once (closed form) instead of searching for it
+                acc, dec, jerk = self._dyn(nxt.cmd)
+                lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
+                brake = -lim2.a_min if s > 0.0 else lim2.a_max
+                room = s * (p2 - target)
+                cap = _stop_speed(room, brake, lim2.j_max)
+                tol = 1e-12 * (1.0 + abs(p2))
+                while cap > 0.0 and _stop_distance(cap, brake, lim2.j_max) > room + tol:
+                    cap = math.nextafter(cap, 0.0) * (1.0 - 1e-15)
+                v_req = min(v_req, cap)
+            if s2 == s and v_req > 0.0:
                 chain = self._junction_chain(job, start, s, v_req, nxt, p2)
                 if chain is not None:
                     vj = v_req

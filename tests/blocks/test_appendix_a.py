@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from motionplc.blocks import BufferMode, MC_MoveAbsolute
+from motionplc.blocks.axis import planner_calls
 from tests.runtime.helpers import Bench
 
 B = BufferMode
@@ -204,6 +205,29 @@ def test_blending_junction_not_reachable_uses_highest_reachable() -> None:
     assert m1.end_velocity == pytest.approx((2 * 100.0 * 10.0) ** 0.5, rel=1e-6)
     assert b.x.p == 1010.0
     assert b.col("x.position").max() <= 1010.0 + 1e-9
+
+
+@pytest.mark.parametrize("j_max", [float("inf"), 1000.0])
+def test_unreachable_junction_is_capped_without_a_search(j_max: float) -> None:
+    """The successor's stopping distance caps the junction speed in closed form: queueing it
+    re-plans the running move once (not a bisection of ~30 plans in one cycle)."""
+    b = Bench(v_max=200.0, a_max=400.0, j_max=j_max).powered()
+    fb2 = dict(position=1010.0, velocity=100.0, acceleration=100.0, deceleration=100.0)
+    m1, m2 = b.add(MC_MoveAbsolute(**FB1), MC_MoveAbsolute(**fb2, buffer_mode=B.BLENDING_HIGH))
+    b.pulse(m1)
+    b.run(1000)
+    n0 = planner_calls()
+    b.pulse(m2)
+    assert planner_calls() - n0 == 1
+    b.run_until_idle()
+    # stopping within 10 u: sqrt(2 a d) without a jerk limit; with one, v^2 + (a^2/j) v = 2 a d
+    vj = (
+        (2 * 100.0 * 10.0) ** 0.5
+        if j_max == float("inf")
+        else 0.5 * ((10.0**2 + 8000.0) ** 0.5 - 10.0)
+    )
+    assert m1.end_velocity == pytest.approx(vj, rel=1e-12)
+    assert b.x.p == 1010.0 and b.col("x.position").max() <= 1010.0 + 1e-9
 
 
 def test_blending_into_opposite_direction_gives_zero_junction() -> None:
