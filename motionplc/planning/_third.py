@@ -537,7 +537,11 @@ def single_ramp(
         return None
     p = t * (v0 + t * (0.5 * a0 + t * j / 6.0))
     v = v0 + t * (a0 + 0.5 * t * j)
-    if abs(p - d) <= _P_TOL * max(1.0, abs(d)) * 0.01 and abs(v - vf) <= _V_TOL * 0.01:
+    # the velocity within rounding (1e-12 relative): a target that misses the ramp's end
+    # velocity by more is not on it (a looser tolerance accepts a ramp that leaves a real
+    # velocity error behind, e.g. 2e-11 m/s next to a limit where the exact answer loops)
+    v_tol = 1e-12 * max(1.0, abs(v0), abs(vf))
+    if abs(p - d) <= _P_TOL * max(1.0, abs(d)) * 0.01 and abs(v - vf) <= v_tol:
         return (t, [(t, j)] if t > 0.0 else [], "ramp")
     return None
 

@@ -156,16 +156,23 @@ def _extremals(ax: _Axis) -> list[tuple[float, Phases, str]]:
     return ext
 
 
-def _blocked(durations: Sequence[float], T: float) -> bool:
-    """Whether T lies in a blocked interval (t2, t3) or (t4, t5) of the extremal durations."""
+def _blocking_width(durations: Sequence[float], T: float) -> float:
+    """Width of the blocked interval (t2, t3) or (t4, t5) of the extremal durations that holds
+    T (0: T is not blocked)."""
     n = len(durations)
     k = 1
     while k + 1 < n:
         lo, hi = durations[k], durations[k + 1]
         if lo + _SYNC_TOL < T < hi - _SYNC_TOL:
-            return True
+            return hi - lo
         k += 2
-    return False
+    return 0.0
+
+
+# A blocked interval narrower than this (relative to the duration) comes from a target within
+# rounding distance of a limit, where the extremal profiles are too close to tell the feasible
+# durations apart: there the duration is tried instead of skipped.
+_NARROW_BLOCK = 1e-6
 
 
 def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
@@ -950,7 +957,8 @@ def _time_sync(
         profiles: list[Profile] = []
         for ax, e in zip(axes, exts, strict=True):
             durs = [t for t, _, _ in e]
-            if _blocked(durs, T - ax.t_pre):
+            width = _blocking_width(durs, T - ax.t_pre)
+            if width > _NARROW_BLOCK * max(1.0, T):
                 break
             r = _solve_for(ax, T - ax.t_pre, e)
             if r is None:
@@ -1047,7 +1055,9 @@ def plan_fixed_duration(start: State, target: State, limits: Limits, T: float) -
     ax = _make_axis(start, target, limits, False, 0)
     ext = _extremals(ax)
     Tr = T - ax.t_pre
-    if Tr < ext[0][0] - _SYNC_TOL or _blocked([t for t, _, _ in ext], Tr):
+    if Tr < ext[0][0] - _SYNC_TOL:
+        return None
+    if _blocking_width([t for t, _, _ in ext], Tr) > _NARROW_BLOCK * max(1.0, T):
         return None
     r = _solve_for(ax, max(Tr, ext[0][0]), ext)
     return None if r is None else _profile(ax, r[0], r[1])

@@ -489,3 +489,32 @@ def test_replan_at_the_end_of_the_profile(
         end = old.at(old.duration)
         new = plan(State(end.p, end.v, end.a), target, lim)
     assert new.duration <= 1e-9, (old.end, new.duration)
+
+
+def test_replan_next_to_a_target_a_rounding_off_the_limit() -> None:
+    """Found by hypothesis: at v_min, the target 2e-11 m/s slower at the same place: the move
+    loops (1.79 s). Re-planned 1.8e-10 s later, a single ramp missed the target velocity by
+    2e-11 but passed the ramp check's old 1e-10 tolerance (1.8e-10 s instead of the loop); the
+    check is now at the rounding level of the values."""
+    lim = Limits(v_max=0.1, a_max=1.0, j_max=1.0, v_min=-0.1)
+    target = State(0.0, -0.09999999998, 0.0)
+    old = plan(State(0.0, -0.1, 0.0), target, lim)
+    t = 1e-10 * old.duration
+    s = old.at(t)
+    new = plan(State(s.p, s.v, s.a), target, lim)
+    problems, _, _ = bellman_problems(old, new, t)
+    assert not problems, problems
+
+
+def test_replan_group_with_a_narrow_blocked_interval() -> None:
+    """Found by hypothesis: axis 1's target is 2e-8 m/s inside v_min; re-planned at 7/8 its
+    extremal durations are four within 2.1e-8 s and mark (1.6996418874, 1.6996418977) s as
+    blocked, yet the rest of its old profile takes 1.6996418914 s. Narrow blocked intervals
+    (< 1e-6 of the duration) are tried instead of skipped."""
+    lim = Limits(v_max=1.0, a_max=10.0**-0.5, j_max=1.0, a_min=-0.31622776601683794)
+    starts = [State(0.0, -0.9875, -0.15811388300841897)] * 2
+    targets = [State(0.0, -1.0, 0.0), State(0.0, -0.99999998, 0.0)]
+    old = plan_sync(starts, targets, [lim, lim])
+    t = 0.875 * old.duration
+    new = plan_sync([State(s.p, s.v, s.a) for s in old.at(t)], targets, [lim, lim])
+    assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
