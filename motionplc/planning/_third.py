@@ -539,9 +539,10 @@ def single_ramp(
     v = v0 + t * (a0 + 0.5 * t * j)
     # the velocity within rounding (1e-12 relative): a target that misses the ramp's end
     # velocity by more is not on it (a looser tolerance accepts a ramp that leaves a real
-    # velocity error behind, e.g. 2e-11 m/s next to a limit where the exact answer loops)
+    # velocity error behind, e.g. 2e-11 m/s next to a limit where the exact answer loops);
+    # the position within the verification's tolerance, as the profile that led here
     v_tol = 1e-12 * max(1.0, abs(v0), abs(vf))
-    if abs(p - d) <= _P_TOL * max(1.0, abs(d)) * 0.01 and abs(v - vf) <= v_tol:
+    if abs(p - d) <= _P_TOL * max(1.0, abs(d)) and abs(v - vf) <= v_tol:
         return (t, [(t, j)] if t > 0.0 else [], "ramp")
     return None
 

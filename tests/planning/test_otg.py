@@ -518,3 +518,19 @@ def test_replan_group_with_a_narrow_blocked_interval() -> None:
     t = 0.875 * old.duration
     new = plan_sync([State(s.p, s.v, s.a) for s in old.at(t)], targets, [lim, lim])
     assert abs(new.duration - (old.duration - t)) <= duration_tol(old.duration)
+
+
+def test_replan_on_the_last_ramp_toward_a_target_heading_out_of_the_limits() -> None:
+    """Found by hypothesis: the target sits 1e-8 below v_max with a > 0; the old profile ends
+    4.7e-9 m off it (within the verification's 1e-8) and its last phase is one ramp. From a
+    state on that ramp an overshoot of v_max looks inevitable, so unless the ramp check
+    accepts the same position tolerance the re-plan brakes and loops (17.4 s)."""
+    lim = Limits(10.0**0.6875, 10.0**1.03125, 10.0**0.625, -4.869675251658631, -10.746078283213174)
+    start = State(0.0, -4.869675251658631, 9.063167270670052)
+    target = State(0.0, 4.869675241919282, 9.063167270670052)
+    old = plan(start, target, lim)
+    t, mid = 0.75 * old.duration, old.at(0.75 * old.duration)
+    new = plan(State(mid.p, mid.v, mid.a), target, lim)
+    problems, _, _ = bellman_problems(old, new, t)
+    assert not problems, problems
+    assert new.kind == "ramp"
