@@ -571,7 +571,10 @@ def time_optimal(
             r = _verify(ph, 0.0, 0.0, d, 0.0, 0.0, vmax, vmin, amax, amin)
             if r is not None:
                 return r[0], r[1], "none-rest"
-    t_best = best[0] if best is not None else math.inf
+    # a target on one ramp from the start is reached exactly; another family replaces that
+    # ramp only if it is faster by more than rounding (found: a cruise at v_min "beaten" by
+    # 2e-17 s by a dip a rounding beyond v_min)
+    t_best = best[0] * (1.0 - 1e-12) if best is not None else math.inf
     best_down = False
     up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
     down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)

@@ -536,3 +536,18 @@ def test_replan_on_the_last_ramp_toward_a_target_heading_out_of_the_limits() -> 
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert new.kind == "ramp"
+
+
+def test_replan_of_a_cruise_at_v_min_keeps_cruising() -> None:
+    """Found by hypothesis: 7.8e-5 s of cruise at v_min = -100 m/s; re-planned halfway, a jerk
+    dip 2e-17 s "faster" (its velocity a rounding beyond v_min) replaced the cruise. A
+    one-ramp (here: cruise) profile is now replaced only by one faster beyond rounding."""
+    lim = Limits(v_max=10.0, a_max=1.0, j_max=1.0, v_min=-100.0)
+    target = State(-0.0078125, -100.0, 0.0)
+    old = plan(State(0.0, -100.0, 0.0), target, lim)
+    t = 0.5 * old.duration
+    s = old.at(t)
+    new = plan(State(s.p, s.v, s.a), target, lim)
+    problems, _, _ = bellman_problems(old, new, t)
+    assert not problems, problems
+    assert new.kind == "ramp"
