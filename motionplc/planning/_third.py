@@ -571,20 +571,21 @@ def time_optimal(
             r = _verify(ph, 0.0, 0.0, d, 0.0, 0.0, vmax, vmin, amax, amin)
             if r is not None:
                 return r[0], r[1], "none-rest"
-    # a target on one ramp from the start is reached exactly; another family replaces that
-    # ramp only if it is faster by more than rounding (found: a cruise at v_min "beaten" by
-    # 2e-17 s by a dip a rounding beyond v_min)
-    t_best = best[0] * (1.0 - 1e-12) if best is not None else math.inf
+    # A later candidate replaces the best so far only if it is faster by more than rounding
+    # (1e-12 relative): the ramp and the families in their order (cruise first) win ties.
+    # Found: a cruise at v_min "beaten" by 2e-17 s by a dip a rounding beyond v_min.
+    keep = 1.0 - 1e-12
+    t_best = best[0] * keep if best is not None else math.inf
     best_down = False
     up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
     down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
     for fam in _FAMILIES:
         c = fam(*up, t_best)
         if c is not None:
-            best, t_best, best_down = c, c[0], False
+            best, t_best, best_down = c, c[0] * keep, False
         c = fam(*down, t_best)
         if c is not None:
-            best, t_best, best_down = c, c[0], True
+            best, t_best, best_down = c, c[0] * keep, True
     if best is None or not best_down:
         return best
     return best[0], [mirror(x) for x in best[1]], best[2] + "-down"

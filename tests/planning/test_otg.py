@@ -551,3 +551,17 @@ def test_replan_of_a_cruise_at_v_min_keeps_cruising() -> None:
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert new.kind == "ramp"
+
+
+def test_replan_of_a_cruise_ending_in_a_tiny_acceleration() -> None:
+    """As above with the target acceleration 6e-119 (not a single ramp any more): the cruise
+    family comes first and a later family must be faster beyond rounding to replace it."""
+    lim = Limits(v_max=10.0, a_max=1.0, j_max=1.0, v_min=-100.0)
+    target = State(-0.0078125, -100.0, 6.045701501749407e-119)
+    old = plan(State(0.0, -100.0, 0.0), target, lim)
+    t = 0.5 * old.duration
+    s = old.at(t)
+    new = plan(State(s.p, s.v, s.a), target, lim)
+    problems, _, _ = bellman_problems(old, new, t)
+    assert not problems, problems
+    assert old.kind == new.kind == "vel-down"
