@@ -37,6 +37,7 @@ from motionplc.planning.roots import quadratic_roots, quartic_roots_in
 Phases = list[tuple[float, ...]]
 
 _T_TOL = 1e-12  # relative tolerance on a negative phase duration from rounding
+_NEG_TOL = 1e-11  # ... of a phase the verification drops (it checks the end state after it)
 _P_TOL = 1e-8
 _V_TOL = 1e-8
 _A_TOL = 1e-10
@@ -73,8 +74,11 @@ def _verify(
         dur = ph[0]
         if dur <= 0.0:
             if dur < 0.0:
+                # a phase a root's rounding below zero (near a double root the roots are only
+                # good to ~sqrt(eps)): dropped; the end state below decides whether the rest
+                # still reaches the target
                 total = sum(abs(x[0]) for x in phases)
-                if dur < -_T_TOL * (total if total > 1.0 else 1.0):
+                if dur < -_NEG_TOL * (total if total > 1.0 else 1.0):
                     return None
             continue
         j = ph[1]

@@ -565,3 +565,18 @@ def test_replan_of_a_cruise_ending_in_a_tiny_acceleration() -> None:
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert old.kind == new.kind == "vel-down"
+
+
+def test_replan_on_the_tip_of_a_velocity_pulse() -> None:
+    """Found by hypothesis: a 10 ms velocity pulse at -100 m/s, re-planned at its tip (a = 0).
+    The rest is up-down at full jerk; its quartic root is good to ~sqrt(eps) only, so its
+    first phase came out -3.5e-12 s and the verification rejected it (402 s loop instead).
+    Phases a root's rounding below zero are dropped and the end state decides."""
+    lim = Limits(v_max=100.0, a_max=1.0, j_max=1.0, v_min=-1000.0)
+    target = State(-1.0, -100.0, 0.0)
+    old = plan(State(0.0, -100.0, 0.0), target, lim)
+    t = 0.5 * old.duration
+    s = old.at(t)
+    new = plan(State(s.p, s.v, s.a), target, lim)
+    problems, _, _ = bellman_problems(old, new, t)
+    assert not problems, problems
