@@ -373,7 +373,7 @@ class RuntimeSpec:
     tasks: tuple[TaskSpec, ...]
     overrun: str = "skip"
     trace_capacity: int = 500_000
-    blend_replans_per_cycle: int = 4
+    blend_replans_per_cycle: int = 2
 
     def task(self, name: str) -> TaskSpec:
         return next(t for t in self.tasks if t.name == name)
@@ -520,7 +520,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
     clock = c.choice(m, "clock", path, CLOCKS, "simulated")
     overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
     cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
-    budget = c.integer(m, "blend_replans_per_cycle", path, 4, lo=1, hi=1000)
+    budget = c.integer(m, "blend_replans_per_cycle", path, 2, lo=1, hi=1000)
     tasks: list[TaskSpec] = []
     tm = c.mapping(m["tasks"], m.line_of("tasks"), "runtime.tasks", None) if "tasks" in m else None
     if tm is not None:
@@ -555,7 +555,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
             tasks.append(
                 TaskSpec(name, period or tick, prio if prio is not None else 0, wd_time, wd_sens)
             )
-    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000, budget or 4)
+    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000, budget or 2)
 
 
 def _is_loopback(host: str) -> bool:

@@ -77,7 +77,7 @@ class Runtime:
         overrun_policy: str = "skip",
         check_invariants: bool = False,
         queue_depth: int = 8,
-        blend_replans_per_cycle: int | None = 4,
+        blend_replans_per_cycle: int | None = 2,
     ) -> None:
         if not (isinstance(cycle, (int, float)) and math.isfinite(cycle) and cycle > 0):
             raise ValueError(f"cycle must be a positive number of seconds, got {cycle!r}")

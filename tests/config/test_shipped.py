@@ -95,8 +95,8 @@ def test_blend_replan_budget_reaches_the_runtime(tmp_path: Path) -> None:
     text = (CONFIGS / "demo.yaml").read_text()
     assert "blend_replans_per_cycle" not in text
     with build(load_config(CONFIGS / "demo.yaml")) as machine:
-        assert machine.runtime._budget is not None and machine.runtime._budget.per_cycle == 4
-    cfg = tmp_path / "budget.yaml"
-    cfg.write_text(text.replace("runtime:\n", "runtime:\n  blend_replans_per_cycle: 2\n", 1))
-    with build(load_config(cfg)) as machine:
         assert machine.runtime._budget is not None and machine.runtime._budget.per_cycle == 2
+    cfg = tmp_path / "budget.yaml"
+    cfg.write_text(text.replace("runtime:\n", "runtime:\n  blend_replans_per_cycle: 5\n", 1))
+    with build(load_config(cfg)) as machine:
+        assert machine.runtime._budget is not None and machine.runtime._budget.per_cycle == 5
