@@ -642,4 +642,10 @@ def extremal_profiles(
         if unique and c[0] - unique[-1][0] <= 1e-12 * max(1.0, c[0]):
             continue
         unique.append(c)
+    if sr is not None and unique and unique[0] is not sr:
+        # the fastest is as fast as the constant-acceleration piece up to rounding (e.g. a dip
+        # a rounding past v_min beside a cruise at v_min): the piece is the optimum, as in
+        # time_optimal (the durations, and so the blocked intervals, stay as they are)
+        if abs(unique[0][0] - sr[0]) <= 1e-12 * max(1.0, sr[0]):
+            unique[0] = sr
     return unique
