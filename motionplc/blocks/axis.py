@@ -1147,11 +1147,10 @@ class Axis:
                 return [first, _plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
         return [_plan(start, State(target, v_end, 0.0), lim_hi)]
 
-    def _junction_chain(
-        self, job: _Job, start: State, s: float, vj: float, nxt: _Job, p2: float | None
-    ) -> list[Profile] | None:
-        """The chain of ``job`` to junction speed ``vj`` if it (and the successor from there)
-        has no reversal or overshoot, else None (the chain is kept: no second planning)."""
+    def _junction_chain(self, job: _Job, start: State, s: float, vj: float) -> list[Profile] | None:
+        """The chain of ``job`` to junction speed ``vj`` if it has no reversal or overshoot,
+        else None. (The successor's side is settled before: :meth:`_prepare_move` caps the
+        junction speed at the successor's stopping speed.)"""
         target = job.target
         assert target is not None
         chain = self._move_chain(job.cmd, start, target, s * vj)
@@ -1160,19 +1159,7 @@ class Axis:
             if not _clean(prof, s, target, v0):
                 return None
             v0 = prof.end.v
-        if p2 is None:
-            return chain
-        acc, dec, jerk = self._dyn(nxt.cmd)
-        lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
-        # The successor from (p_j, s vj, 0) to rest at p2 runs without reversal or overshoot
-        # iff it can stop within |p2 - p_j|: its time-optimal profile is then monotonic.
-        brake = -lim2.a_min if s > 0.0 else lim2.a_max
-        room = s * (p2 - chain[-1].end.p)
-        return (
-            chain
-            if _stop_distance(vj, brake, lim2.j_max) <= room + 1e-12 * (1.0 + abs(p2))
-            else None
-        )
+        return chain
 
     def _prepare_move(self, job: _Job, start: State, keep_rest: bool = False) -> None:
         """Plan ``job`` from ``start`` to its target, through the junction speed to a blending
@@ -1214,14 +1201,14 @@ class Axis:
                     cap = math.nextafter(cap, 0.0) * (1.0 - 1e-15)
                 v_req = min(v_req, cap)
             if s2 == s and v_req > 0.0:
-                chain = self._junction_chain(job, start, s, v_req, nxt, p2)
+                chain = self._junction_chain(job, start, s, v_req)
                 if chain is not None:
                     vj = v_req
                 else:
                     lo, hi = 0.0, v_req
                     for _ in range(30):
                         mid = 0.5 * (lo + hi)
-                        c = self._junction_chain(job, start, s, mid, nxt, p2)
+                        c = self._junction_chain(job, start, s, mid)
                         if c is not None:
                             lo, chain = mid, c
                         else:

@@ -40,7 +40,7 @@ says why in ``Trajectory.note``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 from motionplc.errors import PlanningError
@@ -362,6 +362,32 @@ def _by_cruise_velocity(ax: _Axis, T: float) -> tuple[Phases, str] | None:
     return None if r is None else (r, "cruise-sync")
 
 
+def _dense_in_windows(
+    xs: list[float], ok: list[bool], admissible: Callable[[float], bool]
+) -> list[float]:
+    """Where few samples ``xs`` are admissible (``ok``), the admissible windows are narrow:
+    find their edges by bisection between neighbouring samples and sample each window with as
+    many points instead (empty if no window)."""
+    n = len(xs)
+    edges = [xs[0]] if ok[0] else []
+    for k in range(n - 1):
+        if ok[k] != ok[k + 1]:
+            a, b = xs[k], xs[k + 1]
+            for _ in range(40):
+                m = 0.5 * (a + b)
+                if admissible(m) == ok[k]:
+                    a = m
+                else:
+                    b = m
+            edges.append(a if ok[k] else b)
+    if ok[-1]:
+        edges.append(xs[-1])
+    dense: list[float] = []
+    for e0, e1 in zip(edges[::2], edges[1::2], strict=False):
+        dense.extend(e0 + (e1 - e0) * k / (n - 1) for k in range(n))
+    return dense
+
+
 def _scan_family(
     x_lo: float,
     x_hi: float,
@@ -402,27 +428,9 @@ def _scan_family(
     n = len(xs)
     ok = [resid(x) is not None for x in xs]
     if sum(ok) < n // 2:
-        # the admissible part is narrow: find its edges and sample it densely instead
-        edges = [x_lo] if ok[0] else []
-        for k in range(n - 1):
-            if ok[k] != ok[k + 1]:
-                a, b = xs[k], xs[k + 1]
-                for _ in range(40):
-                    m = 0.5 * (a + b)
-                    if (resid(m) is not None) == ok[k]:
-                        a = m
-                    else:
-                        b = m
-                edges.append(a if ok[k] else b)
-        if ok[-1]:
-            edges.append(x_hi)
-        dense: list[float] = []
-        for e0, e1 in zip(edges[::2], edges[1::2], strict=False):
-            dense.extend(e0 + (e1 - e0) * k / (n - 1) for k in range(n))
-        if not dense:
-            # an admissible window narrower than the sampling step
-            return None
-        xs = dense
+        xs = _dense_in_windows(xs, ok, lambda x: resid(x) is not None)
+        if not xs:
+            return None  # an admissible window narrower than the sampling step
     prev: tuple[float, float] | None = None
     if sign > 0:
         vmax, vmin, amax, amin = ax.vmax, ax.vmin, ax.amax, ax.amin
@@ -770,22 +778,7 @@ def _scan_1d(
     vs = [val(x) for x in xs]
     ok = [c is not None for _, c in vs]
     if sum(ok) < n // 2:
-        edges = [lo] if ok[0] else []
-        for k in range(n - 1):
-            if ok[k] != ok[k + 1]:
-                a, b = xs[k], xs[k + 1]
-                for _ in range(40):
-                    m = 0.5 * (a + b)
-                    if (val(m)[1] is not None) == ok[k]:
-                        a = m
-                    else:
-                        b = m
-                edges.append(a if ok[k] else b)
-        if ok[-1]:
-            edges.append(hi)
-        xs = []
-        for e0, e1 in zip(edges[::2], edges[1::2], strict=False):
-            xs.extend(e0 + (e1 - e0) * k / (n - 1) for k in range(n))
+        xs = _dense_in_windows(xs, ok, lambda x: val(x)[1] is not None)
         vs = [val(x) for x in xs]
     prev: tuple[float, float] | None = None
     for x, (f, c) in zip(xs, vs, strict=True):

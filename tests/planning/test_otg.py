@@ -93,6 +93,18 @@ def resolved(duration: float, t: float) -> bool:
     return duration - t > 16.0 * math.ulp(duration)
 
 
+def _replan_from_sample(
+    start: State, target: State, lim: Limits, u: float
+) -> tuple[Profile, Profile, float, State]:
+    """(old, new, t, mid): ``new`` re-planned toward ``target`` from ``old``'s sample at
+    t = u * duration (no resolution assumption: for the regression tests)."""
+    old = plan(start, target, lim)
+    t = u * old.duration
+    s = old.at(t)
+    mid = State(s.p, s.v, s.a)
+    return old, plan(mid, target, lim), t, mid
+
+
 def _replan_at(prof: Profile, u: float) -> tuple[float, State]:
     t = u * prof.duration
     assume(resolved(prof.duration, t))
@@ -109,6 +121,15 @@ def peer_agrees(mid: State, target: State, lim: Limits, new: Profile) -> bool:
     rk = pytest.importorskip("ruckig")
     peer = RuckigOracle(rk).solve(Case.from_problem(mid, target, lim)).duration
     return peer is not None and abs(new.duration - peer) <= 1e-9 * max(1.0, peer)
+
+
+def ruckig_sync_duration(
+    starts: list[State], targets: list[State], lims: list[Limits]
+) -> float | None:
+    """Ruckig's time-synchronised duration for the same problem (None: it fails)."""
+    rk = pytest.importorskip("ruckig")
+    axes = (Case.from_problem(m, g, lm) for m, g, lm in zip(starts, targets, lims, strict=True))
+    return RuckigSyncOracle(rk).solve(MultiCase(tuple(axes))).duration
 
 
 # -- Bellman: hypothesis ---------------------------------------------------------------------
@@ -171,11 +192,7 @@ def test_replan_synchronised_group(problem: strat.MultiProblem, u: float) -> Non
     new = plan_sync(mids, targets, lims)
     if abs(new.duration - (old.duration - t)) > duration_tol(old.duration):
         # (as peer_agrees: Ruckig from the same rounded samples must take as long)
-        rk = pytest.importorskip("ruckig")
-        case = MultiCase(
-            tuple(Case.from_problem(m, g, lm) for m, g, lm in zip(mids, targets, lims, strict=True))
-        )
-        peer = RuckigSyncOracle(rk).solve(case).duration
+        peer = ruckig_sync_duration(mids, targets, lims)
         assert peer is not None and abs(new.duration - peer) <= 1e-9 * max(1.0, peer), (
             f"{old.duration - t!r} s left, re-planned {new.duration!r} s, Ruckig {peer!r} s"
         )
@@ -526,10 +543,7 @@ def test_replan_next_to_a_target_a_rounding_off_the_limit() -> None:
     check is now at the rounding level of the values."""
     lim = Limits(v_max=0.1, a_max=1.0, j_max=1.0, v_min=-0.1)
     target = State(0.0, -0.09999999998, 0.0)
-    old = plan(State(0.0, -0.1, 0.0), target, lim)
-    t = 1e-10 * old.duration
-    s = old.at(t)
-    new = plan(State(s.p, s.v, s.a), target, lim)
+    old, new, t, _ = _replan_from_sample(State(0.0, -0.1, 0.0), target, lim, 1e-10)
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
 
@@ -556,9 +570,7 @@ def test_replan_on_the_last_ramp_toward_a_target_heading_out_of_the_limits() -> 
     lim = Limits(10.0**0.6875, 10.0**1.03125, 10.0**0.625, -4.869675251658631, -10.746078283213174)
     start = State(0.0, -4.869675251658631, 9.063167270670052)
     target = State(0.0, 4.869675241919282, 9.063167270670052)
-    old = plan(start, target, lim)
-    t, mid = 0.75 * old.duration, old.at(0.75 * old.duration)
-    new = plan(State(mid.p, mid.v, mid.a), target, lim)
+    old, new, t, _ = _replan_from_sample(start, target, lim, 0.75)
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert new.kind == "ramp"
@@ -570,10 +582,7 @@ def test_replan_of_a_cruise_at_v_min_keeps_cruising() -> None:
     one-ramp (here: cruise) profile is now replaced only by one faster beyond rounding."""
     lim = Limits(v_max=10.0, a_max=1.0, j_max=1.0, v_min=-100.0)
     target = State(-0.0078125, -100.0, 0.0)
-    old = plan(State(0.0, -100.0, 0.0), target, lim)
-    t = 0.5 * old.duration
-    s = old.at(t)
-    new = plan(State(s.p, s.v, s.a), target, lim)
+    old, new, t, _ = _replan_from_sample(State(0.0, -100.0, 0.0), target, lim, 0.5)
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert new.kind == "ramp"
@@ -584,10 +593,7 @@ def test_replan_of_a_cruise_ending_in_a_tiny_acceleration() -> None:
     family comes first and a later family must be faster beyond rounding to replace it."""
     lim = Limits(v_max=10.0, a_max=1.0, j_max=1.0, v_min=-100.0)
     target = State(-0.0078125, -100.0, 6.045701501749407e-119)
-    old = plan(State(0.0, -100.0, 0.0), target, lim)
-    t = 0.5 * old.duration
-    s = old.at(t)
-    new = plan(State(s.p, s.v, s.a), target, lim)
+    old, new, t, _ = _replan_from_sample(State(0.0, -100.0, 0.0), target, lim, 0.5)
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
     assert old.kind == new.kind == "vel-down"
@@ -600,10 +606,7 @@ def test_replan_on_the_tip_of_a_velocity_pulse() -> None:
     Phases a root's rounding below zero are dropped and the end state decides."""
     lim = Limits(v_max=100.0, a_max=1.0, j_max=1.0, v_min=-1000.0)
     target = State(-1.0, -100.0, 0.0)
-    old = plan(State(0.0, -100.0, 0.0), target, lim)
-    t = 0.5 * old.duration
-    s = old.at(t)
-    new = plan(State(s.p, s.v, s.a), target, lim)
+    old, new, t, _ = _replan_from_sample(State(0.0, -100.0, 0.0), target, lim, 0.5)
     problems, _, _ = bellman_problems(old, new, t)
     assert not problems, problems
 
@@ -613,12 +616,8 @@ def test_replan_on_the_tip_of_a_dip_at_high_speed_matches_ruckig() -> None:
     its tip. Both planners loop (402 s) from the rounded sample; ours must not be worse."""
     lim = Limits(v_max=100.0, a_max=1.0, j_max=1.0, v_min=-1000.0)
     target = State(-0.0078125, -100.0, 0.0)
-    old = plan(State(0.0, -100.0, 0.0), target, lim)
+    old, new, _, mid = _replan_from_sample(State(0.0, -100.0, 0.0), target, lim, 0.5)
     assert old.kind == "none-down"  # a dip past -100 m/s is (1.9e-12) faster than cruising
-    t = 0.5 * old.duration
-    s = old.at(t)
-    mid = State(s.p, s.v, s.a)
-    new = plan(mid, target, lim)
     check_profile(new, mid, target, lim)
     assert peer_agrees(mid, target, lim, new)
 
@@ -643,8 +642,4 @@ def test_replan_group_on_a_cruise_at_high_speed(v_min: float) -> None:
             problems, _, _ = bellman_problems(a, b, t)
             assert not problems, problems
     else:
-        rk = pytest.importorskip("ruckig")
-        case = MultiCase(
-            tuple(Case.from_problem(m, g, lm) for m, g, lm in zip(mids, targets, lims, strict=True))
-        )
-        assert new.duration == pytest.approx(RuckigSyncOracle(rk).solve(case).duration, rel=1e-9)
+        assert new.duration == pytest.approx(ruckig_sync_duration(mids, targets, lims), rel=1e-9)
