@@ -1,0 +1,8 @@
+"""Geometric paths and time-optimal motion along them.
+
+The interface every path implements is :class:`~motionplc.planning.paths.base.Path`.
+"""
+
+from motionplc.planning.paths.base import Path, as_param
+
+__all__ = ["Path", "as_param"]

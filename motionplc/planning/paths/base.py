@@ -1,0 +1,81 @@
+"""The geometric path interface shared by every path kind and by the path-following planner.
+
+A :class:`Path` is a curve ``p(u)`` in R^n over a parameter interval ``[0, u_end]``. Lines and
+arcs (and their concatenation) are parametrised by arc length, so ``u_end == length`` and
+``|p'(u)| == 1``; curves (Hermite, B-splines) keep their own parameter and report their arc
+length separately (``length``, ``arc_length(u)``, with a documented tolerance).
+
+Every evaluation is vectorised: ``u`` is a float or a 1-D array; the result has shape
+``(dim,)`` for a float and ``(len(u), dim)`` for an array. Derivatives are with respect to
+``u``. Paths are immutable; all construction work (blends, fits, arc-length tables) happens in
+the constructor, never in a control cycle.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from motionplc.errors import PlanningError
+
+__all__ = ["Path", "as_param"]
+
+
+def as_param(u: float | np.ndarray, u_end: float) -> np.ndarray:
+    """``u`` as a float array, checked to lie in ``[0, u_end]`` (a rounding outside is clipped).
+
+    Raises :class:`PlanningError` naming ``u`` for NaN or values clearly outside the interval.
+    """
+    arr = np.asarray(u, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise PlanningError("u: path parameter must be finite")
+    tol = 1e-9 * max(1.0, u_end)
+    if arr.size and (arr.min() < -tol or arr.max() > u_end + tol):
+        raise PlanningError(
+            f"u: path parameter must be in [0, {u_end!r}], got "
+            f"[{float(arr.min())!r}, {float(arr.max())!r}]"
+        )
+    return np.clip(arr, 0.0, u_end)
+
+
+class Path(ABC):
+    """A curve in R^dim over ``u`` in ``[0, u_end]``; immutable."""
+
+    __slots__ = ()
+
+    @property
+    @abstractmethod
+    def dim(self) -> int:
+        """Number of coordinates (axes)."""
+
+    @property
+    @abstractmethod
+    def u_end(self) -> float:
+        """End of the parameter interval (the start is 0)."""
+
+    @property
+    def length(self) -> float:
+        """Arc length of the whole path [m] (exact for lines/arcs)."""
+        return float(self.arc_length(self.u_end))
+
+    def arc_length(self, u: float | np.ndarray) -> float | np.ndarray:
+        """Arc length from ``u = 0`` to ``u``. Default: arc-length parametrisation."""
+        arr = as_param(u, self.u_end)
+        return float(arr) if arr.ndim == 0 else arr
+
+    @abstractmethod
+    def evaluate(self, u: float | np.ndarray, order: int = 0) -> np.ndarray:
+        """The ``order``-th derivative (0..3) of the position with respect to ``u``."""
+
+    def derivatives(self, u: float | np.ndarray, n: int = 2) -> tuple[np.ndarray, ...]:
+        """Position and the first ``n`` derivatives at ``u``: ``(p, p', p'', ...)``."""
+        return tuple(self.evaluate(u, k) for k in range(n + 1))
+
+    @property
+    def start(self) -> np.ndarray:
+        return self.evaluate(0.0)
+
+    @property
+    def end(self) -> np.ndarray:
+        return self.evaluate(self.u_end)
