@@ -90,6 +90,12 @@ class Drive(ABC):
     def close(self) -> None:  # noqa: B027 - optional hook
         """Release the transport. Idempotent."""
 
+    def bind_clock(self, realtime: bool) -> None:  # noqa: B027 - optional hook
+        """Told by the runtime before :meth:`open`: ``realtime`` True means the cycle runs on
+        the wall clock and must never wait for the drive (take the latest answer instead);
+        False (simulated clock) lets a backend wait, bounded, for this cycle's answer so that
+        runs are reproducible."""
+
     @abstractmethod
     def read_inputs(self, t: float) -> DriveFeedback:
         """Latest feedback, without blocking."""

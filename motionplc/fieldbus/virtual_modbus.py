@@ -18,14 +18,23 @@ Fault injection switches on the drive: exception responses (any code, for every 
 the next n), a response delay, dropped responses (every n-th request answered only after
 ``drop_delay``, which a client sees as a timeout), busy during a simulated boot, a drive fault,
 a stalled axis (following error exceeded), and the word order.
+
+Delays run on the drive's own clock, the time :meth:`VirtualModbusServer.step` gives it (the
+simulated clock in lockstep, the event loop's clock in a separate process): a delayed request
+is *parked* until that clock reaches its due time. A lockstep master asks the server which of
+its requests are parked (:meth:`VirtualModbusServer.request_count`,
+:meth:`VirtualModbusServer.parked_due`) instead of waiting on the wall clock, so injected
+timeouts happen in the same simulated cycle on any host load.
 """
 
 from __future__ import annotations
 
 import asyncio
 import ipaddress
+import math
 import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 from pymodbus.constants import ExcCodes
@@ -264,6 +273,14 @@ async def _shutdown(server: ModbusTcpServer) -> None:
     await asyncio.gather(*pending, return_exceptions=True)
 
 
+@dataclass(slots=True)
+class _Parked:
+    device_id: int
+    seq: int  # the drive's request number
+    due: float  # [s] on the drive's clock
+    release: Callable[[], None]
+
+
 class VirtualModbusServer:
     """pymodbus TCP server for virtual Modbus drives, on a loopback address, own loop thread."""
 
@@ -283,6 +300,9 @@ class VirtualModbusServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
         self._server: ModbusTcpServer | None = None
+        self._parked: list[_Parked] = []
+        self._park_lock = threading.Lock()
+        self._now = -math.inf  # time of the last step
 
     # --------------------------------------------------------- pymodbus side
     def _sim_device(self, drive: VirtualModbusDrive) -> SimDevice:
@@ -293,6 +313,7 @@ class VirtualModbusServer:
             if first_phase:
                 with drive.lock:
                     delay = drive.delay_for_request()
+                    seq = drive.requests
                     exc = 0
                     if drive.busy_requests > 0:
                         drive.busy_requests -= 1
@@ -304,7 +325,7 @@ class VirtualModbusServer:
                             if drive.exception_count == 0:
                                 drive.exception_code = 0
                 if delay > 0:
-                    await asyncio.sleep(delay)
+                    await self._park(drive, seq, delay)
                 if exc:
                     return ExcCodes(exc)
             with drive.lock:
@@ -385,10 +406,57 @@ class VirtualModbusServer:
         self._thread = None
         self._server = None
 
+    async def _park(self, drive: VirtualModbusDrive, seq: int, delay: float) -> None:
+        """Hold a request until the drive's clock has advanced by ``delay``."""
+        loop = asyncio.get_running_loop()
+        fut: asyncio.Future[None] = loop.create_future()
+
+        def release() -> None:
+            if not fut.done():
+                fut.set_result(None)
+
+        with self._park_lock:
+            self._parked.append(
+                _Parked(
+                    drive.device_id,
+                    seq,
+                    drive.now + delay,
+                    lambda: loop.call_soon_threadsafe(release),
+                )
+            )
+        try:
+            await fut
+        finally:
+            with self._park_lock:
+                self._parked = [
+                    p for p in self._parked if p.seq != seq or p.device_id != drive.device_id
+                ]
+
+    def request_count(self, device_id: int) -> int:
+        """Requests drive ``device_id`` has received so far."""
+        return next(d.requests for d in self.drives if d.device_id == device_id)
+
+    def parked_due(self, device_id: int, after: int) -> float | None:
+        """Due time of the first request after request number ``after`` of drive
+        ``device_id`` if it is parked now, else None."""
+        with self._park_lock:
+            for p in self._parked:
+                if p.device_id == device_id and p.seq > after:
+                    return p.due
+        return None
+
     def step(self, t: float) -> None:
-        """LockstepPeer: run the drives' time services at simulated time ``t``."""
+        """LockstepPeer: run the drives' time services at time ``t`` and release the parked
+        requests that are due. Idempotent for the same ``t`` (several masters may step it)."""
+        if t <= self._now:
+            return
+        self._now = t
         for drive in self.drives:
             drive.advance(t)
+        with self._park_lock:
+            due = [p for p in self._parked if p.due <= t + 1e-12]
+        for p in due:
+            p.release()
 
     def __enter__(self) -> VirtualModbusServer:
         self.start()

@@ -53,6 +53,13 @@ def _ticks(name: str, seconds: float, tick_ns: int) -> int:
     return n
 
 
+def _drive_failed(ax: Axis, phase: str, exc: Exception) -> None:
+    """A drive backend raised in the cycle (a bug or an I/O error it did not turn into a
+    value): the axis goes to ErrorStop with COMMUNICATION_LOST naming the exception, the cycle
+    and every other axis go on."""
+    ax.raise_axis_error("COMMUNICATION_LOST", f"drive {phase} failed: {type(exc).__name__}: {exc}")
+
+
 class Runtime:
     """A soft PLC: ``add_axis``, ``add_task``, then ``run``.
 
@@ -215,6 +222,9 @@ class Runtime:
                 raise ValueError(f"axis {ax.name!r}: unknown task {ax.task_name!r}")
             task = next(t for t in self.tasks if t.name == ax.task_name)
             task.axes.append(ax)
+            bind = getattr(ax.drive, "bind_clock", None)
+            if bind is not None:
+                bind(self.clock.realtime)
             ax.open()
         self._order = sorted(self.tasks, key=lambda t: t.sort_key)
         # every task runs every tick (the common case): no per-tick selection
@@ -318,13 +328,19 @@ class Runtime:
             image.latch_inputs()
             axes = task.axes
             for ax in axes:
-                ax.read_inputs(t_virtual)
+                try:
+                    ax.read_inputs(t_virtual)
+                except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
+                    _drive_failed(ax, "read", exc)
             task.program(ctx)
             n_plans = planner_calls()
             for ax in axes:
                 ax.step(dt)
             for ax in axes:
-                ax.write_outputs(t_virtual)
+                try:
+                    ax.write_outputs(t_virtual)
+                except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
+                    _drive_failed(ax, "write", exc)
             if planner_calls() == n_plans:
                 # a quiet cycle: plan (at most) one queued move's start profile ahead of its
                 # hand-over, so axes handing over in the same cycle do not plan all at once

@@ -233,21 +233,60 @@ def test_exception_maps_to_axis_error_while_other_axes_cycle(rig) -> None:
     assert all(fb.comm_ok for fb in fbs)
 
 
-def test_timeout_then_next_cycle_correct(rig) -> None:
+def test_late_answer_is_used_and_counted(rig) -> None:
+    """An answer parked for 10 ms of simulated time (below the 50-cycle timeout):
+    the cycles in between report stale feedback with communication OK and send nothing; the
+    late answer is taken in the cycle after its release and counted."""
     vd = VirtualModbusDrive(1)
     r = rig(vd)
     enable(r)
-    vd.drop_every = vd.requests + 1  # the very next request is answered too late
-    vd.drop_delay = 0.3
-    fbs = r.hold(1)
-    assert fbs[0].comm_ok
-    fbs = r.hold(1)
-    assert not fbs[0].comm_ok and fbs[0].error_code == 0x8130 and fbs[0].stale
+    d = r.drives[0]
+    vd.drop_every = vd.requests + 1  # the very next request is parked
+    vd.drop_delay = 0.010
+    assert r.hold(1)[0].comm_ok  # sends the request that is parked
+    held0 = d.held_cycles
+    stale = 0
+    while True:
+        fb = r.hold(1)[0]
+        assert fb.comm_ok and fb.enabled
+        if not fb.stale:
+            break
+        stale += 1
+        assert stale < 50
+    # parked at the drive clock of the request (the step of the previous cycle) for 10 ms:
+    # released at the step 9 cycles after it was sent; the same on any host load
+    assert stale == 9
+    assert d.late_replies == 1 and d.timeouts == 0
+    assert d.held_cycles - held0 == 9
     vd.drop_every = 0
     fbs = r.hold(2)
-    d = r.drives[0]
     assert fbs[0].comm_ok and not fbs[0].stale
-    assert d.status is not None and d.status.life_sign_echo == d.life_sign  # late reply dropped
+
+
+def test_no_answer_times_out_in_cycles_then_recovers(rig) -> None:
+    """No answer for timeout / cycle_time = 50 cycles -> COMM_TIMEOUT in exactly the 51st
+    cycle (simulated clock, lockstep); the connection is re-opened and the next exchange
+    is answered; the abandoned answer never shows up."""
+    vd = VirtualModbusDrive(1)
+    r = rig(vd)
+    enable(r)
+    d = r.drives[0]
+    assert d.config.timeout_cycles == 50
+    vd.drop_every = vd.requests + 1
+    vd.drop_delay = 0.3
+    r.hold(1)
+    fbs = [r.hold(1)[0] for _ in range(51)]
+    assert all(fb.comm_ok and fb.stale for fb in fbs[:50])
+    fb = fbs[50]
+    assert not fb.comm_ok and fb.kind == "timeout" and fb.error_code == 0x8130
+    assert "50 cycles" in fb.detail
+    assert d.timeouts == 1
+    vd.drop_every = 0
+    fb = r.hold(1)[0]
+    assert fb.comm_ok and not fb.stale
+    r.hold(400)  # the parked answer is released on the old connection: not taken for ours
+    assert d.unexpected_replies == 0 and d.status is not None
+    assert d.status.life_sign_echo == d.life_sign
 
 
 def test_disconnect_and_server_restart(server) -> None:

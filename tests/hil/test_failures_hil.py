@@ -167,13 +167,13 @@ MODES = [
         axis_options={"following_error_limit": 0.5},
     ),
     # --- Modbus -----------------------------------------------------------------------------
-    Mode(  # responses later than the client timeout (60 ms): ModbusIOException, late replies
-        "modbus-timeout",  # are discarded
+    Mode(  # answers 200 ms late on the drive's (simulated) clock: no answer for the 15 cycles
+        "modbus-timeout",  # of the 60 ms timeout (4 ms task) -> COMM_TIMEOUT, reconnect
         "modbus",
         _set("response_delay", 0.2),
         _set("response_delay", 0.0),
         ErrorID.COMM_TIMEOUT,
-        within=2,
+        within=15 + 2,
         drive_options={"timeout": 0.06},
     ),
     Mode(  # exception responses (0x04 device failure)
