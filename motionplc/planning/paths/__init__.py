@@ -4,5 +4,8 @@ The interface every path implements is :class:`~motionplc.planning.paths.base.Pa
 """
 
 from motionplc.planning.paths.base import Path, as_param
+from motionplc.planning.paths.composite import CompositePath, join, polyline
+from motionplc.planning.paths.geometry import Arc, Helix, Line, PathSegment
 
 __all__ = ["Path", "as_param"]
+__all__ += ["Arc", "CompositePath", "Helix", "Line", "PathSegment", "join", "polyline"]

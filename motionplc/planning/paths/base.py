@@ -72,6 +72,54 @@ class Path(ABC):
         """Position and the first ``n`` derivatives at ``u``: ``(p, p', p'', ...)``."""
         return tuple(self.evaluate(u, k) for k in range(n + 1))
 
+    def unit_tangent(self, u: float | np.ndarray) -> np.ndarray:
+        """Unit tangent ``p' / |p'|`` at ``u`` (shape as :meth:`evaluate`; NaN where p' = 0)."""
+        d1 = np.asarray(self.evaluate(u, 1), dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return d1 / np.linalg.norm(d1, axis=-1, keepdims=True)
+
+    def curvature_vector(self, u: float | np.ndarray) -> np.ndarray:
+        """Curvature vector ``kappa * N`` at ``u``, independent of the parametrisation.
+
+        ``(p'' - (p'' . T) T) / |p'|^2`` with ``T = p'/|p'|``; its norm is the curvature
+        [1/m] and it points to the centre of the osculating circle (0 on a line, NaN where
+        ``p' = 0``). Continuity of this vector along a path is G2 continuity.
+        """
+        d1 = np.asarray(self.evaluate(u, 1), dtype=float)
+        d2 = np.asarray(self.evaluate(u, 2), dtype=float)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            sq = np.sum(d1 * d1, axis=-1, keepdims=True)
+            return (d2 - np.sum(d2 * d1, axis=-1, keepdims=True) / sq * d1) / sq
+
+    def u_at_arc_length(self, s: float | np.ndarray) -> float | np.ndarray:
+        """The parameter at arc length ``s`` in ``[0, length]`` (inverse of :meth:`arc_length`).
+
+        Default: bracketed Newton iteration on :meth:`arc_length` with ``|p'|`` as slope
+        (bisection where a step leaves the bracket), to ``1e-12 * length``; paths
+        parametrised by arc length return ``s`` itself.
+        """
+        total = self.length
+        arr = as_param(s, total)
+        ss = np.atleast_1d(arr).astype(float)
+        if self.u_end == total and type(self).arc_length is Path.arc_length:
+            return float(arr) if arr.ndim == 0 else ss
+        lo = np.zeros_like(ss)
+        hi = np.full_like(ss, self.u_end)
+        u = ss / total * self.u_end if total > 0.0 else lo.copy()
+        tol = 1e-12 * max(total, 1e-300)
+        for _ in range(200):
+            f = np.asarray(self.arc_length(u), dtype=float) - ss
+            if np.all(np.abs(f) <= tol):
+                break
+            lo = np.where(f < 0.0, u, lo)
+            hi = np.where(f > 0.0, u, hi)
+            slope = np.linalg.norm(np.atleast_2d(self.evaluate(u, 1)), axis=-1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                step = u - f / slope
+            ok = (step > lo) & (step < hi)
+            u = np.where(np.abs(f) <= tol, u, np.where(ok, step, 0.5 * (lo + hi)))
+        return float(u[0]) if arr.ndim == 0 else u
+
     @property
     def start(self) -> np.ndarray:
         return self.evaluate(0.0)
