@@ -30,7 +30,7 @@ from motionplc.blocks.axis import ReplanBudget, planner_calls
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
 from motionplc.runtime.task import Program, Task, TaskStats
-from motionplc.runtime.trace import AXIS_FIELDS, Trace
+from motionplc.runtime.trace import AXIS_DTYPES, AXIS_FIELDS, TRACE_BYTES, Trace
 
 if TYPE_CHECKING:
     from motionplc.blocks.axis import Axis
@@ -72,6 +72,8 @@ class Runtime:
     with a newly queued blending successor per tick (the others in the next ticks, in axis
     order, from their set state then; None: no limit). Such a re-plan costs one or more full
     plans; the budget keeps axes that queue in lockstep from planning all in one cycle.
+    ``trace_capacity`` / ``trace_bytes``: the trace keeps the most recent cycles, at most that
+    many rows and bytes (57 B per axis and 16 B per cycle; see :mod:`motionplc.runtime.trace`).
     """
 
     def __init__(
@@ -80,6 +82,7 @@ class Runtime:
         clock: Clock | None = None,
         *,
         trace_capacity: int = 500_000,
+        trace_bytes: int = TRACE_BYTES,
         trace_edges: bool = True,
         overrun_policy: str = "skip",
         check_invariants: bool = False,
@@ -108,7 +111,7 @@ class Runtime:
         self.cycle = self.tick_ns * 1e-9
         self.clock: Clock = clock if clock is not None else SimClock()
         self.image = ProcessImage()
-        self.trace = Trace(capacity=trace_capacity)
+        self.trace = Trace(capacity=trace_capacity, max_bytes=trace_bytes)
         self.trace_edges = trace_edges
         self.overrun_policy = overrun_policy
         self.queue_depth = queue_depth
@@ -165,7 +168,7 @@ class Runtime:
         ax.task_name = task
         ax.replan_budget = self._budget
         self.axes[name] = ax
-        self.trace.add_columns([f"{name}.{f}" for f in AXIS_FIELDS])
+        self.trace.add_columns([f"{name}.{f}" for f in AXIS_FIELDS], AXIS_DTYPES)
         from motionplc.blocks.enums import AxisState
 
         self.trace.set_formatter(f"{name}.state", lambda x: AxisState(int(x)).name)

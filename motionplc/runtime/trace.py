@@ -1,10 +1,31 @@
-"""Per-cycle trace recorder with bounded memory, numpy access and CSV export."""
+"""Per-cycle trace recorder with a byte budget, columnar numpy storage and CSV export.
+
+Memory bound (documented, checked by ``tests/runtime/test_trace_memory.py``):
+
+* a row holds ``cycle`` (int64, 8 B) and ``t`` (float64, 8 B), and per axis seven float64
+  columns (set position, velocity, acceleration, jerk, actual position, actual velocity,
+  following error: 56 B) and the PLCopen state (int8, 1 B): **57 B per axis per cycle plus
+  16 B per cycle** (8 axes: 472 B per cycle, against 528 B as float64 rows);
+* the trace never holds more than ``max_bytes`` (default :data:`TRACE_BYTES` = 32 MiB) of
+  samples: a ring buffer keeps the most recent cycles — ``min(capacity, rows that fit)`` of
+  them (8 axes: ~70,000 cycles = 70 s at 1 ms; 1 axis: the default 500,000 rows in 37 MB would
+  not fit, ~370,000) — and drops the oldest (``dropped_rows`` counts them). The budget
+  includes a small float64 staging block (the hot path writes one row into it; full blocks
+  are converted column by column into the ring) and the FB-edge ring (15 B per edge,
+  ``event_capacity`` edges, 3 MB by default). Storage is allocated once, when the first row
+  is recorded, with ``numpy.empty``: pages are touched only as rows arrive, so a short run
+  costs only what it records.
+
+Values are stored exactly: the float columns stay float64, and a small-integer column is
+checked to convert without loss (anything else raises ``ValueError`` naming the column), so
+``array()``, ``column()``, ``digest()`` and ``to_csv()`` give the same numbers (and bytes) as a
+trace of plain float64 rows.
+"""
 
 from __future__ import annotations
 
 import csv
 import hashlib
-from collections import deque
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import NamedTuple
@@ -21,6 +42,37 @@ AXIS_FIELDS = (
     "following_error",
     "state",  # AxisState value
 )
+# storage type of each axis field (the state is an AxisState value 0..7)
+AXIS_DTYPES: tuple[type[np.generic], ...] = (np.float64,) * 7 + (np.int8,)
+
+TRACE_BYTES = 32 * 2**20
+"""Default byte budget of a trace (rows, staging block and FB edges)."""
+
+MIN_TRACE_BYTES = 64 * 2**10
+
+CYCLE_ROW_BYTES = 16
+"""Bytes per recorded cycle besides the axes: ``cycle`` (int64) and ``t`` (float64)."""
+
+AXIS_ROW_BYTES = sum(np.dtype(d).itemsize for d in AXIS_DTYPES)
+"""Bytes per axis per recorded cycle (57: seven float64 columns and the int8 state)."""
+
+EVENT_BYTES = 15
+"""Bytes per FB output edge: cycle (int64), FB id (int32), output id (int16), value (bool)."""
+
+EVENT_CAPACITY = 200_000
+"""Default number of FB edges kept (fewer if they would take more than 1/8 of the budget)."""
+
+_STAGING_ROWS = 256
+
+_ALLOWED_DTYPES = {
+    np.dtype(np.float64),
+    np.dtype(np.int64),
+    np.dtype(np.int32),
+    np.dtype(np.int16),
+    np.dtype(np.int8),
+    np.dtype(np.uint8),
+    np.dtype(np.bool_),
+}
 
 
 class TraceEvent(NamedTuple):
@@ -33,43 +85,103 @@ class TraceEvent(NamedTuple):
 
 
 class Trace:
-    """Rows of floats, one per recorded cycle, stored in fixed-size numpy chunks.
+    """Rows of numbers, one per recorded cycle, in a columnar ring buffer of bounded bytes.
 
-    The most recent ``capacity`` rows are always kept; older chunks are dropped, so memory stays
-    below ``capacity`` + 2 chunks (a long run keeps its most recent part). FB output edges are
-    kept in a bounded deque of ``event_capacity``.
+    ``capacity``: at most this many rows are kept; ``max_bytes``: the samples and FB edges
+    never take more than this many bytes (the ring keeps fewer rows if they do not fit; at
+    least one). The most recent rows are always the ones kept. Columns ``cycle`` (int64) and
+    ``t`` (float64) come first; more are declared with :meth:`add_columns` (float64 unless a
+    dtype is given) before the first row. FB output edges are kept in a ring of
+    ``event_capacity`` (the oldest dropped first).
     """
 
     def __init__(
         self,
         capacity: int = 500_000,
-        chunk_rows: int = 4096,
-        event_capacity: int = 200_000,
+        max_bytes: int = TRACE_BYTES,
+        event_capacity: int | None = None,
         formatters: dict[str, Callable[[float], str]] | None = None,
     ) -> None:
-        if capacity < 1:
-            raise ValueError(f"trace capacity must be >= 1 row, got {capacity}")
+        if isinstance(capacity, bool) or not isinstance(capacity, int) or capacity < 1:
+            raise ValueError(f"trace capacity must be an integer >= 1 row, got {capacity!r}")
+        if (
+            isinstance(max_bytes, bool)
+            or not isinstance(max_bytes, int)
+            or max_bytes < (MIN_TRACE_BYTES)
+        ):
+            raise ValueError(
+                f"trace max_bytes must be an integer >= {MIN_TRACE_BYTES} (64 KiB), "
+                f"got {max_bytes!r}"
+            )
+        if event_capacity is None:
+            event_capacity = min(EVENT_CAPACITY, max_bytes // 8 // EVENT_BYTES)
+        if (
+            isinstance(event_capacity, bool)
+            or not isinstance(event_capacity, int)
+            or not 1 <= event_capacity <= max_bytes // (2 * EVENT_BYTES)
+        ):
+            raise ValueError(
+                f"trace event_capacity must be an integer in [1, {max_bytes // (2 * EVENT_BYTES)}]"
+                f" (half of max_bytes = {max_bytes} at {EVENT_BYTES} B per edge), "
+                f"got {event_capacity!r}"
+            )
         self.capacity = capacity
-        self._chunk_rows = max(1, min(chunk_rows, capacity))
+        self.max_bytes = max_bytes
+        self.event_capacity = event_capacity
         self._columns: list[str] = ["cycle", "t"]
+        self._dtypes: list[np.dtype] = [np.dtype(np.int64), np.dtype(np.float64)]
         self._index: dict[str, int] = {"cycle": 0, "t": 1}
-        self._chunks: deque[np.ndarray] = deque()
-        self._fill = self._chunk_rows  # rows used in the last chunk (full: allocate on record)
-        self._dropped = 0
-        self.events: deque[TraceEvent] = deque(maxlen=event_capacity)
         self._formatters = dict(formatters or {})
         self._frozen = False
+        # row storage (allocated by _freeze): float64 staging block + one 2-D ring per dtype
+        self._stage = np.empty((0, 0))
+        self._stage_rows = 0
+        self._fill = 0  # rows in the staging block
+        self._ring_rows = 0
+        self._groups: list[tuple[np.dtype, np.ndarray, np.ndarray]] = []  # dtype, cols, ring
+        self._where: list[tuple[int, int]] = []  # column -> (group, row in the group's ring)
+        self._pos = 0  # next ring slot
+        self._count = 0  # rows in the ring
+        self._dropped = 0
+        # FB edges: one ring of columns; names interned
+        self._ev_cycle = np.empty(event_capacity, np.int64)
+        self._ev_fb = np.empty(event_capacity, np.int32)
+        self._ev_out = np.empty(event_capacity, np.int16)
+        self._ev_val = np.empty(event_capacity, np.bool_)
+        self._ev_total = 0  # edges recorded since the start (the ring holds the last ones)
+        self._fb_ids: dict[str, int] = {}
+        self._fb_names: list[str] = []
+        self._out_ids: dict[str, int] = {}
+        self._out_names: list[str] = []
+        self._ev_cache: tuple[int, tuple[TraceEvent, ...]] = (0, ())
 
     # -- layout ----------------------------------------------------------------------------
-    def add_columns(self, names: Sequence[str]) -> None:
-        """Declare more columns (only before the first row)."""
+    def add_columns(
+        self, names: Sequence[str], dtypes: Sequence[type[np.generic] | np.dtype] | None = None
+    ) -> None:
+        """Declare more columns (only before the first row), float64 unless ``dtypes`` say.
+
+        ``dtypes``: one per name; float64, int8/16/32/64, uint8 or bool. A value recorded
+        in a column that its dtype cannot hold exactly raises ``ValueError``.
+        """
         if self._frozen:
             raise RuntimeError("trace columns cannot change after recording started")
-        for n in names:
+        names = list(names)
+        kinds = [np.dtype(np.float64)] * len(names) if dtypes is None else list(dtypes)
+        if len(kinds) != len(names):
+            raise ValueError(f"add_columns: {len(kinds)} dtypes for {len(names)} names")
+        for n, d in zip(names, kinds, strict=True):
+            dt = np.dtype(d)
+            if dt not in _ALLOWED_DTYPES:
+                raise ValueError(
+                    f"trace column {n!r}: dtype {dt} not supported "
+                    f"(allowed: {', '.join(sorted(str(a) for a in _ALLOWED_DTYPES))})"
+                )
             if n in self._index:
                 raise ValueError(f"duplicate trace column {n!r}")
             self._index[n] = len(self._columns)
             self._columns.append(n)
+            self._dtypes.append(dt)
 
     def set_formatter(self, column: str, fmt: Callable[[float], str]) -> None:
         """How a column is written to CSV (e.g. state code -> state name)."""
@@ -80,61 +192,192 @@ class Trace:
         """Column names in storage order."""
         return tuple(self._columns)
 
+    @property
+    def row_bytes(self) -> int:
+        """Bytes one recorded row takes in the ring (the sum of its columns' item sizes)."""
+        return sum(d.itemsize for d in self._dtypes)
+
+    @property
+    def rows_capacity(self) -> int:
+        """How many of the most recent rows the ring keeps (fixed by the first row)."""
+        return self._ring_rows if self._frozen else self._plan()[1]
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of sample storage (staging block, row ring, edge ring): <= ``max_bytes``."""
+        stage, ring = self._plan()
+        return stage * 8 * len(self._columns) + ring * self.row_bytes + self._event_bytes()
+
+    def _event_bytes(self) -> int:
+        return self.event_capacity * EVENT_BYTES
+
+    def _plan(self) -> tuple[int, int]:
+        """(staging rows, ring rows) for the declared columns within the budget."""
+        ncols = len(self._columns)
+        budget = self.max_bytes - self._event_bytes()
+        stage = max(1, min(_STAGING_ROWS, budget // 16 // (8 * ncols)))
+        ring = (budget - stage * 8 * ncols) // self.row_bytes
+        return stage, max(1, min(self.capacity, ring))
+
+    def _freeze(self) -> None:
+        self._frozen = True
+        self._stage_rows, self._ring_rows = self._plan()
+        self._stage = np.empty((self._stage_rows, len(self._columns)))
+        by_type: dict[np.dtype, list[int]] = {}
+        for i, d in enumerate(self._dtypes):
+            by_type.setdefault(d, []).append(i)
+        self._where = [(0, 0)] * len(self._columns)
+        for g, (d, cols) in enumerate(by_type.items()):
+            ring = np.empty((len(cols), self._ring_rows), dtype=d)
+            self._groups.append((d, np.array(cols, dtype=np.intp), ring))
+            for r, c in enumerate(cols):
+                self._where[c] = (g, r)
+
     # -- recording -------------------------------------------------------------------------
     def record(self, row: Sequence[float]) -> None:
         """Append one row (its length must equal the number of columns)."""
-        if self._fill == self._chunk_rows:
-            self._frozen = True
-            self._chunks.append(np.empty((self._chunk_rows, len(self._columns))))
-            self._fill = 0
-            if (len(self._chunks) - 2) * self._chunk_rows >= self.capacity:
-                self._chunks.popleft()
-                self._dropped += self._chunk_rows
-        self._chunks[-1][self._fill] = row
+        if self._fill == self._stage_rows:
+            if not self._frozen:
+                self._freeze()
+            else:
+                self._flush()
+        self._stage[self._fill] = row
         self._fill += 1
+
+    def _flush(self) -> None:
+        """Move the staging block into the ring (column by column, exact conversion)."""
+        m = self._fill
+        if m == 0:
+            return
+        block = self._stage[:m]
+        n = self._ring_rows
+        if m > n:  # only the last n rows survive
+            block = block[m - n :]
+            self._dropped += m - n
+            m = n
+        for d, cols, ring in self._groups:
+            src = block[:, cols].T
+            if d != np.float64:
+                conv = src.astype(d)
+                if not np.array_equal(conv, src):
+                    bad = int(np.argmax(~(conv == src).all(axis=1)))
+                    name = self._columns[int(cols[bad])]
+                    raise ValueError(f"trace column {name!r} ({d}) cannot hold the value recorded")
+                src = conv
+            first = min(m, n - self._pos)
+            ring[:, self._pos : self._pos + first] = src[:, :first]
+            if first < m:
+                ring[:, : m - first] = src[:, first:]
+        self._dropped += max(0, self._count + m - n)
+        self._count = min(n, self._count + m)
+        self._pos = (self._pos + m) % n
+        self._fill = 0
 
     def event(self, cycle: int, fb: str, output: str, value: bool) -> None:
         """Record an FB output edge."""
-        self.events.append(TraceEvent(cycle, fb, output, value))
+        f = self._fb_ids.get(fb)
+        if f is None:
+            f = self._fb_ids[fb] = len(self._fb_names)
+            self._fb_names.append(fb)
+        o = self._out_ids.get(output)
+        if o is None:
+            o = self._out_ids[output] = len(self._out_names)
+            self._out_names.append(output)
+        i = self._ev_total % self.event_capacity
+        self._ev_cycle[i] = cycle
+        self._ev_fb[i] = f
+        self._ev_out[i] = o
+        self._ev_val[i] = value
+        self._ev_total += 1
 
     # -- access ----------------------------------------------------------------------------
     def __len__(self) -> int:
-        if not self._chunks:
-            return 0
-        return (len(self._chunks) - 1) * self._chunk_rows + self._fill
+        return self._count + self._fill
 
     @property
     def dropped_rows(self) -> int:
-        """Rows discarded because of the capacity bound."""
+        """Rows discarded because of the capacity or byte bound (the oldest ones)."""
         return self._dropped
 
+    @property
+    def dropped_events(self) -> int:
+        """FB edges discarded because of ``event_capacity`` (the oldest ones)."""
+        return max(0, self._ev_total - self.event_capacity)
+
+    def _ring_order(self, ring: np.ndarray) -> np.ndarray:
+        """The ring's rows in recording order (a copy), shape (group columns, count)."""
+        if self._count < self._ring_rows:
+            return ring[:, : self._count]
+        return np.concatenate((ring[:, self._pos :], ring[:, : self._pos]), axis=1)
+
+    def _rows(self, start: int, stop: int) -> np.ndarray:
+        """Retained rows ``start:stop`` (0 = the oldest) as a float64 2-D array."""
+        out = np.empty((stop - start, len(self._columns)))
+        if not self._frozen or stop <= start:
+            return out
+        r0, r1 = min(start, self._count), min(stop, self._count)
+        if r1 > r0:
+            base = self._pos if self._count == self._ring_rows else 0
+            idx = (np.arange(r0, r1) + base) % self._ring_rows
+            for _d, cols, ring in self._groups:
+                out[: r1 - r0, cols] = ring[:, idx].T
+        s0, s1 = max(start, self._count), stop
+        if s1 > s0:
+            out[s0 - start :] = self._stage[s0 - self._count : s1 - self._count]
+        return out
+
     def array(self) -> np.ndarray:
-        """All retained rows as one 2-D array (a copy)."""
-        if not self._chunks:
-            return np.empty((0, len(self._columns)))
-        parts = list(self._chunks)
-        parts[-1] = parts[-1][: self._fill]
-        return np.concatenate(parts, axis=0)
+        """All retained rows as one float64 2-D array (a copy)."""
+        return self._rows(0, len(self))
 
     def column(self, name: str) -> np.ndarray:
-        """One column over the retained rows, e.g. ``trace.column("x.velocity")``."""
+        """One column over the retained rows (float64), e.g. ``trace.column("x.velocity")``."""
         try:
             i = self._index[name]
         except KeyError:
             raise KeyError(
                 f"no trace column {name!r}; columns: {', '.join(self._columns)}"
             ) from None
-        if not self._chunks:
+        if not self._frozen:
             return np.empty(0)
-        parts = [c[:, i] for c in self._chunks]
-        parts[-1] = parts[-1][: self._fill]
-        return np.concatenate(parts)
+        g, r = self._where[i]
+        ring = self._groups[g][2]
+        part = self._ring_order(ring[r : r + 1])[0].astype(np.float64)
+        return np.concatenate((part, self._stage[: self._fill, i]))
 
     def last(self, name: str) -> float:
         """Value of a column in the most recent row."""
-        if not self._chunks:
+        if not len(self):
             raise IndexError("the trace is empty")
-        return float(self._chunks[-1][self._fill - 1, self._index[name]])
+        i = self._index[name]
+        if self._fill:
+            return float(self._stage[self._fill - 1, i])
+        g, r = self._where[i]
+        return float(self._groups[g][2][r, (self._pos - 1) % self._ring_rows])
+
+    @property
+    def events(self) -> tuple[TraceEvent, ...]:
+        """The retained FB output edges, oldest first (materialised; cached until the next)."""
+        total, cached = self._ev_cache
+        if total == self._ev_total:
+            return cached
+        cap = self.event_capacity
+        n = min(self._ev_total, cap)
+        start = self._ev_total - n
+        idx = (np.arange(start, self._ev_total) % cap) if n else np.empty(0, np.intp)
+        fbs, outs = self._fb_names, self._out_names
+        evs = tuple(
+            TraceEvent(c, fbs[f], outs[o], v)
+            for c, f, o, v in zip(
+                self._ev_cycle[idx].tolist(),
+                self._ev_fb[idx].tolist(),
+                self._ev_out[idx].tolist(),
+                self._ev_val[idx].tolist(),
+                strict=True,
+            )
+        )
+        self._ev_cache = (self._ev_total, evs)
+        return evs
 
     def edges(self, fb: str, output: str) -> list[tuple[int, bool]]:
         """``(cycle, value)`` of every recorded edge of one FB output."""
@@ -149,20 +392,27 @@ class Trace:
             h.update(repr(tuple(e)).encode())
         return h.hexdigest()
 
-    def to_csv(self, path: str | Path, events_path: str | Path | None = None) -> None:
-        """Write the rows (and, optionally, the FB edges) as CSV files."""
-        data = self.array()
+    def to_csv(
+        self, path: str | Path, events_path: str | Path | None = None, block_rows: int = 8192
+    ) -> None:
+        """Write the rows (and, optionally, the FB edges) as CSV files.
+
+        Rows are converted ``block_rows`` at a time, so writing needs little memory beyond
+        the trace itself.
+        """
         fmts = [self._formatters.get(c) for c in self._columns]
+        n = len(self)
         with open(path, "w", newline="") as f:
             w = csv.writer(f)
             w.writerow(self._columns)
-            for row in data:
-                w.writerow(
-                    [
-                        str(int(x)) if i == 0 else (fm(x) if fm else repr(float(x)))
-                        for i, (x, fm) in enumerate(zip(row, fmts, strict=True))
-                    ]
-                )
+            for start in range(0, n, block_rows):
+                for row in self._rows(start, min(n, start + block_rows)):
+                    w.writerow(
+                        [
+                            str(int(x)) if i == 0 else (fm(x) if fm else repr(float(x)))
+                            for i, (x, fm) in enumerate(zip(row, fmts, strict=True))
+                        ]
+                    )
         if events_path is not None:
             with open(events_path, "w", newline="") as f:
                 w = csv.writer(f)
