@@ -39,6 +39,30 @@ the node is re-initialised (NMT start), a drive in FAULT gets fault-reset edges;
 carries ``reset_pending`` until the drive is out of FAULT with communication OK, or
 ``reset_timeout`` has passed (the reset then fails).
 
+Received frames are validated before anything interprets them
+(:class:`~motionplc.fieldbus.fastcan.RxGuard`): error, remote and FD frames, extended IDs, bad
+DLCs and frames that break the CiA 301 rule of their service never reach canopen's handlers or
+our decoders; they are counted per kind (:attr:`CanopenMaster.malformed_frames`) and logged at
+most once per kind per second of cycle time. What each malformed kind means for the axis:
+
+* TPDO of the wrong length: ignored, i.e. missing feedback (stale this cycle; more than
+  ``tpdo_loss_limit`` cycles -> ``no_feedback`` 0x8250, the FEEDBACK_LOST supervision);
+* EMCY shorter than 8 bytes but with its error code (>= 2 bytes): still an emergency, decoded
+  with the missing bytes as zero (the drive's fault itself comes from the statusword, as for
+  a complete EMCY); fewer than 2 bytes: no code to read, ignored;
+* heartbeat that is not exactly one valid NMT state byte: cannot be interpreted, ignored (it
+  does not count as a sign of life: a node that only sends such frames is ``heartbeat`` lost);
+* NMT, SDO, LSS frames of the wrong length: ignored; SDO/LSS responses while no setup
+  transfer is in flight: ignored (``sdo_unsolicited``; canopen would queue them unboundedly).
+
+Every handler call (ours and canopen's) is wrapped: an exception is counted as
+``handler_error`` and the frame dropped, so nothing received ever raises out of a cycle. At
+most ``max_frames_per_cycle`` frames are dispatched per cycle (default
+:data:`~motionplc.fieldbus.fastcan.DEFAULT_MAX_FRAMES`); beyond it only frames addressed to
+this master are kept (the newest), the rest is dropped and counted
+(:attr:`CanopenMaster.frames_dropped`) — a flood costs one ID lookup per frame, and the next
+cycle starts from an empty queue.
+
 Cyclic fast path: RPDOs are packed with precompiled ``struct`` layouts (from canopen's PDO
 maps) and sent as raw frames; TPDOs are decoded straight from the received frames; frames
 are :class:`~motionplc.fieldbus.fastcan.FastMessage` (cheap copy on the virtual bus). SDO, NMT,
@@ -72,7 +96,13 @@ from motionplc.fieldbus.cia402 import (
     decode_statusword,
     next_controlword,
 )
-from motionplc.fieldbus.fastcan import drain, make_message
+from motionplc.fieldbus.fastcan import (
+    DEFAULT_MAX_FRAMES,
+    RxGuard,
+    drain,
+    make_message,
+    service_error,
+)
 from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.scaling import Scaling
 from motionplc.fieldbus.virtual_cia402 import eds_path
@@ -88,6 +118,7 @@ CSP = OperationMode.CYCLIC_SYNCHRONOUS_POSITION
 CODE_HEARTBEAT = 0x8130
 CODE_BUS_OFF = 0x8140
 CODE_NO_FEEDBACK = 0x8250
+EMCY_HISTORY = 32  # EMCYs kept in canopen's node.emcy.log / .active
 
 
 def interpolation_period_code(period: float) -> tuple[int, int]:
@@ -158,6 +189,8 @@ class CanopenMaster:
     other end (e.g. :class:`~motionplc.fieldbus.virtual_cia402.VirtualCanBus`), stepped after
     each SYNC; without a peer the setup SDO traffic is received by a temporary Notifier.
     ``node_id`` is the master's own id for its heartbeat (sent every ``heartbeat_period``).
+    ``max_frames_per_cycle`` bounds the frames dispatched per cycle (see the module notes);
+    ``log_interval`` [s of cycle time] is the minimum spacing of log lines per malformed kind.
     """
 
     def __init__(
@@ -168,7 +201,12 @@ class CanopenMaster:
         node_id: int = 0x7F,
         heartbeat_period: float = 0.0,
         sdo_timeout: float = 0.3,
+        max_frames_per_cycle: int = DEFAULT_MAX_FRAMES,
+        log_interval: float = 1.0,
     ) -> None:
+        self.rx = RxGuard(
+            "CANopen master", max_frames=max_frames_per_cycle, log_interval=log_interval
+        )
         self.bus = bus
         self.peer = peer
         self.node_id = node_id
@@ -182,6 +220,7 @@ class CanopenMaster:
         self._written_t: float | None = None
         self._next_hb_t: float | None = None
         self._exchange_now = False
+        self._in_setup = False  # SDO/LSS responses are accepted only during run_setup
         self.bus_ok = True
         self.bus_fault_latched = False
         self.bus_error = ""
@@ -205,25 +244,68 @@ class CanopenMaster:
             self.peer.step(self.t)
         self._drain(self.t)
 
-    # ----------------------------------------------------------------- cycle
+    # ------------------------------------------------------------- receiving
+    @property
+    def malformed_frames(self) -> dict[str, int]:
+        """Malformed frames received, per kind (see :mod:`motionplc.fieldbus.fastcan`)."""
+        return self.rx.malformed_frames
+
+    @property
+    def frames_dropped(self) -> int:
+        """Frames dropped because more than ``max_frames_per_cycle`` arrived in one cycle."""
+        return self.rx.frames_dropped
+
+    def _relevant_ids(self) -> set[int]:
+        return self.rx_handlers.keys() | self.network.subscribers.keys()
+
     def _drain(self, t: float) -> None:
         try:
             frames = drain(self.bus)
         except can.CanError as exc:
             self._on_send_error(exc)
             return
+        except Exception as exc:  # noqa: BLE001 - a broken bus object must not end the cycle
+            self.rx.failed(t, -1, exc)
+            return
+        if frames:
+            self._dispatch(frames, t)
+
+    def _dispatch(self, frames: list[can.Message], t: float) -> None:
+        """Validate and deliver received frames; never raises (see the module notes)."""
+        rx = self.rx
         handlers = self.rx_handlers
         notify = self.network.notify
-        for msg in frames:
-            if msg.is_error_frame or msg.is_remote_frame:
-                continue
-            self.frames_received += 1
-            handler = handlers.get(msg.arbitration_id)
-            if handler is not None:
-                handler(msg.data)
-            else:
-                notify(msg.arbitration_id, msg.data, t)
+        for msg in rx.admit(frames, t, self._relevant_ids):
+            cob_id = msg.arbitration_id
+            data = msg.data
+            try:
+                handler = handlers.get(cob_id)
+                if handler is not None:
+                    self.frames_received += 1
+                    handler(data)  # cyclic TPDO: the handler checks the length
+                    continue
+                kind = service_error(cob_id, data)
+                if kind is not None:
+                    if kind != "emcy" or len(data) < 2:
+                        rx.malformed(kind, t, cob_id, data)
+                        continue
+                    # a short EMCY whose error code is readable is still an emergency
+                    rx.malformed(kind, t, cob_id, data, "accepted, missing bytes as 0")
+                    data = bytes(data) + bytes(8 - len(data))
+                elif not self._in_setup and (0x581 <= cob_id <= 0x5FF or cob_id == 0x7E4):
+                    if cob_id in self.network.subscribers:
+                        rx.malformed("sdo_unsolicited", t, cob_id, data)
+                    continue
+                self.frames_received += 1
+                notify(cob_id, data, t)
+            except Exception as exc:  # noqa: BLE001 - a received frame never ends the cycle
+                rx.failed(t, cob_id, exc)
 
+    def _on_setup_frame(self, msg: can.Message) -> None:
+        """Notifier listener during setup without an in-process peer (same guarded path)."""
+        self._dispatch([msg], self.t)
+
+    # ----------------------------------------------------------------- cycle
     def send_pdo(self, cob_id: int, data: bytes) -> None:
         """Send one cyclic PDO frame (raw, prepacked). Send errors mark the bus (bus-off)."""
         self.network.send_message(cob_id, data)
@@ -274,17 +356,21 @@ class CanopenMaster:
     def run_setup(self, action: Callable[[], Any]) -> Any:
         """Run blocking setup traffic (SDO, NMT): in lockstep with the peer, or with a
         temporary Notifier receiving for the canopen stack."""
-        if self.peer is not None:
-            self._exchange_now = True
+        self._in_setup = True
+        try:
+            if self.peer is not None:
+                self._exchange_now = True
+                try:
+                    return action()
+                finally:
+                    self._exchange_now = False
+            notifier = can.Notifier(self.bus, [self._on_setup_frame], timeout=0.05)
             try:
                 return action()
             finally:
-                self._exchange_now = False
-        notifier = can.Notifier(self.bus, list(self.network.listeners), timeout=0.05)
-        try:
-            return action()
+                notifier.stop(timeout=1.0)
         finally:
-            notifier.stop(timeout=1.0)
+            self._in_setup = False
 
     def close(self) -> None:
         for drive in list(self.drives):
@@ -402,19 +488,26 @@ class CanopenDrive(Drive):
     def _on_tpdo1(self, data: bytearray) -> None:
         values = self._tpdo1.unpack(data)
         if values is None:
-            return  # wrong length: ignore (the values would be garbage)
+            # wrong length: ignored (the values would be garbage) = missing feedback
+            self.master.rx.malformed("pdo", self.master.t, 0x180 + self.config.node_id, data)
+            return
         self.statusword, self.position_counts = values
         self._tpdo_count += 1
 
     def _on_tpdo2(self, data: bytearray) -> None:
-        assert self._tpdo2 is not None
-        values = self._tpdo2.unpack(data)
+        values = None if self._tpdo2 is None else self._tpdo2.unpack(data)
         if values is None:
+            self.master.rx.malformed("pdo", self.master.t, 0x280 + self.config.node_id, data)
             return
         self.velocity_counts, self.drive_error_code = values
 
     def _on_emcy(self, entry: EmcyError) -> None:
         self.emcy_code = entry.code
+        emcy = self.node.emcy  # canopen keeps every EMCY: bound its history
+        if len(emcy.log) > EMCY_HISTORY:
+            del emcy.log[:-EMCY_HISTORY]
+        if len(emcy.active) > EMCY_HISTORY:
+            del emcy.active[:-EMCY_HISTORY]
 
     # ----------------------------------------------------------------- cycle
     def _heartbeat_ok(self, t: float) -> tuple[bool, str]:

@@ -15,6 +15,15 @@ Here the drives run on the event loop's clock (a separate process has no simulat
 share): Modbus drives still step one cycle per command write; heartbeats, watchdogs and SYNC
 supervision run on real time. :func:`run_drives` is the function ``motionplc drives CONFIG``
 can call.
+
+Logging cannot stall the drives: while :func:`run_drives` runs, log records (ours, canopen's,
+pymodbus's frame dumps) go through a :class:`BoundedStderrHandler` — at most one line per call
+site per ``log_interval`` seconds (the next line reports how many were suppressed), handed to
+a writer thread through a bounded queue. With stderr on a pipe nobody reads, only the writer
+thread blocks; once the queue is full further lines are dropped and counted, and the drives
+keep answering. Malformed CAN frames are also counted and rate-limited by the virtual CAN bus
+itself (see :mod:`motionplc.fieldbus.virtual_cia402`), and at most ``can_max_frames`` frames
+are processed per step.
 """
 
 from __future__ import annotations
@@ -22,16 +31,141 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import logging
+import os
+import queue
 import signal
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import IO
 
 from motionplc.fieldbus.base import FieldbusError
+from motionplc.fieldbus.fastcan import DEFAULT_MAX_FRAMES
 from motionplc.fieldbus.modbus_map import WordOrder
 
-__all__ = ["DrivesSpec", "main", "run_drives"]
+__all__ = ["BoundedStderrHandler", "DrivesSpec", "guarded_logging", "main", "run_drives"]
+
+logger = logging.getLogger("motionplc.fieldbus.drives")
+
+
+class BoundedStderrHandler(logging.Handler):
+    """A logging handler that never blocks the thread that logs.
+
+    Records are rate-limited per call site (logger, file, line): at most one per ``interval``
+    seconds of record time, the next one saying how many were suppressed. Formatted lines go
+    into a queue of ``capacity`` lines that a daemon thread writes to ``stream`` (with
+    ``os.write`` on a duplicate of its descriptor where it has one, so no Python-level lock is
+    held while the write blocks). When the queue is full a line is dropped and counted
+    (:attr:`dropped`); the next line written reports the drops.
+    """
+
+    def __init__(
+        self,
+        stream: IO[str] | None = None,
+        *,
+        interval: float = 1.0,
+        capacity: int = 256,
+        level: int = logging.WARNING,
+    ) -> None:
+        super().__init__(level)
+        if not interval >= 0.0:
+            raise ValueError(f"log interval must be >= 0 s, got {interval}")
+        if capacity < 1:
+            raise ValueError(f"capacity must be >= 1, got {capacity}")
+        self.setFormatter(logging.Formatter("%(levelname)s %(name)s: %(message)s"))
+        self.interval = interval
+        self.users = 0  # guarded_logging nesting
+        self.written = 0
+        self.dropped = 0
+        self.suppressed = 0
+        self._pending_drops = 0
+        self._next: dict[tuple[str, str, int], float] = {}
+        self._skipped: dict[tuple[str, str, int], int] = {}
+        self._queue: queue.Queue[bytes | None] = queue.Queue(maxsize=capacity)
+        stream = stream if stream is not None else sys.stderr
+        self._stream = stream
+        try:
+            self._fd: int | None = os.dup(stream.fileno())
+        except (AttributeError, OSError, ValueError):
+            self._fd = None
+        self._writer = threading.Thread(target=self._write_loop, name="log-writer", daemon=True)
+        self._writer.start()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            key = (record.name, record.pathname, record.lineno)
+            due = self._next.get(key)
+            if due is not None and due - self.interval <= record.created < due:
+                self._skipped[key] = self._skipped.get(key, 0) + 1
+                self.suppressed += 1
+                return
+            self._next[key] = record.created + self.interval
+            line = self.format(record)
+            skipped = self._skipped.pop(key, 0)
+            if skipped:
+                line += f" [{skipped} similar suppressed]"
+            if self._pending_drops:
+                line += f" [{self._pending_drops} log lines dropped: stderr blocked]"
+            try:
+                self._queue.put_nowait((line + "\n").encode("utf-8", "replace"))
+            except queue.Full:
+                self.dropped += 1
+                self._pending_drops += 1
+                return
+            self._pending_drops = 0
+        except Exception:  # noqa: BLE001 - logging must never raise into the caller
+            self.handleError(record)
+
+    def _write_loop(self) -> None:
+        while (data := self._queue.get()) is not None:
+            try:
+                if self._fd is not None:
+                    view = memoryview(data)
+                    while view:
+                        view = view[os.write(self._fd, view) :]
+                else:
+                    self._stream.write(data.decode("utf-8", "replace"))
+                    self._stream.flush()
+                self.written += 1
+            except (OSError, ValueError):
+                pass  # stderr closed: nothing to report it to
+
+    def close(self) -> None:
+        """Stop the writer once it has written what is queued (bounded wait: if stderr is
+        blocked the daemon thread is left behind and the queued lines are lost)."""
+        try:
+            self._queue.put_nowait(None)
+        except queue.Full:
+            pass
+        self._writer.join(timeout=0.5)
+        if not self._writer.is_alive() and self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+        super().close()
+
+
+@contextmanager
+def guarded_logging(
+    *, interval: float = 1.0, capacity: int = 256
+) -> Iterator[BoundedStderrHandler]:
+    """Route log records through one :class:`BoundedStderrHandler` on the root logger for the
+    duration (shared by nested/concurrent users, removed by the last one)."""
+    root = logging.getLogger()
+    handler = next((h for h in root.handlers if isinstance(h, BoundedStderrHandler)), None)
+    if handler is None:
+        handler = BoundedStderrHandler(interval=interval, capacity=capacity)
+        root.addHandler(handler)
+    handler.users += 1
+    try:
+        yield handler
+    finally:
+        handler.users -= 1
+        if handler.users == 0:
+            root.removeHandler(handler)
+            handler.close()
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,6 +180,8 @@ class DrivesSpec:
     can_channel: str = "vcan0"
     duration: float | None = None  # [s]; None = until stopped
     tick: float = 0.001  # [s] period of the time services
+    can_max_frames: int = DEFAULT_MAX_FRAMES  # CAN frames processed per step at most
+    log_interval: float = 1.0  # [s] one log line per call site / malformed kind at most
 
     def __post_init__(self) -> None:
         if self.can_interface == "udp_multicast":
@@ -60,7 +196,19 @@ async def run_drives(
     ready: Callable[[dict[str, object]], None] | None = None,
     stop: asyncio.Event | None = None,
 ) -> None:
-    """Serve the drives of ``spec`` on the running loop until ``stop`` is set or time is up."""
+    """Serve the drives of ``spec`` on the running loop until ``stop`` is set or time is up.
+
+    Logging goes through :func:`guarded_logging` meanwhile (never blocks the drives)."""
+    with guarded_logging(interval=spec.log_interval):
+        await _serve_drives(spec, ready=ready, stop=stop)
+
+
+async def _serve_drives(
+    spec: DrivesSpec,
+    *,
+    ready: Callable[[dict[str, object]], None] | None,
+    stop: asyncio.Event | None,
+) -> None:
     from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
 
     loop = asyncio.get_running_loop()
@@ -84,11 +232,20 @@ async def run_drives(
             from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
 
             bus = can.Bus(interface=spec.can_interface, channel=spec.can_channel)
-            rack = VirtualCanBus(bus, [VirtualCia402Drive(n) for n in spec.can_nodes])
+            rack = VirtualCanBus(
+                bus,
+                [VirtualCia402Drive(n) for n in spec.can_nodes],
+                max_frames_per_step=spec.can_max_frames,
+                log_interval=spec.log_interval,
+            )
 
             def pump() -> None:
                 while not can_stop.is_set():
-                    rack.step(loop.time() - t0, wait=spec.tick)
+                    try:
+                        rack.step(loop.time() - t0, wait=spec.tick)
+                    except Exception as exc:  # noqa: BLE001 - e.g. a CAN interface error
+                        logger.warning("virtual CAN drives: step failed: %s", exc)
+                        can_stop.wait(spec.tick)  # no busy loop on a persistent error
 
             can_thread = threading.Thread(target=pump, name="virtual-can", daemon=True)
             can_thread.start()

@@ -11,14 +11,63 @@ queues and its semantics are python-can's own; only the copy is cheaper.
 and with an unbounded queue it empties the queue under its mutex in one step (instead of one
 ``recv(timeout=0)`` per frame through ``BusABC.recv``'s filter/timeout loop); any other bus is
 drained with ``recv(timeout=0)``. It never blocks.
+
+:class:`RxGuard` is the receive-side fault containment shared by the CANopen master and the
+virtual drives: every received frame is validated before it reaches canopen's handlers or our
+decoders (:func:`frame_error` for the frame itself, :func:`service_error` for the CiA 301
+service its COB-ID belongs to), malformed frames are counted per kind and logged at most once
+per kind per ``log_interval`` seconds of the caller's (injected) time, and the frames
+dispatched in one cycle are bounded by ``max_frames`` (the rest is counted and dropped).
+
+Malformed kinds (keys of :attr:`RxGuard.malformed_frames`):
+
+================  =========================================================================
+kind              frame
+================  =========================================================================
+error_frame       an error frame (bus error reported by the controller)
+remote_frame      a remote (RTR) frame: CANopen here uses no RTR
+fd_frame          a CAN FD frame (the network is classic CAN)
+extended_id       a 29-bit identifier, or an 11-bit one above 0x7FF
+dlc               more than 8 data bytes, or a DLC that does not match the data
+nmt               NMT (0x000) not exactly [command, node], or an unknown command
+sync              SYNC (0x080) with more than the 1-byte counter
+emcy              EMCY (0x081-0x0FF) not 8 bytes
+sdo               SDO request/response (0x581-0x5FF, 0x601-0x67F) not 8 bytes
+sdo_unsolicited   an SDO/LSS response while no request is in flight (master)
+heartbeat         heartbeat (0x701-0x77F) not exactly 1 byte, or not an NMT state
+lss               LSS (0x7E4/0x7E5) not 8 bytes
+pdo               a PDO whose length does not match its mapping (counted by its receiver)
+handler_error     a handler (ours or canopen's) raised on the frame: caught, frame dropped
+================  =========================================================================
 """
 
 from __future__ import annotations
 
+import logging
+from collections.abc import Callable, Collection, Sequence
+
 import can
 from can.interfaces.virtual import VirtualBus
 
-__all__ = ["FastMessage", "drain", "make_message"]
+__all__ = [
+    "DEFAULT_MAX_FRAMES",
+    "FastMessage",
+    "RateLimitedLog",
+    "RxGuard",
+    "drain",
+    "frame_error",
+    "make_message",
+    "service_error",
+]
+
+logger = logging.getLogger("motionplc.fieldbus.can")
+
+# Frames dispatched per cycle at most: a healthy cycle carries about 3 per axis (RPDO/TPDO
+# pairs, SYNC, heartbeats, EMCY); a real 1 Mbit/s bus carries at most ~20 per millisecond.
+DEFAULT_MAX_FRAMES = 256
+
+NMT_COMMANDS = frozenset({0x01, 0x02, 0x80, 0x81, 0x82})
+HEARTBEAT_STATES = frozenset({0x00, 0x04, 0x05, 0x7F})  # boot-up, stopped, operational, pre-op
 
 _new = object.__new__
 
@@ -75,3 +124,175 @@ def drain(bus: can.BusABC) -> list[can.Message]:
     while (msg := bus.recv(timeout=0)) is not None:
         out.append(msg)
     return out
+
+
+def frame_error(msg: can.Message) -> str | None:
+    """Kind of a frame that no CANopen service may interpret (see the module table), or None.
+
+    Checks the frame itself: error/remote/FD flags, the identifier range, the data length
+    against 8 and against the DLC.
+    """
+    if msg.is_error_frame:
+        return "error_frame"
+    if msg.is_remote_frame:
+        return "remote_frame"
+    if msg.is_fd:
+        return "fd_frame"
+    cob_id = msg.arbitration_id
+    if msg.is_extended_id or not 0 <= cob_id <= 0x7FF:
+        return "extended_id"
+    n = len(msg.data)
+    if n > 8 or msg.dlc != n:
+        return "dlc"
+    return None
+
+
+def service_error(cob_id: int, data: bytes | bytearray) -> str | None:
+    """Kind if ``data`` breaks the CiA 301 rule of the service ``cob_id`` belongs to in the
+    pre-defined connection set (NMT, SYNC, EMCY, SDO, heartbeat, LSS), else None. PDOs have no
+    rule here: their receiver checks them against the mapping."""
+    n = len(data)
+    if cob_id == 0x000:
+        return None if n == 2 and data[0] in NMT_COMMANDS else "nmt"
+    if cob_id == 0x080:
+        return None if n <= 1 else "sync"
+    if 0x081 <= cob_id <= 0x0FF:
+        return None if n == 8 else "emcy"
+    if 0x581 <= cob_id <= 0x5FF or 0x601 <= cob_id <= 0x67F:
+        return None if n == 8 else "sdo"
+    if 0x701 <= cob_id <= 0x77F:
+        return None if n == 1 and data[0] & 0x7F in HEARTBEAT_STATES else "heartbeat"
+    if cob_id in (0x7E4, 0x7E5):
+        return None if n == 8 else "lss"
+    return None
+
+
+def _hex(data: bytes | bytearray) -> str:
+    raw = bytes(data[:8]).hex(" ")
+    return f"[{raw}{' ...' if len(data) > 8 else ''}] ({len(data)} bytes)"
+
+
+class RateLimitedLog:
+    """Warnings of one kind at most once per ``interval`` seconds of the caller's time ``t``
+    (injected, never the wall clock); the next line of a kind reports how many were
+    suppressed since the last one. A pipe nobody reads therefore sees a bounded number of
+    lines per second, whatever arrives on the bus."""
+
+    def __init__(self, name: str, interval: float = 1.0, log: logging.Logger | None = None) -> None:
+        if not interval >= 0.0:
+            raise ValueError(f"log interval must be >= 0 s, got {interval}")
+        self.name = name
+        self.interval = interval
+        self.log = log if log is not None else logger
+        self._next: dict[str, float] = {}
+        self.suppressed: dict[str, int] = {}
+        self.lines = 0  # lines written (statistics, tests)
+
+    def __call__(self, kind: str, t: float, text: str) -> bool:
+        """Log ``text`` for ``kind`` at time ``t`` unless rate-limited; True if written."""
+        due = self._next.get(kind)
+        if due is not None and due - self.interval <= t < due:
+            self.suppressed[kind] = self.suppressed.get(kind, 0) + 1
+            return False
+        self._next[kind] = t + self.interval
+        skipped = self.suppressed.pop(kind, 0)
+        more = f" ({skipped} more suppressed)" if skipped else ""
+        self.log.warning("%s: %s%s", self.name, text, more)
+        self.lines += 1
+        return True
+
+
+class RxGuard:
+    """Receive-side containment for one CAN endpoint (validation, counters, frame budget).
+
+    Guarantees: :meth:`admit` returns at most ``max_frames`` frames, none of which fails
+    :func:`frame_error`; every frame it does not return is counted (in
+    :attr:`malformed_frames` by kind, or in :attr:`frames_dropped` when the budget was
+    exceeded); nothing it does raises. Callers count the service-level rejections with
+    :meth:`malformed` and the handler exceptions they catch with :meth:`failed`.
+    """
+
+    def __init__(
+        self, name: str, *, max_frames: int = DEFAULT_MAX_FRAMES, log_interval: float = 1.0
+    ) -> None:
+        if not isinstance(max_frames, int) or max_frames < 1:
+            raise ValueError(f"max_frames must be an integer >= 1, got {max_frames!r}")
+        self.name = name
+        self.max_frames = max_frames
+        self.log = RateLimitedLog(name, log_interval)
+        self.malformed_frames: dict[str, int] = {}
+        self.frames_dropped = 0  # over the per-cycle budget
+        self.overflow_cycles = 0  # cycles in which the budget was exceeded
+
+    @property
+    def malformed_total(self) -> int:
+        return sum(self.malformed_frames.values())
+
+    def admit(
+        self,
+        frames: Sequence[can.Message],
+        t: float,
+        relevant: Callable[[], Collection[int]] | None = None,
+    ) -> list[can.Message]:
+        """The frames of ``frames`` to dispatch, in arrival order.
+
+        Within the budget every frame is checked with :func:`frame_error`. Over the budget
+        (more than ``max_frames`` waiting), only frames whose COB-ID is in ``relevant()`` (the
+        IDs this endpoint consumes) are kept, the newest ``max_frames`` of them (they carry
+        the current cyclic data); the rest is dropped unexamined and counted.
+        """
+        n = len(frames)
+        if n > self.max_frames:
+            ids = relevant() if relevant is not None else ()
+            keep = [m for m in frames if m.arbitration_id in ids]
+            if len(keep) > self.max_frames:
+                keep = keep[-self.max_frames :]
+            dropped = n - len(keep)
+            self.frames_dropped += dropped
+            self.overflow_cycles += 1
+            self.log(
+                "overflow",
+                t,
+                f"{n} frames in one cycle, over the budget of {self.max_frames}: {dropped} dropped",
+            )
+            frames = keep
+        out = []
+        for msg in frames:
+            try:
+                kind = frame_error(msg)
+            except Exception as exc:  # noqa: BLE001 - not a usable frame at all
+                self.failed(t, -1, exc)
+                continue
+            if kind is None:
+                out.append(msg)
+            else:
+                self.malformed(kind, t, msg.arbitration_id, msg.data)
+        return out
+
+    def malformed(
+        self,
+        kind: str,
+        t: float,
+        cob_id: int,
+        data: bytes | bytearray,
+        action: str = "ignored",
+    ) -> None:
+        """Count one malformed frame of ``kind`` and log it (rate-limited); ``action`` says
+        what became of it."""
+        self.malformed_frames[kind] = self.malformed_frames.get(kind, 0) + 1
+        log = self.log
+        due = log._next.get(kind)
+        if due is not None and due - log.interval <= t < due:
+            log.suppressed[kind] = log.suppressed.get(kind, 0) + 1  # fast path, no formatting
+            return
+        try:
+            what = f"0x{cob_id:03X} {_hex(data)}"
+        except Exception:  # noqa: BLE001 - a frame too broken to print
+            what = f"{cob_id!r}"
+        log(kind, t, f"malformed frame ({kind}) {action}: {what}")
+
+    def failed(self, t: float, cob_id: int, exc: BaseException) -> None:
+        """Count a handler exception caught on frame ``cob_id`` (the frame is dropped)."""
+        kind = "handler_error"
+        self.malformed_frames[kind] = self.malformed_frames.get(kind, 0) + 1
+        self.log(kind, t, f"handler of frame 0x{cob_id:03X} failed: {type(exc).__name__}: {exc}")

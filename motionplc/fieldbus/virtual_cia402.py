@@ -22,6 +22,20 @@ with simulated time: :meth:`VirtualCanBus.step` drains the bus with ``recv(timeo
 ``Network.notify`` and runs the time-driven services (heartbeats, supervision). Periodic
 transmissions that canopen would start in a thread (``send_periodic``) run on that simulated
 time instead. No thread, no wall clock.
+
+Received frames go through a :class:`~motionplc.fieldbus.fastcan.RxGuard` before any handler
+(canopen's LocalNode or ours) sees them: error/remote/FD frames, extended IDs, bad DLCs, NMT
+frames that are not ``[command, node]`` with a known command, SYNC frames longer than the
+counter byte, SDO requests that are not 8 bytes and heartbeats that are not one NMT state byte
+are ignored and counted per kind (:attr:`VirtualCanBus.malformed_frames`, and per drive
+:attr:`VirtualCia402Drive.malformed_frames` for what reached a drive), with log lines
+rate-limited per kind per second of simulated time. A drive answers SDO requests canopen's
+server would trip over (segments without a transfer in progress, block download, a segmented
+download beyond :data:`SDO_MAX_SEGMENTED` bytes) with an SDO abort itself; an RPDO of the wrong
+length is ignored with EMCY 0x8210 (once per SYNC cycle, not once per frame). Every handler
+call is wrapped (an exception counts as ``handler_error``, the frame is dropped) and at most
+``max_frames_per_step`` frames are processed per :meth:`VirtualCanBus.step` (beyond that the
+newest frames for the drives' own COB-IDs are kept, the rest dropped and counted).
 """
 
 from __future__ import annotations
@@ -39,7 +53,13 @@ from canopen.sdo import SdoAbortedError
 
 from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.cia402 import OperationMode
-from motionplc.fieldbus.fastcan import drain, make_message
+from motionplc.fieldbus.fastcan import (
+    DEFAULT_MAX_FRAMES,
+    RxGuard,
+    drain,
+    make_message,
+    service_error,
+)
 from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.plant import PlantParams
 from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device
@@ -56,6 +76,9 @@ SYNC_COB_ID = 0x080
 # SDO abort codes
 ABORT_VALUE_RANGE = 0x06090030
 ABORT_DEVICE_STATE = 0x08000022
+ABORT_INVALID_COMMAND = 0x05040001
+ABORT_OUT_OF_MEMORY = 0x05040005
+SDO_MAX_SEGMENTED = 1024  # [bytes] largest segmented download accepted (the OD has no more)
 
 
 # objects a TPDO can carry -> field of DeviceSnapshot
@@ -110,6 +133,7 @@ class SimulatedTimeNetwork(canopen.Network):
 
     def __init__(self, bus: can.BusABC) -> None:
         super().__init__(bus)
+        self.unsubscribe(self.lss.LSS_RX_COBID)  # drives are no LSS master (unbounded queue)
         self.now = 0.0
         self._tasks: list[_SimPeriodicTask] = []
 
@@ -157,6 +181,8 @@ class VirtualCia402Drive:
         self.node.add_read_callback(self._on_sdo_read)
         self.node.add_write_callback(self._on_sdo_write)
         self.network: SimulatedTimeNetwork | None = None
+        self.rx: RxGuard | None = None  # the endpoint's guard (set by VirtualCanBus.add)
+        self.malformed_frames: dict[str, int] = {}  # rejected by this drive, per kind
         self.on_rx_table_changed: Callable[[], None] | None = None
         self._rpdo_by_cob: dict[int, PdoCodec] = {}
         self._reset_runtime()
@@ -177,6 +203,9 @@ class VirtualCia402Drive:
     def attach(self, network: SimulatedTimeNetwork) -> None:
         self.network = network
         network.add_node(self.node)
+        sdo = self.node.sdo  # SDO requests pass our pre-checks before canopen's server
+        network.unsubscribe(sdo.rx_cobid, sdo.on_request)
+        network.subscribe(sdo.rx_cobid, self._on_sdo_request)
         network.subscribe(SYNC_COB_ID, self._on_sync)
         network.subscribe(0x000, self._on_nmt)  # after LocalNode's own NMT handler
         for pdo_map in self.node.rpdo.map.values():
@@ -253,7 +282,37 @@ class VirtualCia402Drive:
             self._rpdo_missed = 0
             self._last_sync_t = None
 
+    def _malformed(self, kind: str, cob_id: int, data: bytes | bytearray) -> None:
+        self.malformed_frames[kind] = self.malformed_frames.get(kind, 0) + 1
+        if self.rx is not None:
+            self.rx.malformed(kind, self.network.now if self.network else 0.0, cob_id, data)
+
     # ------------------------------------------------------------------- SDO
+    def _on_sdo_request(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """canopen's SDO server behind checks for what it would trip over (it logs a
+        traceback for those): such requests get an abort from here."""
+        if len(data) != 8:
+            self._malformed("sdo", can_id, data)
+            return
+        sdo = self.node.sdo
+        ccs = data[0] >> 5
+        buffer = getattr(sdo, "_buffer", None)
+        code = 0
+        if ccs == 6:
+            code = ABORT_INVALID_COMMAND  # block download: not supported
+        elif ccs in (0, 3) and buffer is None:
+            code = ABORT_INVALID_COMMAND  # a segment without a transfer in progress
+        elif ccs == 0 and len(buffer) + 7 > SDO_MAX_SEGMENTED:
+            code = ABORT_OUT_OF_MEMORY
+            sdo._buffer = None
+        if code:
+            index, subindex = struct.unpack_from("<HB", data, 1)
+            abort = struct.pack("<BHBL", 0x80, index, subindex, code)
+            assert self.network is not None
+            self.network.send_message(sdo.tx_cobid, abort)
+            return
+        sdo.on_request(can_id, data, timestamp)
+
     def _on_sdo_read(self, index: int, subindex: int, od: object) -> int | None:
         d = self.device
         if index == 0x6041:
@@ -347,9 +406,12 @@ class VirtualCia402Drive:
             return  # PDOs only in OPERATIONAL
         values = codec.unpack(data)
         if values is None:
-            self.device.pending_emcy.append(
-                (ERROR_CODES["pdo_length"], self.device.error_register | 0x10)
-            )
+            cob_id = codec.pdo_map.cob_id
+            self._malformed("pdo", cob_id if isinstance(cob_id, int) else -1, data)
+            code = ERROR_CODES["pdo_length"]
+            pending = self.device.pending_emcy
+            if not any(c == code for c, _ in pending):  # one EMCY per cycle, not per frame
+                pending.append((code, self.device.error_register | 0x10))
             return
         self._latched.update(zip(codec.keys, values, strict=True))
         self._rpdo_new = True
@@ -438,8 +500,17 @@ class VirtualCanBus:
     """
 
     def __init__(
-        self, bus: can.BusABC, drives: Iterable[VirtualCia402Drive] = (), *, seed: int = 0
+        self,
+        bus: can.BusABC,
+        drives: Iterable[VirtualCia402Drive] = (),
+        *,
+        seed: int = 0,
+        max_frames_per_step: int = DEFAULT_MAX_FRAMES,
+        log_interval: float = 1.0,
     ) -> None:
+        self.rx = RxGuard(
+            "virtual CAN drives", max_frames=max_frames_per_step, log_interval=log_interval
+        )
         self.faults = (
             bus if isinstance(bus, FaultInjectingBus) else FaultInjectingBus(bus, seed=seed)
         )
@@ -455,6 +526,7 @@ class VirtualCanBus:
         if drive.node_id in self.drives:
             raise ValueError(f"node {drive.node_id} is already on this bus")
         self.drives[drive.node_id] = drive
+        drive.rx = self.rx
         drive.on_rx_table_changed = self._invalidate
         drive.attach(self.network)
         self._invalidate()
@@ -474,6 +546,20 @@ class VirtualCanBus:
     def __getitem__(self, node_id: int) -> VirtualCia402Drive:
         return self.drives[node_id]
 
+    @property
+    def malformed_frames(self) -> dict[str, int]:
+        """Malformed frames received on this endpoint, per kind."""
+        return self.rx.malformed_frames
+
+    @property
+    def frames_dropped(self) -> int:
+        """Frames dropped because more than ``max_frames_per_step`` arrived in one step."""
+        return self.rx.frames_dropped
+
+    def _relevant_ids(self) -> set[int]:
+        table = self._fast if self._fast is not None else self._fast_table()
+        return table.keys() | self.network.subscribers.keys()
+
     def step(self, t: float, wait: float = 0.0) -> int:
         """Process every frame received so far at simulated time ``t``, then the timers.
 
@@ -492,17 +578,24 @@ class VirtualCanBus:
         else:
             frames = drain(self.faults)
         notify = self.network.notify
-        for msg in frames:
-            if msg.is_error_frame or msg.is_remote_frame:
-                continue
-            n += 1
+        rx = self.rx
+        for msg in rx.admit(frames, t, self._relevant_ids) if frames else ():
             cob_id = msg.arbitration_id
-            fast = (self._fast if self._fast is not None else self._fast_table()).get(cob_id)
-            if fast is not None:
-                for handler in fast:
-                    handler(cob_id, msg.data, t)
-            else:
-                notify(cob_id, msg.data, t)
+            data = msg.data
+            try:
+                kind = service_error(cob_id, data)
+                if kind is not None:
+                    rx.malformed(kind, t, cob_id, data)
+                    continue
+                n += 1
+                fast = (self._fast if self._fast is not None else self._fast_table()).get(cob_id)
+                if fast is not None:
+                    for handler in fast:
+                        handler(cob_id, data, t)
+                else:
+                    notify(cob_id, data, t)
+            except Exception as exc:  # noqa: BLE001 - a received frame never ends the step
+                rx.failed(t, cob_id, exc)
         if self._was_bus_off and not self.faults.bus_off:
             for drive in self.drives.values():  # recovered from bus-off
                 drive.device.pending_emcy.append(
