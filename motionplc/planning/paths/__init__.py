@@ -4,8 +4,20 @@ The interface every path implements is :class:`~motionplc.planning.paths.base.Pa
 """
 
 from motionplc.planning.paths.base import Path, as_param
+from motionplc.planning.paths.blend import (
+    BlendedPath,
+    Corner,
+    CornerBlend,
+    CornerKind,
+    Transition,
+    TransitionMode,
+    blend_corners,
+    blend_polyline,
+)
 from motionplc.planning.paths.composite import CompositePath, join, polyline
 from motionplc.planning.paths.geometry import Arc, Helix, Line, PathSegment
 
 __all__ = ["Path", "as_param"]
 __all__ += ["Arc", "CompositePath", "Helix", "Line", "PathSegment", "join", "polyline"]
+__all__ += ["BlendedPath", "Corner", "CornerBlend", "CornerKind", "Transition", "TransitionMode"]
+__all__ += ["blend_corners", "blend_polyline"]
