@@ -410,7 +410,8 @@ class Arc(_Circular):
             raise PlanningError("end: must differ from start (use Arc.full_circle for a circle)")
         if float(np.dot(p1 - pv, p1 - pv)) <= tiny:
             raise PlanningError("via: must differ from end")
-        gram = aa * bb - ab * ab
+        b_perp = b - (ab / aa) * a
+        gram = aa * float(b_perp @ b_perp)  # = aa bb - ab^2 without cancellation
         if gram <= (1e-9) ** 2 * aa * bb:
             raise PlanningError("via: start, via and end are collinear (no circle through them)")
         # circumcentre: p0 + alpha a + beta b with |c - p0| = |c - pv| = |c - p1|
