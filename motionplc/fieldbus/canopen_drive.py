@@ -275,7 +275,7 @@ class CanopenMaster:
         rx = self.rx
         handlers = self.rx_handlers
         notify = self.network.notify
-        for msg in rx.admit(frames, t, self._relevant_ids):
+        for msg in rx.admit(frames, t, self._relevant_ids, self.rx_handlers.keys):
             cob_id = msg.arbitration_id
             data = msg.data
             try:

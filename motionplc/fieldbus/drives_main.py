@@ -80,6 +80,7 @@ class BoundedStderrHandler(logging.Handler):
         self.users = 0  # guarded_logging nesting
         self.written = 0
         self.dropped = 0
+        self.broken = False
         self.suppressed = 0
         self._pending_drops = 0
         self._next: dict[tuple[str, str, int], float] = {}
@@ -95,6 +96,9 @@ class BoundedStderrHandler(logging.Handler):
         self._writer.start()
 
     def emit(self, record: logging.LogRecord) -> None:
+        if self.broken:
+            self.dropped += 1
+            return
         try:
             key = (record.name, record.pathname, record.lineno)
             due = self._next.get(key)
@@ -120,30 +124,38 @@ class BoundedStderrHandler(logging.Handler):
             self.handleError(record)
 
     def _write_loop(self) -> None:
-        while (data := self._queue.get()) is not None:
-            try:
-                if self._fd is not None:
+        fd = self._fd
+        try:
+            while (data := self._queue.get()) is not None:
+                if fd is not None:
                     view = memoryview(data)
                     while view:
-                        view = view[os.write(self._fd, view) :]
+                        view = view[os.write(fd, view) :]
                 else:
                     self._stream.write(data.decode("utf-8", "replace"))
                     self._stream.flush()
                 self.written += 1
-            except (OSError, ValueError):
-                pass  # stderr closed: nothing to report it to
+        except (OSError, ValueError):
+            self.broken = True  # stderr closed (EPIPE): nothing left to report to
+        finally:
+            if fd is not None:
+                os.close(fd)
 
     def close(self) -> None:
-        """Stop the writer once it has written what is queued (bounded wait: if stderr is
-        blocked the daemon thread is left behind and the queued lines are lost)."""
-        try:
-            self._queue.put_nowait(None)
-        except queue.Full:
-            pass
+        """Stop the writer once it has written what is queued. Bounded: if stderr is blocked
+        the daemon writer is left behind (it ends when the reader goes away) and the queued
+        lines are lost."""
+        while True:
+            try:
+                self._queue.put_nowait(None)
+                break
+            except queue.Full:
+                try:
+                    self._queue.get_nowait()  # make room for the stop mark
+                    self.dropped += 1
+                except queue.Empty:
+                    pass
         self._writer.join(timeout=0.5)
-        if not self._writer.is_alive() and self._fd is not None:
-            os.close(self._fd)
-            self._fd = None
         super().close()
 
 

@@ -35,14 +35,15 @@ download beyond :data:`SDO_MAX_SEGMENTED` bytes) with an SDO abort itself; an RP
 length is ignored with EMCY 0x8210 (once per SYNC cycle, not once per frame). Every handler
 call is wrapped (an exception counts as ``handler_error``, the frame is dropped) and at most
 ``max_frames_per_step`` frames are processed per :meth:`VirtualCanBus.step` (beyond that the
-newest frames for the drives' own COB-IDs are kept, the rest dropped and counted).
+newest SYNC/RPDO frames are kept first, then the newest other frames for the drives' own
+COB-IDs, the rest is dropped and counted).
 """
 
 from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from importlib import resources
 from pathlib import Path
 
@@ -556,9 +557,11 @@ class VirtualCanBus:
         """Frames dropped because more than ``max_frames_per_step`` arrived in one step."""
         return self.rx.frames_dropped
 
+    def _cyclic_ids(self) -> Collection[int]:
+        return (self._fast if self._fast is not None else self._fast_table()).keys()
+
     def _relevant_ids(self) -> set[int]:
-        table = self._fast if self._fast is not None else self._fast_table()
-        return table.keys() | self.network.subscribers.keys()
+        return self._cyclic_ids() | self.network.subscribers.keys()
 
     def step(self, t: float, wait: float = 0.0) -> int:
         """Process every frame received so far at simulated time ``t``, then the timers.
@@ -579,7 +582,7 @@ class VirtualCanBus:
             frames = drain(self.faults)
         notify = self.network.notify
         rx = self.rx
-        for msg in rx.admit(frames, t, self._relevant_ids) if frames else ():
+        for msg in rx.admit(frames, t, self._relevant_ids, self._cyclic_ids) if frames else ():
             cob_id = msg.arbitration_id
             data = msg.data
             try:
