@@ -21,3 +21,7 @@ __all__ = ["Path", "as_param"]
 __all__ += ["Arc", "CompositePath", "Helix", "Line", "PathSegment", "join", "polyline"]
 __all__ += ["BlendedPath", "Corner", "CornerBlend", "CornerKind", "Transition", "TransitionMode"]
 __all__ += ["blend_corners", "blend_polyline"]
+from motionplc.planning.paths.topp import DEFAULT_GRID, plan_path  # noqa: E402
+from motionplc.planning.paths.trajectory import PathSample, PathSamples, PathTrajectory  # noqa: E402
+
+__all__ += ["DEFAULT_GRID", "PathSample", "PathSamples", "PathTrajectory", "plan_path"]

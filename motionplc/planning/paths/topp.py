@@ -1,0 +1,534 @@
+"""Time-optimal motion along a path (second order: axis velocity and acceleration limits).
+
+Method: reachability analysis on a grid of the path parameter (TOPP-RA, Pham & Pham 2018; the
+same forward/backward passes as seed 004's GAVS(s, v) in the ``(u, du^2)`` plane). The grid
+``u_i = i * h`` has ``n_grid`` intervals; on each interval the path acceleration ``d2u/dt2 = a_i``
+is constant, so ``x = (du/dt)^2`` is linear in ``u`` and ``u(t)`` is exactly quadratic in time.
+With ``q = p(u)`` each axis obeys::
+
+    v_k = q'_k du            a_k = q'_k a_i + q''_k x
+
+and every limit is a linear inequality in ``(x_i, a_i)`` at any point of the interval. The
+planner imposes them at the start, middle and end of every interval (not only at the grid
+points, as toppra does), which turns each interval into a set of lines ``lo_c(x) <= a <=
+hi_d(x)`` in closed form: the maximum-velocity curve, the backward pass (controllable sets) and
+the forward pass (greedy maximal ``a_i``) need no LP solver.
+
+Between the three points a limit could still be exceeded by a term of order ``h^2``. After
+solving, every interval is checked on 8 sub-intervals with a conservative bound (largest sample
+plus a quarter of the largest second difference, i.e. twice the interpolation error of a smooth
+function); intervals that may exceed a limit get that limit tightened by the excess and the
+problem is solved again. The result is therefore feasible on any resampling, at the price of a
+duration a few ``h^2`` above the discretised optimum. Points where the path derivative vanishes
+(duplicate points), switching points where the maximum-velocity curve is touched, and a non-zero
+start speed need no special handling in this formulation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from motionplc.errors import PlanningError
+from motionplc.planning.paths.base import Path
+from motionplc.planning.paths.trajectory import PathTrajectory, SpeedLaw
+
+__all__ = ["plan_path", "DEFAULT_GRID"]
+
+DEFAULT_GRID = 1000
+_SUB = 8  # sub-intervals per grid interval in the feasibility check
+_MARGIN = 1e-11  # relative margin on every limit (rounding)
+_ACCEPT = 1e-12  # a bound up to 1 + _ACCEPT counts as held
+_MAX_REPAIRS = 12
+
+
+# -- input checking -------------------------------------------------------------------------
+
+
+def _per_axis(name: str, value: float | Sequence[float], dim: int, allow_inf: bool) -> np.ndarray:
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    if arr.ndim != 1 or (arr.size != 1 and arr.size != dim):
+        raise PlanningError(
+            f"{name}: needs one value or one per axis ({dim}), got shape {arr.shape}"
+        )
+    if arr.size == 1:
+        arr = np.full(dim, float(arr[0]))
+    upper = "inf]" if allow_inf else "inf)"
+    for k, v in enumerate(arr):
+        bad = math.isnan(v) or v <= 0.0 or (not allow_inf and math.isinf(v))
+        if bad:
+            raise PlanningError(f"{name}[{k}]: must be in (0, {upper}, got {v!r}")
+    return arr
+
+
+def _scalar(name: str, value: float, lo: float, hi: float, lo_open: bool = False) -> float:
+    v = float(value)
+    ok = (v > lo if lo_open else v >= lo) and v <= hi
+    if math.isnan(v) or not ok:
+        left = "(" if lo_open else "["
+        right = "]" if math.isinf(hi) else "]"
+        raise PlanningError(f"{name}: must be in {left}{lo!r}, {hi!r}{right}, got {value!r}")
+    return v
+
+
+@dataclass(frozen=True, slots=True)
+class PathLimits:
+    """Validated limits along a path (all arrays of length ``dim``, SI units).
+
+    ``v_max`` may be infinite (no velocity limit); ``a_max`` is finite; ``j_max`` is ``None``
+    for the second-order problem; ``v_path`` bounds the path speed ``|dp/dt|``.
+    """
+
+    v_max: np.ndarray
+    a_max: np.ndarray
+    j_max: np.ndarray | None
+    v_path: float
+
+
+# -- the evaluated grid ---------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _Grid:
+    n: int  # intervals
+    h: float  # interval length in u
+    u: np.ndarray  # (2n+1,) half-grid points
+    q1: np.ndarray  # (2n+1, dim)
+    q2: np.ndarray
+    speed2: np.ndarray  # (2n+1,) |p'|^2
+    tiny: float  # |c| below this counts as zero (c: the coefficient of a_i)
+
+
+def _evaluate_grid(path: Path, n: int) -> _Grid:
+    u_end = float(path.u_end)
+    u = np.linspace(0.0, u_end, 2 * n + 1)
+    q1 = np.asarray(path.evaluate(u, 1), dtype=float).reshape(len(u), -1)
+    q2 = np.asarray(path.evaluate(u, 2), dtype=float).reshape(len(u), -1)
+    for name, arr in (("first", q1), ("second", q2)):
+        if not np.all(np.isfinite(arr)):
+            bad = u[~np.all(np.isfinite(arr), axis=1)][0]
+            raise PlanningError(f"path: {name} derivative is not finite at u={bad!r}")
+    scale = float(np.abs(q1).max()) if q1.size else 0.0
+    if scale == 0.0:
+        raise PlanningError("path: the path does not move (zero derivative everywhere)")
+    return _Grid(n, u_end / n, u, q1, q2, np.einsum("ij,ij->i", q1, q1), 1e-10 * scale)
+
+
+def _speed_caps(grid: _Grid, lim: PathLimits, extra: np.ndarray | None = None) -> np.ndarray:
+    """Largest ``x = du^2`` allowed by the velocity and path-speed limits at every half-grid
+    point (``inf`` where nothing binds)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v2 = (lim.v_max**2)[None, :] / grid.q1**2
+        v2 = np.where(grid.q1 == 0.0, np.inf, v2)
+        cap = v2.min(axis=1) if v2.shape[1] else np.full(len(grid.u), np.inf)
+        if math.isfinite(lim.v_path):
+            cap = np.minimum(cap, np.where(grid.speed2 > 0.0, lim.v_path**2 / grid.speed2, np.inf))
+    if extra is not None:
+        cap = np.minimum(cap, extra)
+    return cap
+
+
+# -- the solver ---------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _Solution:
+    x: np.ndarray  # (n+1,) du^2 at the grid points
+    X: np.ndarray  # (n+1,) upper ends of the controllable sets
+    mvc: np.ndarray  # (n+1,) interval maximum-velocity curve (x units)
+
+
+_THETA = np.array([0.0, 0.5, 1.0])
+
+
+def _lines(grid: _Grid, A: np.ndarray, C: np.ndarray, rows: np.ndarray):
+    """Constraint lines of the intervals ``rows``.
+
+    ``A``: (n, dim) acceleration limits per interval; ``C``: (n, 3) caps on x at the start,
+    middle and end of every interval. Returns lower lines ``a >= p + r x`` (n, mL), upper lines
+    ``a <= s + w x`` (n, mU) and a static cap on ``x_i`` (n,).
+    """
+    h = grid.h
+    n = len(rows)
+    A = A[rows]
+    C = C[rows]
+    idx = 2 * rows[:, None] + np.arange(3)[None, :]  # (n, 3)
+    q1 = grid.q1[idx]  # (n, 3, dim)
+    q2 = grid.q2[idx]
+    c = q1 + (2.0 * h * _THETA)[None, :, None] * q2
+    absc = np.abs(c)
+    small = absc <= grid.tiny
+    A3 = np.broadcast_to(A[:, None, :], c.shape)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s_acc = np.where(small, np.inf, A3 / absc)
+        w_acc = np.where(small, 0.0, -q2 / c)
+        stat = np.where(small & (q2 != 0.0), A3 / np.abs(q2), np.inf)
+    static = np.minimum(C[:, 0], stat.reshape(n, -1).min(axis=1, initial=np.inf))
+    lo_p = np.concatenate([-s_acc.reshape(n, -1), np.zeros((n, 1))], axis=1)
+    lo_r = np.concatenate([w_acc.reshape(n, -1), np.full((n, 1), -0.5 / h)], axis=1)
+    cap_s = np.stack([C[:, 1] / h, C[:, 2] / (2.0 * h)], axis=1)  # inf stays inf
+    cap_w = np.broadcast_to(np.array([-1.0 / h, -0.5 / h]), (n, 2))
+    up_s = np.concatenate([s_acc.reshape(n, -1), cap_s], axis=1)
+    up_w = np.concatenate([w_acc.reshape(n, -1), cap_w], axis=1)
+    return lo_p, lo_r, up_s, up_w, static
+
+
+def _prune(alpha: np.ndarray, beta: np.ndarray, top: np.ndarray) -> list[tuple[list, list]]:
+    """Per row, the lines ``alpha * y + beta`` that are the minimum for some ``y`` in
+    ``[0, top]`` (the lower envelope; ties keep the first line)."""
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        b = np.where(np.isnan(beta), np.inf, beta)
+        m = b.shape[1]
+        # line c <= line c'  <=>  (a_c - a_c') y <= b_c' - b_c
+        d = alpha[:, :, None] - alpha[:, None, :]
+        r = b[:, None, :] - b[:, :, None]
+        y = r / np.where(d != 0.0, d, 1.0)
+        y = np.where(np.isnan(y), np.inf, y)
+        up = np.where(d > 0.0, y, np.inf).min(axis=2)
+        lo = np.where(d < 0.0, y, -np.inf).max(axis=2)
+        order = np.arange(m)
+        earlier = order[None, :] < order[:, None]  # [c, c']: c' comes before c
+        tie_lost = (d == 0.0) & ((r < 0.0) | ((r == 0.0) & earlier[None, :, :]))
+        keep = (
+            np.isfinite(b) & ~tie_lost.any(axis=2) & (lo <= up) & (up >= 0.0) & (lo <= top[:, None])
+        )
+    counts = keep.sum(axis=1)
+    fa = alpha[keep].tolist()
+    fb = b[keep].tolist()
+    ends = np.cumsum(counts).tolist()
+    starts = [0, *ends[:-1]]
+    return [(fa[i:j], fb[i:j]) for i, j in zip(starts, ends, strict=True)]
+
+
+_BIG = 1e300  # stands for "unbounded" in x (a path piece that does not move)
+
+
+class _Solver:
+    """The forward/backward passes on a fixed grid; re-solving after a tightening of some
+    intervals recomputes only those rows."""
+
+    def __init__(self, grid: _Grid, x0: float, x_end: float) -> None:
+        self.grid = grid
+        self.x0 = x0
+        self.x_end = min(x_end, _BIG)
+        n = grid.n
+        self.mvc = np.zeros(n)
+        self.back: list[tuple[list, list]] = [([], [])] * n
+        self.fwd: list[tuple[list, list]] = [([], [])] * n
+
+    def solve(self, A: np.ndarray, C: np.ndarray, rows: np.ndarray | None = None) -> _Solution:
+        n = self.grid.n
+        rows = np.arange(n) if rows is None else np.asarray(rows, dtype=int)
+        self.A = A
+        self.C = C
+        if len(rows):
+            self._update(rows)
+        mv = self.mvc.tolist()
+        back = self.back
+        fwd = self.fwd
+        # Backward pass: X_i = min(mvc_i, min_c (X_{i+1} - 2h p_c) / (1 + 2h r_c)).
+        Xl = [0.0] * (n + 1)
+        Xn = self.x_end
+        Xl[n] = Xn
+        for i in range(n - 1, -1, -1):
+            b = mv[i]
+            al, be = back[i]
+            for a_, b_ in zip(al, be, strict=True):
+                v = a_ * Xn + b_
+                if v < b:
+                    b = v
+            Xn = b if b > 0.0 else 0.0
+            Xl[i] = Xn
+        # Forward pass: x_{i+1} = min(X_{i+1}, min_d (x_i + 2h (s_d + w_d x_i))).
+        xl = [0.0] * (n + 1)
+        xi = min(self.x0, Xl[0])
+        xl[0] = xi
+        for i in range(n):
+            b = Xl[i + 1]
+            al, be = fwd[i]
+            for a_, b_ in zip(al, be, strict=True):
+                v = a_ * xi + b_
+                if v < b:
+                    b = v
+            xi = b if b > 0.0 else 0.0
+            xl[i + 1] = xi
+        mvc = np.append(self.mvc, min(C[-1, 2], _BIG))
+        return _Solution(np.array(xl), np.array(Xl), mvc)
+
+    def _back_lines(self, lo_p: np.ndarray, lo_r: np.ndarray, rows: np.ndarray) -> None:
+        # Backward lines (the last lower line, x_{i+1} >= 0, has a zero denominator up to
+        # rounding and never binds: left out); the range of X_{i+1} is [0, mvc_{i+1}].
+        h = self.grid.h
+        R = 1.0 + 2.0 * h * lo_r[:, :-1]
+        pos = R > 0.0
+        alpha = np.where(pos, 1.0 / np.where(pos, R, 1.0), 0.0)
+        with np.errstate(invalid="ignore"):
+            beta = np.where(pos, -2.0 * h * lo_p[:, :-1] * alpha, np.inf)
+        top = np.append(self.mvc, self.x_end)[rows + 1]
+        for i, item in zip(rows.tolist(), _prune(alpha, beta, top), strict=True):
+            self.back[i] = item
+
+    def _update(self, rows: np.ndarray) -> None:
+        h = self.grid.h
+        lo_p, lo_r, up_s, up_w, static = _lines(self.grid, self.A, self.C, rows)
+        m = len(rows)
+        # Interval maximum-velocity curve: largest x_i with max_c lo_c(x) <= min_d hi_d(x).
+        # x = 0 (with a = 0) is always feasible, so each pair of lines bounds x from above only.
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            den = lo_r[:, :, None] - up_w[:, None, :]
+            num = up_s[:, None, :] - lo_p[:, :, None]
+            val = np.where(den > 0.0, num / np.where(den > 0.0, den, 1.0), np.inf)
+        mvc_r = np.minimum(static, val.reshape(m, -1).min(axis=1))
+        self.mvc[rows] = np.clip(mvc_r, 0.0, _BIG)
+        self._back_lines(lo_p, lo_r, rows)
+        prev = np.setdiff1d(rows - 1, rows)  # a changed mvc_i changes the range of row i - 1
+        prev = prev[prev >= 0]
+        if len(prev):
+            lo_p2, lo_r2, _, _, _ = _lines(self.grid, self.A, self.C, prev)
+            self._back_lines(lo_p2, lo_r2, prev)
+        for i, item in zip(
+            rows.tolist(),
+            _prune(1.0 + 2.0 * h * up_w, 2.0 * h * up_s, self.mvc[rows]),
+            strict=True,
+        ):
+            self.fwd[i] = item
+
+
+# -- feasibility check on sub-intervals ---------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class _Check:
+    acc: np.ndarray  # (n, dim) bound of |a_k| / a_max_k per interval
+    speed: np.ndarray  # (n,) bound of the squared speed ratio (velocity and path speed)
+    worst: float
+
+
+def _dense_eval(path: Path, n: int, sub: int) -> tuple[np.ndarray, np.ndarray]:
+    u = np.linspace(0.0, float(path.u_end), n * sub + 1)
+    q1 = np.asarray(path.evaluate(u, 1), dtype=float).reshape(len(u), -1)
+    q2 = np.asarray(path.evaluate(u, 2), dtype=float).reshape(len(u), -1)
+    return q1, q2
+
+
+def _bound(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Conservative (max, min) over the sub-interval axis (axis 1) of samples ``f``."""
+    d2 = np.abs(np.diff(f, 2, axis=1)).max(axis=1) * 0.25 if f.shape[1] > 2 else 0.0
+    return f.max(axis=1) + d2, f.min(axis=1) - d2
+
+
+def _check(dense: tuple[np.ndarray, np.ndarray], x: np.ndarray, lim: PathLimits, h: float):
+    q1, q2 = dense
+    n = len(x) - 1
+    sub = (len(q1) - 1) // n
+    idx = sub * np.arange(n)[:, None] + np.arange(sub + 1)[None, :]
+    th = np.arange(sub + 1) / sub
+    a = (x[1:] - x[:-1]) / (2.0 * h)  # (n,)
+    xs = x[:-1, None] + th[None, :] * (x[1:] - x[:-1])[:, None]  # (n, sub+1)
+    Q1 = q1[idx]
+    Q2 = q2[idx]
+    acc = Q1 * a[:, None, None] + Q2 * xs[:, :, None]  # (n, sub+1, dim)
+    hi, lo = _bound(acc)
+    racc = np.maximum(hi, -lo) / lim.a_max[None, :]
+    speed = np.zeros((n, sub + 1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if np.any(np.isfinite(lim.v_max)):
+            g = Q1**2 * xs[:, :, None] / (lim.v_max**2)[None, None, :]
+            speed = np.nanmax(np.where(np.isfinite(g), g, 0.0), axis=2)
+        if math.isfinite(lim.v_path):
+            sp = np.einsum("ijk,ijk->ij", Q1, Q1) * xs / lim.v_path**2
+            speed = np.maximum(speed, sp)
+    rspeed = _bound(speed)[0]
+    worst = max(float(racc.max(initial=0.0)), float(rspeed.max(initial=0.0)))
+    return _Check(racc, rspeed, worst)
+
+
+# -- public entry ---------------------------------------------------------------------------
+
+
+def _validate(
+    path: Path,
+    v_max: float | Sequence[float],
+    a_max: float | Sequence[float],
+    j_max: float | Sequence[float] | None,
+    v_path: float | None,
+    v_start: float,
+    v_end: float,
+    n_grid: int | None,
+) -> tuple[PathLimits, float, float, int]:
+    if not isinstance(path, Path):
+        raise PlanningError(f"path: must be a motionplc Path, got {type(path).__name__}")
+    dim = int(path.dim)
+    if dim < 1:
+        raise PlanningError(f"path.dim: must be >= 1, got {dim}")
+    u_end = float(path.u_end)
+    if not (math.isfinite(u_end) and u_end > 0.0):
+        raise PlanningError(f"path.u_end: must be in (0, inf), got {u_end!r}")
+    vm = _per_axis("v_max", v_max, dim, allow_inf=True)
+    am = _per_axis("a_max", a_max, dim, allow_inf=False)
+    jm = None if j_max is None else _per_axis("j_max", j_max, dim, allow_inf=False)
+    vp = math.inf if v_path is None else _scalar("v_path", v_path, 0.0, math.inf, lo_open=True)
+    vs = _scalar("v_start", v_start, 0.0, 1e300)
+    ve = _scalar("v_end", v_end, 0.0, 1e300)
+    if n_grid is None:
+        n = DEFAULT_GRID
+    else:
+        if isinstance(n_grid, bool) or not isinstance(n_grid, int | np.integer):
+            raise PlanningError(f"n_grid: must be an integer in [2, 1000000], got {n_grid!r}")
+        n = int(n_grid)
+        if not 2 <= n <= 1_000_000:
+            raise PlanningError(f"n_grid: must be in [2, 1000000], got {n}")
+    return PathLimits(vm, am, jm, vp), vs, ve, n
+
+
+def _boundary_x(name: str, speed: float, grid: _Grid, k: int) -> float:
+    """``x = du^2`` of a path speed ``speed`` [m/s] at half-grid index ``k``."""
+    if speed == 0.0:
+        return 0.0
+    s2 = float(grid.speed2[k])
+    if s2 == 0.0:
+        raise PlanningError(
+            f"{name}: the path has a zero tangent at its {'start' if k == 0 else 'end'}; "
+            f"allowed [0, 0], got {speed!r}"
+        )
+    return speed * speed / s2
+
+
+def _law_second_order(x: np.ndarray, h: float, u_end: float) -> SpeedLaw:
+    n = len(x) - 1
+    sig = np.sqrt(x)
+    ssum = sig[:-1] + sig[1:]
+    if np.any(ssum <= 0.0):
+        i = int(np.flatnonzero(ssum <= 0.0)[0])
+        raise PlanningError(
+            f"path: the limits allow no motion near u={i * h!r} (the admissible path speed is 0)"
+        )
+    dur = 2.0 * h / ssum
+    t = np.concatenate([[0.0], np.cumsum(dur)])
+    acc = (sig[1:] - sig[:-1]) / dur
+    u = h * np.arange(n, dtype=float)
+    return SpeedLaw(t[:-1], u, sig[:-1], acc, np.zeros(n), float(t[-1]), u_end)
+
+
+def solve_second_order(
+    path: Path,
+    lim: PathLimits,
+    x0: float,
+    x_end: float,
+    n: int,
+    grid: _Grid | None = None,
+    extra_cap: np.ndarray | None = None,
+    acc_scale: np.ndarray | None = None,
+) -> tuple[_Solution, _Grid, dict[str, float]]:
+    """The feasible discretised optimum ``x_i`` on ``n`` intervals (see the module docstring).
+
+    ``extra_cap`` (half-grid, x units) and ``acc_scale`` ((n, dim) factors <= 1) tighten the
+    problem further (used by the jerk-limited planner). Raises :class:`PlanningError` when the
+    start speed exceeds what the path allows or the end speed cannot be reached.
+    """
+    if grid is None:
+        grid = _evaluate_grid(path, n)
+    caps = _speed_caps(grid, lim, extra_cap) * (1.0 - _MARGIN)
+    idx = 2 * np.arange(n)[:, None] + np.arange(3)[None, :]
+    C = caps[idx].copy()
+    A = np.broadcast_to(lim.a_max * (1.0 - _MARGIN), (n, grid.q1.shape[1])).copy()
+    if acc_scale is not None:
+        A *= acc_scale
+    dense = _dense_eval(path, n, _SUB)
+    info: dict[str, float] = {"repairs": 0.0}
+    h = grid.h
+    solver = _Solver(grid, x0, x_end)
+    sol = solver.solve(A, C)
+    for it in range(_MAX_REPAIRS + 1):
+        if x0 > sol.X[0] * (1.0 + 1e-9) + 1e-300:
+            vmax0 = math.sqrt(sol.X[0] * grid.speed2[0])
+            raise PlanningError(
+                f"v_start: above what the path allows at its start; allowed [0, {vmax0!r}]"
+            )
+        chk = _check(dense, sol.x, lim, h)
+        if chk.worst <= 1.0 + _ACCEPT:
+            break
+        if it == _MAX_REPAIRS:
+            break
+        info["repairs"] = it + 1.0
+        # tighten by twice the excess (the excess moves a little as the solution changes)
+        fa = np.where(chk.acc > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.acc - 1.0 + 1e-9), 1.0)
+        fv = np.where(chk.speed > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.speed - 1.0 + 1e-9), 1.0)
+        A = A * fa
+        C = C * fv[:, None]
+        rows = np.flatnonzero((fa < 1.0).any(axis=1) | (fv < 1.0))
+        sol = solver.solve(A, C, rows)
+    if chk.worst > 1.0 + _ACCEPT:
+        if x0 > 0.0 or x_end > 0.0:
+            raise PlanningError(
+                f"path: could not satisfy the limits between grid points after {_MAX_REPAIRS} "
+                f"refinements (worst ratio {chk.worst!r}); use a finer n_grid"
+            )
+        # exact fallback: scaling x scales every ratio linearly
+        sol = _Solution(sol.x * (1.0 - 1e-9) / chk.worst, sol.X, sol.mvc)
+        info["fallback_scale"] = 1.0 / chk.worst
+    info["worst_ratio"] = chk.worst
+    if x_end > 0.0 and sol.x[-1] < x_end * (1.0 - 1e-9):
+        reach = math.sqrt(sol.x[-1] * grid.speed2[-1])
+        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
+    xs = sol.x.copy()
+    xs[-1] = x_end if x_end > 0.0 else xs[-1]
+    return _Solution(xs, sol.X, sol.mvc), grid, info
+
+
+def plan_path(
+    path: Path,
+    v_max: float | Sequence[float],
+    a_max: float | Sequence[float],
+    *,
+    j_max: float | Sequence[float] | None = None,
+    v_path: float | None = None,
+    v_start: float = 0.0,
+    v_end: float = 0.0,
+    n_grid: int | None = None,
+) -> PathTrajectory:
+    """The fastest motion along ``path`` within per-axis limits.
+
+    Args:
+        path: the geometric path (any :class:`Path`).
+        v_max, a_max: per-axis velocity [m/s] and acceleration [m/s^2] limits (one value for
+            every axis, or one per axis); ``v_max`` may be ``inf``.
+        j_max: per-axis jerk limits [m/s^3]; ``None`` plans the second-order optimum (piecewise
+            constant path acceleration), otherwise a jerk-limited motion (see
+            :mod:`motionplc.planning.paths.topp_jerk`).
+        v_path: limit of the path speed ``|dp/dt|`` [m/s], or ``None``.
+        v_start, v_end: path speed ``|dp/dt|`` [m/s] at the start and the end.
+        n_grid: number of grid intervals along ``u`` (default :data:`DEFAULT_GRID`).
+
+    Returns:
+        An immutable :class:`PathTrajectory`. Every velocity, acceleration (and jerk) limit holds
+        everywhere along it, not only at grid points (checked on sub-intervals with a
+        conservative bound at construction; see the module docstring).
+
+    Raises:
+        PlanningError: naming the field and the allowed range for bad input, a start speed above
+            what the path allows, or an end speed that cannot be reached.
+    """
+    lim, vs, ve, n = _validate(path, v_max, a_max, j_max, v_path, v_start, v_end, n_grid)
+    if lim.j_max is not None:
+        from motionplc.planning.paths.topp_jerk import plan_jerk_limited
+
+        return plan_jerk_limited(path, lim, vs, ve, n)
+    grid = _evaluate_grid(path, n)
+    x0 = _boundary_x("v_start", vs, grid, 0)
+    xe = _boundary_x("v_end", ve, grid, 2 * n)
+    sol, grid, info = solve_second_order(path, lim, x0, xe, n, grid)
+    law = _law_second_order(sol.x, grid.h, float(path.u_end))
+    return PathTrajectory(
+        path,
+        law,
+        2,
+        grid.u[::2],
+        np.sqrt(sol.x),
+        np.sqrt(np.maximum(sol.mvc, 0.0)),
+        law.duration,
+        info,
+    )
