@@ -5,12 +5,19 @@
     python tools/bench_runtime.py --no-rt         # simulated clock only
     python tools/bench_runtime.py --fifo 10       # real-time run under SCHED_FIFO (if allowed)
     python tools/bench_runtime.py --cpu 1 --mlock # pinned to CPU 1, memory locked (if allowed)
+    python tools/bench_runtime.py --rss-cycles 1000000 --rss-axes 8 --no-rt --axes
+                                                  # resident memory after 1,000,000 cycles
 
 Every axis runs an endless blended sequence of MC_MoveAbsolute blocks (BlendingLow between
 0 -> 400 -> 1000 and back, jerk-limited), with MC_Power and MC_ReadStatus called every scan,
 the trace recording every cycle and FB edges on. Invariant checks are off (they are for tests).
 Targets (issue 4): 8 axes >= 10,000 simulated cycles/s; real time 8 axes at 1 ms with p99
 lateness <= 200 us and <= 6 overruns in 60,000 cycles.
+
+``--rss-cycles N`` runs N simulated cycles with the runtime's default trace settings (byte
+budget ``motionplc.runtime.trace.TRACE_BYTES``) and reports the resident set size (VmRSS of
+/proc/self/status) before and after, the peak (ru_maxrss) and what the trace holds. Target
+(issue 11): 8 axes, 1,000,000 cycles, under 100 MB.
 
 Simulated throughput is given per wall-clock second and per CPU second of this process
 (``time.process_time``): on a shared machine the wall figure depends on the other load, the CPU
@@ -72,8 +79,12 @@ class AxisProgram:
             self.turn = 1 - self.turn
 
 
-def build(n_axes: int, clock=None, seconds: float = 0.0) -> Runtime:
-    rt = Runtime(cycle=0.001, clock=clock, trace_capacity=max(70_000, int(seconds * 1000) + 10))
+def build(n_axes: int, clock=None, seconds: float = 0.0, default_trace: bool = False) -> Runtime:
+    if default_trace:
+        rt = Runtime(cycle=0.001, clock=clock)
+    else:
+        cap = max(70_000, int(seconds * 1000) + 10)
+        rt = Runtime(cycle=0.001, clock=clock, trace_capacity=cap)
     programs = [AxisProgram(rt, f"a{i}") for i in range(n_axes)]
 
     def main(ctx) -> None:
@@ -92,6 +103,51 @@ def sim_throughput(n_axes: int, cycles: int) -> tuple[float, float]:
     rt.run(cycles=cycles)
     w, c = time.perf_counter() - w0, time.process_time() - c0
     return cycles / w, cycles / max(c, 1e-9)
+
+
+def _rss_mb() -> float:
+    """Resident set size of this process [MB] (VmRSS of /proc/self/status; NaN if absent)."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024 / 1e6
+    except OSError:
+        pass
+    return float("nan")
+
+
+def rss_run(n_axes: int, cycles: int, report_every: int = 100_000) -> None:
+    """Run ``cycles`` simulated cycles with the default trace settings; print the memory."""
+    rt = build(n_axes, default_trace=True)
+    rt.run(cycles=200)
+    tr = rt.trace
+    r0 = _rss_mb()
+    print(
+        f"memory, {n_axes} axes, {cycles} simulated cycles, default trace settings "
+        f"(budget {tr.max_bytes / 2**20:g} MiB = {tr.rows_capacity} rows of {tr.row_bytes} B"
+        f" + FB edges):"
+    )
+    print(f"  RSS after 200 cycles {r0:7.1f} MB")
+    w0 = time.perf_counter()
+    done = 200
+    while done < cycles:
+        n = min(report_every, cycles - done)
+        rt.run(cycles=n)
+        done += n
+        print(
+            f"  RSS after {done:>9} cycles {_rss_mb():7.1f} MB"
+            f"   ({done / (time.perf_counter() - w0):7.0f} cycles/s)",
+            flush=True,
+        )
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024 / 1e6
+    moved = sum(1 for ax in rt.axes.values() if abs(ax.p) > 0.0 or ax.v != 0.0)
+    print(
+        f"  final RSS {_rss_mb():.1f} MB, peak {peak:.1f} MB; the trace holds {len(tr)} rows"
+        f" (dropped {tr.dropped_rows}), {len(tr.events)} FB edges (dropped"
+        f" {tr.dropped_events}); its storage bound is {tr.nbytes / 1e6:.1f} MB"
+        f" ({tr.row_bytes} B per cycle = 16 + {n_axes} x 57); axes in motion: {moved}/{n_axes}"
+    )
 
 
 def _proc_stat() -> tuple[int, int]:
@@ -210,6 +266,13 @@ def main() -> None:
     ap.add_argument("--spin-us", type=float, default=200.0, help="busy-wait before a deadline")
     ap.add_argument("--repeats", type=int, default=3, help="simulated runs per axis count")
     ap.add_argument("--axes", type=int, nargs="*", default=[1, 8, 32])
+    ap.add_argument(
+        "--rss-cycles",
+        type=int,
+        default=0,
+        help="also run this many cycles with the default trace and report the RSS",
+    )
+    ap.add_argument("--rss-axes", type=int, default=8, help="axes of the --rss-cycles run")
     args = ap.parse_args()
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     for n in args.axes:
@@ -221,6 +284,8 @@ def main() -> None:
             f" ({statistics.median(wall):7.0f} median), {max(cpu):7.0f} per CPU-second best"
             f" ({statistics.median(cpu):7.0f} median) = {max(wall) / 1000:.1f}x real time"
         )
+    if args.rss_cycles > 0:
+        rss_run(args.rss_axes, args.rss_cycles)
     if not args.no_rt:
         realtime(args.rt_axes, args.rt_seconds, args.fifo, args.cpu, args.mlock, args.spin_us)
 

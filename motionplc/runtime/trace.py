@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import csv
 import hashlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -63,6 +63,7 @@ EVENT_CAPACITY = 200_000
 """Default number of FB edges kept (fewer if they would take more than 1/8 of the budget)."""
 
 _STAGING_ROWS = 256
+_CHUNK_BYTES = 2 * 2**20  # ring chunks stay below numpy's huge-page threshold (4 MiB)
 
 _ALLOWED_DTYPES = {
     np.dtype(np.float64),
@@ -138,8 +139,11 @@ class Trace:
         self._stage_rows = 0
         self._fill = 0  # rows in the staging block
         self._ring_rows = 0
-        self._groups: list[tuple[np.dtype, np.ndarray, np.ndarray]] = []  # dtype, cols, ring
-        self._where: list[tuple[int, int]] = []  # column -> (group, row in the group's ring)
+        self._chunk_rows = 0
+        self._groups: list[tuple[np.dtype, np.ndarray]] = []  # (dtype, its columns)
+        self._where: list[tuple[int, int]] = []  # column -> (group, row in the group's arrays)
+        # the ring: chunks of _chunk_rows slots, one (group columns x rows) array per group
+        self._chunks: list[list[np.ndarray]] = []
         self._pos = 0  # next ring slot
         self._count = 0  # rows in the ring
         self._dropped = 0
@@ -199,39 +203,52 @@ class Trace:
 
     @property
     def rows_capacity(self) -> int:
-        """How many of the most recent rows the ring keeps (fixed by the first row)."""
+        """How many of the most recent rows the ring keeps (fixed by the first row).
+
+        ``len(trace)`` is between this (once recorded) and this plus the staging block.
+        """
         return self._ring_rows if self._frozen else self._plan()[1]
 
     @property
     def nbytes(self) -> int:
-        """Bytes of sample storage (staging block, row ring, edge ring): <= ``max_bytes``."""
-        stage, ring = self._plan()
+        """Bytes of sample storage (staging block, row ring, edge ring): <= ``max_bytes``.
+
+        This is the bound; the ring's chunks are allocated as rows arrive.
+        """
+        stage, ring, _ = self._plan()
         return stage * 8 * len(self._columns) + ring * self.row_bytes + self._event_bytes()
 
     def _event_bytes(self) -> int:
         return self.event_capacity * EVENT_BYTES
 
-    def _plan(self) -> tuple[int, int]:
-        """(staging rows, ring rows) for the declared columns within the budget."""
+    def _plan(self) -> tuple[int, int, int]:
+        """(staging rows S, ring rows R, chunk rows C) within the budget; R and C multiples of S."""
         ncols = len(self._columns)
+        rb = self.row_bytes
         budget = self.max_bytes - self._event_bytes()
         stage = max(1, min(_STAGING_ROWS, budget // 16 // (8 * ncols)))
-        ring = (budget - stage * 8 * ncols) // self.row_bytes
-        return stage, max(1, min(self.capacity, ring))
+        fit = (budget - stage * 8 * ncols) // rb
+        stage = max(1, min(stage, fit))
+        want = -(-self.capacity // stage) * stage  # capacity rounded up to whole blocks
+        ring = max(stage, min(want, fit // stage * stage))
+        chunk = max(stage, min(ring, _CHUNK_BYTES // rb // stage * stage))
+        return stage, ring, chunk
 
     def _freeze(self) -> None:
         self._frozen = True
-        self._stage_rows, self._ring_rows = self._plan()
+        self._stage_rows, self._ring_rows, self._chunk_rows = self._plan()
         self._stage = np.empty((self._stage_rows, len(self._columns)))
         by_type: dict[np.dtype, list[int]] = {}
         for i, d in enumerate(self._dtypes):
             by_type.setdefault(d, []).append(i)
         self._where = [(0, 0)] * len(self._columns)
         for g, (d, cols) in enumerate(by_type.items()):
-            ring = np.empty((len(cols), self._ring_rows), dtype=d)
-            self._groups.append((d, np.array(cols, dtype=np.intp), ring))
+            self._groups.append((d, np.array(cols, dtype=np.intp)))
             for r, c in enumerate(cols):
                 self._where[c] = (g, r)
+
+    def _chunk_size(self, k: int) -> int:
+        return min(self._chunk_rows, self._ring_rows - k * self._chunk_rows)
 
     # -- recording -------------------------------------------------------------------------
     def record(self, row: Sequence[float]) -> None:
@@ -245,18 +262,15 @@ class Trace:
         self._fill += 1
 
     def _flush(self) -> None:
-        """Move the staging block into the ring (column by column, exact conversion)."""
+        """Move the full staging block into the ring (column by column, exact conversion)."""
         m = self._fill
-        if m == 0:
-            return
-        block = self._stage[:m]
-        n = self._ring_rows
-        if m > n:  # only the last n rows survive
-            block = block[m - n :]
-            self._dropped += m - n
-            m = n
-        for d, cols, ring in self._groups:
-            src = block[:, cols].T
+        k, off = divmod(self._pos, self._chunk_rows)
+        if k == len(self._chunks):  # the ring grows chunk by chunk up to its size
+            size = self._chunk_size(k)
+            self._chunks.append([np.empty((len(cols), size), d) for d, cols in self._groups])
+        chunk = self._chunks[k]
+        for (d, cols), dest in zip(self._groups, chunk, strict=True):
+            src = self._stage[:, cols].T
             if d != np.float64:
                 conv = src.astype(d)
                 if not np.array_equal(conv, src):
@@ -264,10 +278,8 @@ class Trace:
                     name = self._columns[int(cols[bad])]
                     raise ValueError(f"trace column {name!r} ({d}) cannot hold the value recorded")
                 src = conv
-            first = min(m, n - self._pos)
-            ring[:, self._pos : self._pos + first] = src[:, :first]
-            if first < m:
-                ring[:, : m - first] = src[:, first:]
+            dest[:, off : off + m] = src
+        n = self._ring_rows
         self._dropped += max(0, self._count + m - n)
         self._count = min(n, self._count + m)
         self._pos = (self._pos + m) % n
@@ -304,23 +316,26 @@ class Trace:
         """FB edges discarded because of ``event_capacity`` (the oldest ones)."""
         return max(0, self._ev_total - self.event_capacity)
 
-    def _ring_order(self, ring: np.ndarray) -> np.ndarray:
-        """The ring's rows in recording order (a copy), shape (group columns, count)."""
-        if self._count < self._ring_rows:
-            return ring[:, : self._count]
-        return np.concatenate((ring[:, self._pos :], ring[:, : self._pos]), axis=1)
+    def _segments(self, r0: int, r1: int) -> Iterator[tuple[list[np.ndarray], int, int, int]]:
+        """Ring rows ``r0:r1`` (0 = the oldest) as runs (chunk, start, stop, offset in r0:r1)."""
+        n = self._ring_rows
+        base = self._pos if self._count == n else 0
+        i = r0
+        while i < r1:
+            k, off = divmod((base + i) % n, self._chunk_rows)
+            m = min(r1 - i, self._chunk_size(k) - off)
+            yield self._chunks[k], off, off + m, i - r0
+            i += m
 
     def _rows(self, start: int, stop: int) -> np.ndarray:
         """Retained rows ``start:stop`` (0 = the oldest) as a float64 2-D array."""
-        out = np.empty((stop - start, len(self._columns)))
+        out = np.empty((max(0, stop - start), len(self._columns)))
         if not self._frozen or stop <= start:
             return out
         r0, r1 = min(start, self._count), min(stop, self._count)
-        if r1 > r0:
-            base = self._pos if self._count == self._ring_rows else 0
-            idx = (np.arange(r0, r1) + base) % self._ring_rows
-            for _d, cols, ring in self._groups:
-                out[: r1 - r0, cols] = ring[:, idx].T
+        for chunk, a, b, o in self._segments(r0, r1):
+            for (_d, cols), arr in zip(self._groups, chunk, strict=True):
+                out[o : o + b - a, cols] = arr[:, a:b].T
         s0, s1 = max(start, self._count), stop
         if s1 > s0:
             out[s0 - start :] = self._stage[s0 - self._count : s1 - self._count]
@@ -341,9 +356,9 @@ class Trace:
         if not self._frozen:
             return np.empty(0)
         g, r = self._where[i]
-        ring = self._groups[g][2]
-        part = self._ring_order(ring[r : r + 1])[0].astype(np.float64)
-        return np.concatenate((part, self._stage[: self._fill, i]))
+        parts = [chunk[g][r, a:b] for chunk, a, b, _ in self._segments(0, self._count)]
+        parts.append(self._stage[: self._fill, i])
+        return np.concatenate(parts, dtype=np.float64)
 
     def last(self, name: str) -> float:
         """Value of a column in the most recent row."""
@@ -353,7 +368,8 @@ class Trace:
         if self._fill:
             return float(self._stage[self._fill - 1, i])
         g, r = self._where[i]
-        return float(self._groups[g][2][r, (self._pos - 1) % self._ring_rows])
+        k, off = divmod((self._pos - 1) % self._ring_rows, self._chunk_rows)
+        return float(self._chunks[k][g][r, off])
 
     @property
     def events(self) -> tuple[TraceEvent, ...]:
