@@ -10,18 +10,57 @@ from __future__ import annotations
 
 import argparse
 import csv
+import logging
 import math
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from motionplc.errors import MotionPlcError
 from motionplc.planning import Limits, State, plan
 
+LIBRARY_LOGGERS = ("pymodbus", "canopen", "can")
+"""Loggers of the fieldbus libraries, routed through the CLI's handler (see :func:`log_routing`)."""
+
 
 def _float(text: str) -> float:
     return float(text)
+
+
+@contextmanager
+def log_routing(verbose: int) -> Iterator[None]:
+    """Route the log records of motionplc and the fieldbus libraries for one command.
+
+    One non-blocking, rate-limited stderr handler (``drives_main.guarded_logging``) on the root
+    logger receives them. ``verbose`` 0 (default): motionplc's warnings only; pymodbus, canopen
+    and python-can are silent (what goes wrong on a bus reaches the user as the axis error and
+    its reason in the FAILED line). 1 (``-v``): also the libraries' warnings and errors and
+    motionplc's info. 2 (``-vv``): everything at debug level, not rate-limited. The previous
+    logger levels are restored afterwards.
+    """
+    from motionplc.fieldbus.drives_main import guarded_logging
+
+    if verbose <= 0:
+        own, lib = logging.WARNING, logging.CRITICAL + 1
+    elif verbose == 1:
+        own, lib = logging.INFO, logging.WARNING
+    else:
+        own, lib = logging.DEBUG, logging.DEBUG
+    levels = {"motionplc": own, **dict.fromkeys(LIBRARY_LOGGERS, lib)}
+    saved = {name: logging.getLogger(name).level for name in levels}
+    with guarded_logging(interval=0.0 if verbose >= 2 else 1.0) as handler:
+        handler_level = handler.level
+        handler.setLevel(min(own, lib))
+        for name, level in levels.items():
+            logging.getLogger(name).setLevel(level)
+        try:
+            yield
+        finally:
+            for name, level in saved.items():
+                logging.getLogger(name).setLevel(level)
+            handler.setLevel(handler_level)
 
 
 def _cmd_plan(args: argparse.Namespace) -> int:
@@ -168,6 +207,7 @@ def _summary(machine: Any, runner: Any) -> list[str]:
 def _cmd_run(args: argparse.Namespace) -> int:
     from motionplc.blocks import AxisState
     from motionplc.config import build, load_config
+    from motionplc.sequence import axis_error_text
 
     cfg = load_config(args.config)
     script = _load_script(args.script, cfg) if args.script else None
@@ -228,10 +268,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 )
         for name, ax in machine.axes.items():
             if ax.state is AxisState.ERROR_STOP and not any(f"{name!r}" in f for f in failures):
-                failures.append(
-                    f"axis {name!r} ends in ERROR_STOP ({ax.axis_error.name}: "
-                    f"{ax.axis_error_reason})"
-                )
+                failures.append(f"axis {name!r} ends in ERROR_STOP ({axis_error_text(ax)})")
         if rt.error_reason:
             failures.append(rt.error_reason)
         if args.trace:
@@ -239,7 +276,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             events = path.with_suffix(".events.csv")
             rt.trace.to_csv(path, events_path=events)
-            print(f"wrote {path} ({len(rt.trace)} rows) and {events}")
+            tr = rt.trace
+            kept = ""
+            if tr.dropped_rows or tr.dropped_events:
+                kept = (
+                    f"; the last {len(tr)} cycles: {tr.dropped_rows} older rows and "
+                    f"{tr.dropped_events} FB edges dropped by the trace bound of "
+                    f"{tr.rows_capacity} rows / {tr.max_bytes / 2**20:g} MiB"
+                )
+            print(f"wrote {path} ({len(tr)} rows{kept}) and {events}")
         if args.plot:
             columns, data, events_rows = _trace_from_runtime(rt)
             code = _write_plot(Path(args.plot), columns, data, events_rows, str(args.config))
@@ -615,6 +660,12 @@ def _cmd_drives(args: argparse.Namespace) -> int:
     return 0
 
 
+_VERBOSE_HELP = (
+    "show the log of the fieldbus libraries (pymodbus, canopen, python-can): -v warnings and "
+    "errors, -vv everything (default: quiet; bus failures are reported as axis errors)"
+)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="motionplc",
@@ -636,6 +687,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--trace", help="write the trace as CSV (FB edges to *.events.csv)")
     r.add_argument("--plot", help="write a scope plot: .png (needs matplotlib) or .html")
     r.add_argument("--quiet", "-q", action="store_true", help="no progress output")
+    r.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     r.set_defaults(func=_cmd_run)
     v = sub.add_parser("validate", help="check a configuration (and a sequence or program)")
     v.add_argument("config")
@@ -648,6 +700,7 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("drives", help="serve the virtual drives of a configuration on their own")
     d.add_argument("config")
     d.add_argument("--duration", type=_float, default=None, help="[s]; default: until Ctrl-C")
+    d.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     d.set_defaults(func=_cmd_drives)
     p = sub.add_parser("plan", help="plan one time-optimal move and print its phases")
     for name, default in (
@@ -675,6 +728,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if args.command in ("run", "drives"):
+            with log_routing(args.verbose):
+                return int(args.func(args))
         return int(args.func(args))
     except MotionPlcError as exc:
         print(f"motionplc: error: {exc}", file=sys.stderr)

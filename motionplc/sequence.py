@@ -620,6 +620,16 @@ class _Cursor:
         return self.steps[self.index]
 
 
+def axis_error_text(axis: Any) -> str:
+    """``NAME (0xCODE): reason`` of an axis' error (the reason is the drive's or kernel's text).
+
+    E.g. ``COMMUNICATION_LOST (0x4004): connection lost``; the name alone if no reason was given.
+    """
+    eid = axis.axis_error
+    reason = axis.axis_error_reason
+    return f"{eid.name} (0x{int(eid):04X})" + (f": {reason}" if reason else "")
+
+
 class SequenceRunner:
     """Runs a :class:`Sequence` on a :class:`~motionplc.config.Machine` as a task program.
 
@@ -705,7 +715,7 @@ class SequenceRunner:
         return where + (": " + "; ".join(inner) if inner else "")
 
     def _check_errors(self) -> None:
-        from motionplc.blocks import AxisState
+        from motionplc.blocks import AxisState, ErrorID
 
         for blk in self._scan_order:
             fb = blk.fb
@@ -713,17 +723,22 @@ class SequenceRunner:
                 blk.reported = True
                 eid = fb.error_id
                 text = f": {fb.error_text}" if fb.error_text else ""
+                # an FB that failed because its axis stopped names the axis' own error
+                ax = self.machine.axes[blk.decl.axis]
+                cause = ""
+                if eid is ErrorID.AXIS_ERROR_STOP and ax.axis_error is not ErrorID.OK:
+                    cause = f": axis {blk.decl.axis!r}: {axis_error_text(ax)}"
                 self._fail(
                     f"block {blk.decl.name!r} ({blk.decl.type} on axis {blk.decl.axis!r}, "
-                    f"line {blk.decl.line}) failed with {eid.name} (0x{int(eid):04X}){text}"
+                    f"line {blk.decl.line}) failed with {eid.name} (0x{int(eid):04X}){text} "
+                    f"at t = {self.t:.3f} s in {self._where(self.root)}{cause}"
                 )
                 return
         for name, ax in self.machine.axes.items():
             if ax.state is AxisState.ERROR_STOP:
-                reason = ax.axis_error_reason or ax.axis_error.name
                 self._fail(
                     f"axis {name!r} went to ERROR_STOP at t = {self.t:.3f} s "
-                    f"({ax.axis_error.name}: {reason}) in {self._where(self.root)}"
+                    f"({axis_error_text(ax)}) in {self._where(self.root)}"
                 )
                 return
 
