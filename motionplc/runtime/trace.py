@@ -8,13 +8,15 @@ Memory bound (documented, checked by ``tests/runtime/test_trace_memory.py``):
   16 B per cycle** (8 axes: 472 B per cycle, against 528 B as float64 rows);
 * the trace never holds more than ``max_bytes`` (default :data:`TRACE_BYTES` = 32 MiB) of
   samples: a ring buffer keeps the most recent cycles — ``min(capacity, rows that fit)`` of
-  them (8 axes: ~70,000 cycles = 70 s at 1 ms; 1 axis: the default 500,000 rows in 37 MB would
-  not fit, ~370,000) — and drops the oldest (``dropped_rows`` counts them). The budget
-  includes a small float64 staging block (the hot path writes one row into it; full blocks
-  are converted column by column into the ring) and the FB-edge ring (15 B per edge,
-  ``event_capacity`` edges, 3 MB by default). Storage is allocated once, when the first row
-  is recorded, with ``numpy.empty``: pages are touched only as rows arrive, so a short run
-  costs only what it records.
+  them (8 axes: 64,256 cycles = 64 s at 1 ms; 1 axis: 418,048; the row ``capacity``, 500,000
+  by default, binds first only for a trace without axes) — and drops the oldest (``dropped_rows``
+  counts them; ``rows_capacity`` and ``nbytes`` tell the figures for a layout). The budget
+  includes a float64 staging block (the hot path writes one row into it; a full block of 256
+  rows is converted column by column into the ring) and the FB-edge ring (15 B per edge,
+  ``event_capacity`` edges, 200,000 = 3 MB by default). The ring is allocated in chunks of
+  about 2 MiB as rows arrive, so a short run costs only what it records and a long one holds
+  the bound without copying (``tools/bench_runtime.py --rss-cycles 1000000``: 8 axes stay
+  near 70 MB resident).
 
 Values are stored exactly: the float columns stay float64, and a small-integer column is
 checked to convert without loss (anything else raises ``ValueError`` naming the column), so
