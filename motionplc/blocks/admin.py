@@ -4,9 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from motionplc.blocks.axis import Axis, Command, Handle
-from motionplc.blocks.base import EnableFB, ExecuteFB, InputError, check_number
+from motionplc.blocks.axis import OVERRIDE_MIN, POSITION_MAX, Axis, Command, Handle
+from motionplc.blocks.base import EnableFB, ExecuteFB, InputError, check_dynamic, check_number
 from motionplc.blocks.enums import AxisState, BufferMode, ErrorID, ExecutionMode, Source
+from motionplc.errors import PlanningError
 
 
 class MC_Power(EnableFB):
@@ -73,7 +74,9 @@ class MC_SetPosition(ExecuteFB):
         super().__init__(name, **inputs)
 
     def _start(self, axis: Axis) -> Handle:
-        pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+        pos = check_number(
+            "position", self.position, ErrorID.INVALID_POSITION, -POSITION_MAX, POSITION_MAX
+        )
         mode = self.execution_mode
         if not isinstance(mode, ExecutionMode):
             raise InputError(
@@ -89,9 +92,10 @@ class MC_SetPosition(ExecuteFB):
 class MC_SetOverride(EnableFB):
     """Velocity/acceleration/jerk override factors (``enabled`` instead of ``valid``).
 
-    vel_factor in [0, 1] (0 stops the axis without leaving its motion state); acc_factor and
-    jerk_factor in (0, 1]. A bad factor gives ``error`` and leaves the factors unchanged. The
-    factors stay in force after Enable falls.
+    vel_factor 0 (stops the axis without leaving its motion state) or in [1e-3, 1]
+    (``axis.OVERRIDE_MIN``); acc_factor and jerk_factor in [1e-3, 1]. A bad factor (also NaN,
+    inf, 1e-300) gives ``error`` (INVALID_OVERRIDE, the range in ``error_text``) and leaves the
+    factors unchanged. The factors stay in force after Enable falls.
     """
 
     INPUTS = ("axis", "enable", "vel_factor", "acc_factor", "jerk_factor")
@@ -105,14 +109,14 @@ class MC_SetOverride(EnableFB):
         super().__init__(name, **inputs)
 
     def _update(self, axis: Axis) -> None:
-        vf = check_number("vel_factor", self.vel_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0)
-        af = check_number(
-            "acc_factor", self.acc_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0, lo_open=True
-        )
-        jf = check_number(
-            "jerk_factor", self.jerk_factor, ErrorID.INVALID_OVERRIDE, 0.0, 1.0, lo_open=True
-        )
-        axis.set_override(vf, af, jf)
+        eid = ErrorID.INVALID_OVERRIDE
+        vf = check_dynamic("vel_factor", self.vel_factor, eid, OVERRIDE_MIN, 1.0)
+        af = check_number("acc_factor", self.acc_factor, eid, OVERRIDE_MIN, 1.0)
+        jf = check_number("jerk_factor", self.jerk_factor, eid, OVERRIDE_MIN, 1.0)
+        try:
+            axis.set_override(vf, af, jf)
+        except PlanningError as exc:
+            raise InputError(ErrorID.PLANNING_FAILED, f"override ramp not planned: {exc}") from None
         self.enabled = True
 
     def _scan(self) -> None:

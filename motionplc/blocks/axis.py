@@ -46,6 +46,8 @@ from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
+from motionplc.planning.limits import STATE_MAX
+from motionplc.planning.sync import MAX_SYNC_DURATION
 
 if TYPE_CHECKING:
     from motionplc.runtime.trace import Trace
@@ -59,15 +61,28 @@ def planner_calls() -> int:
 
 
 def _plan(start: State, target: State, limits: Limits) -> Profile:
+    """``plan`` for the kernel: every failure is a PlanningError (the kernel's handlers turn it
+    into an FB or axis error; nothing escapes the cycle)."""
     global _planner_calls
     _planner_calls += 1
-    return plan(start, target, limits)
+    try:
+        return plan(start, target, limits)
+    except PlanningError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
+        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
 
 
 def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
+    """``plan_velocity`` for the kernel (every failure is a PlanningError, see :func:`_plan`)."""
     global _planner_calls
     _planner_calls += 1
-    return plan_velocity(start, v_target, limits)
+    try:
+        return plan_velocity(start, v_target, limits)
+    except PlanningError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
+        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
 
 
 _KEY = struct.Struct("<11d")
@@ -75,6 +90,19 @@ _MEMO_SIZE = 64
 
 _INF = math.inf
 S = AxisState
+
+# The input envelope of an axis and its FBs (README "Input ranges"). Everything is checked
+# before planning; inside it every profile the kernel plans stays within the planner's
+# envelope (finite limits in [1e-15, 1e15], states within 1e12; measured in
+# tests/blocks/test_degenerate_inputs.py).
+SUPPORTED_DURATION = MAX_SYNC_DURATION  # [s] 1e4: a velocity change over the axis' whole
+# speed range at the lowest Acceleration/Deceleration/Jerk input, and a move at its Velocity
+# input over its distance, last at most about this long
+AXIS_LIMIT_MIN = 1e-6  # configured v_max, a_max, j_max (and |v_min|, |a_min|) in
+AXIS_LIMIT_MAX = 1e9  # [AXIS_LIMIT_MIN, AXIS_LIMIT_MAX] (j_max may also be inf)
+VELOCITY_RATIO_MIN = 1e-6  # the Velocity input of a move is at least this x the axis' limit
+OVERRIDE_MIN = 1e-3  # MC_SetOverride factors in [OVERRIDE_MIN, 1] (VelFactor also 0)
+POSITION_MAX = STATE_MAX  # |positions, distances, software limits, home positions| <= 1e12
 
 _new = object.__new__
 try:
@@ -125,22 +153,74 @@ class AxisConfig:
         """Limit of a negative acceleration: ``-a_min`` (``a_max`` if symmetric)."""
         return self.a_max if self.a_min is None else -self.a_min
 
+    @property
+    def v_top(self) -> float:
+        """The larger speed limit of the two directions."""
+        return max(self.v_max, self.v_neg)
+
+    @property
+    def a_top(self) -> float:
+        """The larger acceleration limit of the two signs."""
+        return max(self.a_max, self.a_neg)
+
+    def velocity_range(self) -> tuple[float, float]:
+        """Allowed Velocity input of a discrete move: [VELOCITY_RATIO_MIN * v_top, v_top]
+        (and the move must not last longer than SUPPORTED_DURATION at it)."""
+        top = self.v_top
+        return (top * VELOCITY_RATIO_MIN, top)
+
+    def acceleration_range(self) -> tuple[float, float]:
+        """Allowed non-zero Acceleration / Deceleration input (moves, MoveVelocity, Halt,
+        Stop): [(v_max + |v_min|) / SUPPORTED_DURATION, a_top] (the lower bound never above
+        the upper): a velocity change over the whole speed range lasts at most 1e4 s."""
+        top = self.a_top
+        return (min((self.v_max + self.v_neg) / SUPPORTED_DURATION, top), top)
+
+    def jerk_range(self) -> tuple[float, float]:
+        """Allowed non-zero Jerk input: [max(a_top / T, 4 (v_max + |v_min|) / T^2), j_max]
+        with T = SUPPORTED_DURATION (the acceleration builds up, and a jerk-only velocity change
+        over the whole speed range ends, within about T); finite also when j_max is inf."""
+        t = SUPPORTED_DURATION
+        floor = max(self.a_top / t, 4.0 * (self.v_max + self.v_neg) / (t * t))
+        return (min(floor, self.j_max), self.j_max)
+
     def __post_init__(self) -> None:
+        lo_lim, hi_lim = AXIS_LIMIT_MIN, AXIS_LIMIT_MAX
+
+        def num(x: Any) -> bool:
+            return isinstance(x, (int, float)) and not isinstance(x, bool)
+
         def pos(name: str, x: Any, inf_ok: bool = False) -> None:
-            ok = isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0
+            ok = num(x) and x > 0
             if not ok or (not inf_ok and not math.isfinite(x)) or math.isnan(x):
                 rng = "(0, inf]" if inf_ok else "(0, inf)"
                 raise ValueError(f"axis {self.name!r}: {name} must be in {rng}, got {x!r}")
 
-        pos("v_max", self.v_max)
-        pos("a_max", self.a_max)
-        pos("j_max", self.j_max, inf_ok=True)
+        def limit(name: str, x: Any, inf_ok: bool = False) -> None:
+            if not (num(x) and (lo_lim <= x <= hi_lim or (inf_ok and x == _INF))):
+                rng = f"[{lo_lim:g}, {hi_lim:g}]" + (" or inf" if inf_ok else "")
+                raise ValueError(f"axis {self.name!r}: {name} must be in {rng}, got {x!r}")
+
+        def position(name: str, x: Any) -> None:
+            if x is not None and not (num(x) and -POSITION_MAX <= x <= POSITION_MAX):
+                raise ValueError(
+                    f"axis {self.name!r}: {name} must be in "
+                    f"[{-POSITION_MAX:g}, {POSITION_MAX:g}], got {x!r}"
+                )
+
+        limit("v_max", self.v_max)
+        limit("a_max", self.a_max)
+        limit("j_max", self.j_max, inf_ok=True)
         for name in ("v_min", "a_min"):
             x = getattr(self, name)
             if x is not None:
-                ok = isinstance(x, (int, float)) and not isinstance(x, bool)
-                if not ok or not (-_INF < x < 0.0):
-                    raise ValueError(f"axis {self.name!r}: {name} must be in (-inf, 0), got {x!r}")
+                if not (num(x) and -hi_lim <= x <= -lo_lim):
+                    raise ValueError(
+                        f"axis {self.name!r}: {name} must be in [{-hi_lim:g}, {-lo_lim:g}], "
+                        f"got {x!r}"
+                    )
+        for name in ("sw_limit_pos", "sw_limit_neg", "home_switch"):
+            position(name, getattr(self, name))
         if self.modulo is not None:
             pos("modulo", self.modulo)
         if self.following_error_limit is not None:
@@ -173,12 +253,13 @@ class Status(IntEnum):
 class Handle:
     """The axis' side of one FB command; written by the axis only."""
 
-    __slots__ = ("status", "error_id", "in_target", "end_velocity", "hold", "kind")
+    __slots__ = ("status", "error_id", "in_target", "end_velocity", "hold", "kind", "reason")
 
     def __init__(self, kind: str) -> None:
         self.kind = kind
         self.status = Status.QUEUED
         self.error_id = ErrorID.OK
+        self.reason = ""  # why the command ended with Error (shown as the FB's error_text)
         self.in_target = False  # InVelocity (velocity jobs)
         self.end_velocity = 0.0  # effective velocity at the end position (blending)
         self.hold = True  # MC_Stop: Execute still TRUE
@@ -188,10 +269,11 @@ class Handle:
         """Done, aborted or failed."""
         return self.status >= Status.DONE
 
-    def _finish(self, status: Status, error_id: ErrorID = ErrorID.OK) -> None:
+    def _finish(self, status: Status, error_id: ErrorID = ErrorID.OK, reason: str = "") -> None:
         if self.status < Status.DONE:
             self.status = status
             self.error_id = error_id
+            self.reason = reason
             self.in_target = False if status is not Status.DONE else self.in_target
 
 
@@ -420,6 +502,7 @@ class Axis:
         # errors
         self.axis_error = ErrorID.OK
         self.axis_error_reason = ""
+        self._why = ""  # why the last command was refused (the FB's error_text)
         # command queue
         self._inbox: list[_Job] = []
         self._pending: list[tuple[Handle, Any]] = []  # ContinuousUpdate values / failures
@@ -753,8 +836,12 @@ class Axis:
             if base is not None:
                 err = self._resolve(job, base)
                 if err is not ErrorID.OK:
-                    h._finish(Status.ERROR, err)
+                    h._finish(Status.ERROR, err, self._why)
                     return h
+        elif immediate and cmd.kind == "velocity" and self._sw_check:
+            if self._velocity_blocked(job):
+                h._finish(Status.ERROR, ErrorID.MOVE_BEYOND_SW_LIMIT, self._why)
+                return h
         if not self._feed_all:
             d = self._direction_of(job, self.p if immediate else job.base)
             if not self._dir_enabled(d):
@@ -803,13 +890,57 @@ class Axis:
                     target = fwd if r <= 0.5 * m else back
         else:
             target = base + cmd.position
+        if not -POSITION_MAX <= target <= POSITION_MAX:
+            self._why = (
+                f"target {target!r} outside the supported positions "
+                f"[{-POSITION_MAX:g}, {POSITION_MAX:g}]"
+            )
+            return ErrorID.INVALID_POSITION
         if self.cfg.modulo is None:
             hi, lo = self.cfg.sw_limit_pos, self.cfg.sw_limit_neg
-            if (hi is not None and target > hi) or (lo is not None and target < lo):
+            # beyond a limit, a target further out than the start is refused; one between the
+            # start and the limit (moving back) is accepted
+            if (hi is not None and target > hi and target > base) or (
+                lo is not None and target < lo and target < base
+            ):
+                self._why = (
+                    f"target {target:.9g} outside the software limits [{lo}, {hi}] "
+                    f"(moving from {base:.9g})"
+                )
                 return ErrorID.TARGET_OUTSIDE_SW_LIMITS
+        # the move must fit into the supported duration at its Velocity input
+        v = cmd.velocity
+        if abs(target - base) > v * SUPPORTED_DURATION:
+            self._why = (
+                f"velocity {v:.6g} too low for the distance {abs(target - base):.6g}: the move "
+                f"would last more than the supported {SUPPORTED_DURATION:g} s"
+            )
+            return ErrorID.INVALID_VELOCITY
         job.target = target
         job.base = base
         return ErrorID.OK
+
+    def _at_limit(self, s: float) -> float | None:
+        """The software limit in direction ``s`` if the set position is at or beyond it."""
+        if not self._sw_check or s == 0.0:
+            return None
+        limit = self._sw_pos if s > 0.0 else self._sw_neg
+        if limit is None or s * self.p < s * limit - 1e-9 * (1.0 + abs(limit)):
+            return None
+        return limit
+
+    def _velocity_blocked(self, job: _Job) -> bool:
+        """A velocity command heading out of a software limit the axis stands at or beyond;
+        if so, ``_why`` says why (Error MOVE_BEYOND_SW_LIMIT)."""
+        s = _sign(job.cmd.velocity)
+        limit = self._at_limit(s)
+        if limit is None:
+            return False
+        self._why = (
+            f"the axis is at the software limit {limit:.9g} (set position {self.p:.9g}): "
+            f"velocity {job.cmd.velocity:.6g} would move it further out"
+        )
+        return True
 
     def _shift_to(self, cmd: Command) -> None:
         """MC_SetPosition: shift the coordinate system (set and actual by the same amount)."""
@@ -830,53 +961,199 @@ class Axis:
 
     # -- motion kernel ---------------------------------------------------------------------
     def step(self, dt: float) -> None:
-        """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise."""
-        if self._inbox:
-            self._process_inbox()
-            self._ahead = True
-        if self._pending:
-            self._apply_pending()
-            self._ahead = True
-        if self._junction_due is not None:
-            self._serve_junction()
-        # the override factor ramps in real time, also while no scalable job runs
-        ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
-        state = self.state
-        if state is S.DISABLED:
-            self._resync()
-            return
-        job = self.active
-        if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
-            self._feed_stop()
+        """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise.
+
+        Fault barrier: no exception escapes. A planner failure while starting a command ends
+        that command with Error PLANNING_FAILED (the axis keeps its motion); any other failure
+        inside the kernel puts the axis in ErrorStop (PLANNING_FAILED for a planner failure,
+        INTERNAL_ERROR otherwise; the reason in ``axis_error_reason``) with a controlled stop
+        using the axis' own limits.
+        """
+        try:
+            if self._inbox:
+                self._process_inbox()
+                self._ahead = True
+            if self._pending:
+                self._apply_pending()
+                self._ahead = True
+            if self._junction_due is not None:
+                self._serve_junction()
+            # the override factor ramps in real time, also while no scalable job runs
+            ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
+            state = self.state
+            if state is S.DISABLED:
+                self._resync()
+                return
             job = self.active
-        if job is None:
-            self.v = self.a = self.j = 0.0
-        else:
-            self._advance(job, dt, ftau)
-        state = self.state
-        if state is S.STOPPING and self.active is None:
-            if all(not h.hold for h in self._stops):
-                self._stops.clear()
-                state = self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
-        if state is not S.ERROR_STOP:
-            lim = self._fe_limit
-            if lim is not None and abs(self.following_error) > lim:
-                self.raise_axis_error(
-                    "FOLLOWING_ERROR",
-                    f"following error {self.following_error:.6g} exceeds {lim:.6g}",
-                )
-            elif self._sw_check:
-                hi, lo = self._sw_pos, self._sw_neg
-                if (hi is not None and self.p > hi + 1e-9) or (
-                    lo is not None and self.p < lo - 1e-9
-                ):
+            if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
+                self._feed_stop()
+                job = self.active
+            sw = self._sw_check
+            if sw:
+                p0, v0, a0 = self.p, self.v, self.a
+            if job is None:
+                self.v = self.a = self.j = 0.0
+            else:
+                self._advance(job, dt, ftau)
+                if sw:
+                    self._sw_guard(p0, v0, a0, dt)
+            state = self.state
+            if state is S.STOPPING and self.active is None:
+                if all(not h.hold for h in self._stops):
+                    self._stops.clear()
+                    state = self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
+            if state is not S.ERROR_STOP:
+                lim = self._fe_limit
+                if lim is not None and abs(self.following_error) > lim:
                     self.raise_axis_error(
-                        "SW_LIMIT", f"set position {self.p:.6g} outside the software limits"
+                        "FOLLOWING_ERROR",
+                        f"following error {self.following_error:.6g} exceeds {lim:.6g}",
                     )
+                elif sw:
+                    # last resort (the braking of _sw_guard keeps moves inside): the set
+                    # position went further out beyond a limit (e.g. after MC_SetPosition
+                    # during motion); standing beyond a limit, or moving back, is allowed
+                    hi, lo = self._sw_pos, self._sw_neg
+                    p = self.p
+                    if (hi is not None and p > hi + 1e-9 * (1.0 + abs(hi)) and p > p0) or (
+                        lo is not None and p < lo - 1e-9 * (1.0 + abs(lo)) and p < p0
+                    ):
+                        self.raise_axis_error(
+                            "SW_LIMIT",
+                            f"set position {p:.9g} moving beyond the software limits [{lo}, {hi}]",
+                        )
+        except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
+            self._kernel_failed(exc)
+
+    def _kernel_failed(self, exc: Exception) -> None:
+        """A failure inside the kernel: ErrorStop with a controlled stop (or, if even the
+        stop cannot be planned, the set values hold still where they are)."""
+        kind = "PLANNING_FAILED" if isinstance(exc, PlanningError) else "INTERNAL_ERROR"
+        reason = f"motion kernel: {type(exc).__name__}: {exc}"
+        if not (math.isfinite(self.p) and math.isfinite(self.v) and math.isfinite(self.a)):
+            self.p = self._sent_p if math.isfinite(self._sent_p) else self.act_p
+            self.v = self.a = self.j = 0.0
+        try:
+            if self.state is S.ERROR_STOP and self.axis_error is not ErrorID.OK:
+                self.axis_error_reason += f"; then {reason}"
+                self._fail_all(ErrorID.AXIS_ERROR_STOP)
+                self._start_ramp("estop", 0.0, 0.0, self.cfg.j_max)
+            else:
+                self.active = None
+                self.raise_axis_error(kind, reason)
+        except Exception:  # noqa: BLE001 - last line of defence: hold still
+            self.active = None
+            self.v = self.a = self.j = 0.0
+            if self.state is not S.ERROR_STOP:
+                self.state = S.ERROR_STOP
+                self.axis_error = ErrorID[kind]
+                self.axis_error_reason = reason
+
+    # -- software limits ---------------------------------------------------------------------
+    def _reach(self, v: float, a: float, s: float) -> float:
+        """How far the axis still travels in direction ``s`` (+1 / -1) from set velocity ``v``
+        and acceleration ``a`` if it brakes now as hard as its own limits allow (0 if it does
+        not move that way). Exact for s*a >= 0; for s*a < 0 (braking already) an upper bound
+        unless ``exact`` profiles are planned by the caller."""
+        cfg = self.cfg
+        vs, as_ = s * v, s * a
+        brake = cfg.a_neg if s > 0.0 else cfg.a_max
+        jerk = cfg.j_max
+        if jerk == _INF:
+            return vs * vs / (2.0 * brake) if vs > 0.0 else 0.0
+        if as_ > 0.0:
+            # jerk -J brings the acceleration to 0 (exactly the start of the optimal brake)
+            t1 = as_ / jerk
+            v1 = vs + 0.5 * as_ * t1
+            if v1 <= 0.0:
+                return 0.0
+            d1 = vs * t1 + as_ * as_ * as_ / (3.0 * jerk * jerk)
+            return max(0.0, d1 + _stop_distance(v1, brake, jerk))
+        return _stop_distance(vs, brake, jerk) if vs > 0.0 else 0.0
+
+    def _exact_reach(self, v: float, a: float, s: float) -> float:
+        """:meth:`_reach` from the time-optimal brake to rest (its farthest position)."""
+        cfg = self.cfg
+        lim = Limits(v_max=_INF, a_max=cfg.a_max, j_max=cfg.j_max, v_min=-_INF, a_min=-cfg.a_neg)
+        (pmin, pmax), _, _ = _plan_velocity(State(0.0, v, a), 0.0, lim).extrema()
+        return max(0.0, pmax if s > 0.0 else -pmin)
+
+    def _sw_guard(self, p0: float, v0: float, a0: float, dt: float) -> None:
+        """Keep the motion inside the software limits: if braking from the new set state could
+        no longer stop at a limit, the axis instead brakes from the previous set state (which
+        could) to rest exactly AT the limit (jerk-limited, the axis' own limits), goes to
+        ErrorStop with SW_LIMIT and the running command ends with Error SW_LIMIT. Beyond a limit
+        (MC_SetPosition, a reset out there), moving further out is stopped the same way as fast
+        as possible; moving back is free."""
+        job = self.active
+        if job is not None and job.kind == "swstop":
+            return
+        p, v, a = self.p, self.v, self.a
+        for s, limit in ((1.0, self._sw_pos), (-1.0, self._sw_neg)):
+            if limit is None or not (s * v > 0.0 or s * a > 0.0):
+                continue
+            bound = max(s * limit, s * p0)  # beyond the limit already: not further out
+            tol = 1e-12 * (1.0 + abs(limit))
+            if s * p + self._reach(v, a, s) <= bound + tol:
+                continue
+            if s * a < 0.0 and s * p + self._exact_reach(v, a, s) <= bound + tol:
+                continue
+            self._limit_stop(s, limit, p0, v0, a0, dt)
+            return
+
+    def _limit_stop(
+        self, s: float, limit: float, p0: float, v0: float, a0: float, dt: float
+    ) -> None:
+        cfg = self.cfg
+        reason = f"software limit {limit:.9g} reached (set position {p0:.9g}, velocity {v0:.6g})"
+        prof: Profile | None = None
+        if s * p0 <= s * limit:
+            jerk = cfg.j_max
+            cap = max(s * v0, 0.0)
+            if jerk != _INF and s * a0 > 0.0:
+                cap += 0.5 * a0 * a0 / jerk
+            cap = min(max(cap, 1e-12), cfg.v_max if s > 0.0 else cfg.v_neg)
+            lim = Limits(
+                v_max=cap if s > 0.0 else cfg.v_max,
+                a_max=cfg.a_max,
+                j_max=jerk,
+                v_min=-cap if s < 0.0 else -cfg.v_neg,
+                a_min=-cfg.a_neg,
+            )
+            try:
+                prof = _plan(State(p0, v0, a0), State(limit, 0.0, 0.0), lim)
+                (pmin, pmax), _, _ = prof.extrema()
+                far = pmax if s > 0.0 else -pmin
+                if far > s * limit + 1e-10 * (1.0 + abs(limit)):
+                    prof = None  # cannot stop at the limit any more
+            except PlanningError:
+                prof = None
+        act = self.active
+        if act is not None:
+            act.handle._finish(Status.ERROR, ErrorID.SW_LIMIT, reason)
+        if prof is None:  # stop as fast as possible from where the axis is
+            if self.state is S.ERROR_STOP:
+                self._start_ramp("estop", 0.0, 0.0, cfg.j_max)
+            else:
+                self.raise_axis_error("SW_LIMIT", reason)
+            return
+        self.p, self.v, self.a = p0, v0, a0
+        if self.state is not S.ERROR_STOP:
+            self.raise_axis_error("SW_LIMIT", reason)
+        else:
+            self._fail_all(ErrorID.AXIS_ERROR_STOP)
+        job = _Job(Command(kind="halt"), Handle("swstop"))
+        job.kind = "swstop"
+        job.no_override = True
+        job.set_chain([prof])
+        job.rest_target = limit
+        self.active = job
+        self._advance(job, dt, dt)
 
     def _process_inbox(self) -> None:
         inbox = self._inbox
         self._inbox = []
+        failed = False
         for job in inbox:
             if job.handle.terminal:
                 continue
@@ -887,13 +1164,32 @@ class Axis:
                 self._start_job_ramp(job, job.cmd.deceleration, job.cmd.jerk)
                 continue
             if job.cmd.mode is BufferMode.ABORTING or self.active is None:
-                self._start(job, immediate=True)
+                if not self._start(job, immediate=True):
+                    failed = True
                 continue
             self.queue.append(job)
             if len(self.queue) == 1 and job.cmd.mode >= BufferMode.BLENDING_LOW:
                 act = self.active
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
                     self._junction_due = act
+        if failed:
+            self._state_after_failed_start()
+
+    def _state_after_failed_start(self) -> None:
+        """A command accepted at submission (which set the state at once) could not be planned:
+        the axis keeps its motion, so the state follows what actually runs (no DiscreteMotion
+        without a motion)."""
+        act = self.active
+        st = self.state
+        if st not in (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION):
+            return
+        if act is None:
+            if not self.queue and not self._inbox:
+                self.state = S.STANDSTILL
+        elif act.kind == "velocity":
+            self.state = S.CONTINUOUS_MOTION
+        elif act.kind in ("absolute", "relative", "additive", "halt", "feedstop"):
+            self.state = S.DISCRETE_MOTION
 
     def _serve_junction(self) -> None:
         """Re-plan the running move to the junction with its newly queued blending successor,
@@ -942,11 +1238,11 @@ class Axis:
                 if job.target is None:
                     err = self._resolve(job, self.p)
                     if err is not ErrorID.OK:
-                        job.handle._finish(Status.ERROR, err)
+                        job.handle._finish(Status.ERROR, err, self._why)
                         return False
                 self._prepare_move(job, self._tau_state())
-        except PlanningError as exc:  # a defect: keep the old motion, fail the new FB
-            job.handle._finish(Status.ERROR, ErrorID.PLANNING_FAILED)
+        except PlanningError as exc:  # keep the old motion, fail the new FB
+            job.handle._finish(Status.ERROR, ErrorID.PLANNING_FAILED, f"planner: {exc}")
             self.axis_error_reason = f"planner: {exc}"
             return False
         if immediate:
@@ -968,7 +1264,15 @@ class Axis:
         job = _Job(Command(kind="halt"), Handle(kind))
         job.kind = kind
         job.no_override = True
-        self._prepare_ramp(job, v_target, dec, jerk)
+        try:
+            self._prepare_ramp(job, v_target, dec, jerk)
+        except PlanningError as exc:
+            # the axis' own limits always give a ramp for a valid set state; if not (a defect),
+            # the set values hold still rather than keep moving
+            self.axis_error_reason += f"; {kind} ramp not planned ({exc}): holding still"
+            self.active = None
+            self.v = self.a = self.j = 0.0
+            return
         self.active = job
 
     def _axis_limits(self, acc: float, dec: float, jerk: float, v: float | None = None) -> Limits:
@@ -1329,7 +1633,7 @@ class Axis:
             for sh in self._stops:
                 sh._finish(Status.DONE)
             return None
-        elif kind == "estop":
+        elif kind in ("estop", "swstop"):
             return None
         elif kind == "home":
             sw = self.cfg.home_switch
@@ -1366,8 +1670,11 @@ class Axis:
             if nxt.cmd.is_move and nxt.target is None:
                 err = self._resolve(nxt, self.p)
                 if err is not ErrorID.OK:  # FB runtime error: the next one takes over (2.4)
-                    nxt.handle._finish(Status.ERROR, err)
+                    nxt.handle._finish(Status.ERROR, err, self._why)
                     continue
+            if nxt.kind == "velocity" and self._sw_check and self._velocity_blocked(nxt):
+                nxt.handle._finish(Status.ERROR, ErrorID.MOVE_BEYOND_SW_LIMIT, self._why)
+                continue
             if not self._feed_all and not self._dir_enabled(self._direction_of(nxt, self.p)):
                 nxt.handle._finish(Status.ERROR, ErrorID.DIRECTION_NOT_ENABLED)
                 continue
@@ -1482,10 +1789,18 @@ class Axis:
             err = self._resolve(job, old_base)
             if err is not ErrorID.OK:
                 job.cmd, job.target, job.base = old_cmd, old_target, old_base
-                self._fail_command(handle, err)
+                self._fail_command(handle, err, self._why)
                 return err
             if self.last_target is not None and self.last_target == old_target:
                 self.last_target = job.target
+        if (
+            job is self.active
+            and job.kind == "velocity"
+            and self._sw_check
+            and self._velocity_blocked(job)
+        ):
+            self._fail_command(handle, ErrorID.MOVE_BEYOND_SW_LIMIT, self._why)
+            return ErrorID.MOVE_BEYOND_SW_LIMIT
         if not self._feed_all:
             d = self._direction_of(job, self.p if job is self.active else job.base)
             if not self._dir_enabled(d):
@@ -1507,15 +1822,15 @@ class Axis:
                         self._prepare_move(act, self._tau_state(), keep_rest=True)  # new junction
         except PlanningError as exc:
             self.axis_error_reason = f"planner (continuous update): {exc}"
-            self._fail_command(handle, ErrorID.PLANNING_FAILED)
+            self._fail_command(handle, ErrorID.PLANNING_FAILED, f"planner: {exc}")
             return ErrorID.PLANNING_FAILED
         return ErrorID.OK
 
-    def _fail_command(self, handle: Handle, error_id: ErrorID) -> None:
+    def _fail_command(self, handle: Handle, error_id: ErrorID, reason: str = "") -> None:
         if handle.status >= Status.DONE:
             return
         job = self._find_job(handle)
-        handle._finish(Status.ERROR, error_id)
+        handle._finish(Status.ERROR, error_id, reason)
         if job is None:
             return
         if job is not self.active:

@@ -21,7 +21,13 @@ condition disappears (busy stays TRUE meanwhile).
 
 Timing: the motion kernel runs after the program, so changes it makes (Active, Done, ...)
 appear at the FB's next call. A command rejected at submission (bad input, state violation,
-queue full) shows ``error`` in the calling scan.
+queue full) shows ``error`` in the calling scan; ``error_text`` says why.
+
+Fault barrier: no exception of an FB's scan escapes the call (and so the cycle). A bad input is
+an ``InputError`` (ErrorID of the input, its allowed range in ``error_text``); anything else is a
+defect and ends the FB's command with Error ``ErrorID.INTERNAL_ERROR`` (the exception in
+``error_text``). Only an unknown input keyword or an ``axis`` that is not an Axis raise
+``TypeError`` (programming errors, found on the first call).
 """
 
 from __future__ import annotations
@@ -90,11 +96,22 @@ class FunctionBlock:
             if self.name is None:
                 self.name = trace_name
             self._registered = axis
-        self._scan()
+        try:
+            self._scan()
+        except Exception as exc:  # noqa: BLE001 - no exception of an FB body escapes the cycle
+            self._scan_failed(exc)
         return self
 
     def _scan(self) -> None:
         raise NotImplementedError
+
+    def _scan_failed(self, exc: Exception) -> None:
+        """An unexpected exception in this scan (a defect; bad inputs are InputErrors): the FB
+        shows Error with ``ErrorID.INTERNAL_ERROR`` and the exception in ``error_text``."""
+        self._dirty = True
+        self.error = True
+        self.error_id = ErrorID.INTERNAL_ERROR
+        self.error_text = f"internal error in {type(self).__name__}: {type(exc).__name__}: {exc}"
 
     # -- trace support ---------------------------------------------------------------------
     def _out_bits(self) -> tuple[Any, ...]:
@@ -109,9 +126,9 @@ class FunctionBlock:
         self._traced_bits = bits
 
 
-def _failed(error_id: ErrorID) -> Handle:
+def _failed(error_id: ErrorID, reason: str = "") -> Handle:
     h = Handle("rejected")
-    h._finish(Status.ERROR, error_id)
+    h._finish(Status.ERROR, error_id, reason)
     return h
 
 
@@ -142,6 +159,19 @@ def check_number(
         rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
         raise InputError(error_id, f"{name} must be a finite number in {rng}, got {value!r}")
     return x
+
+
+def check_dynamic(name: str, value: Any, error_id: ErrorID, lo: float, hi: float) -> float:
+    """Validate an Acceleration / Deceleration / Jerk input: 0 (the axis' own limit) or a
+    finite number in [lo, hi]; raises :class:`InputError` naming it and its range."""
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    x = float(value) if ok else math.nan
+    if x == 0.0 or lo <= x <= hi and x < math.inf:
+        return x
+    raise InputError(
+        error_id,
+        f"{name} must be 0 (the axis' limit) or a finite number in [{lo:g}, {hi:g}], got {value!r}",
+    )
 
 
 class ExecuteFB(FunctionBlock):
@@ -185,7 +215,7 @@ class ExecuteFB(FunctionBlock):
             return self._start(axis)
         except InputError as exc:
             self.error_text = str(exc)
-            return _failed(exc.error_id)
+            return _failed(exc.error_id, str(exc))
 
     def __init_subclass__(cls, **kw: Any) -> None:
         super().__init_subclass__(**kw)
@@ -233,6 +263,8 @@ class ExecuteFB(FunctionBlock):
                 self.error = st is Status.ERROR
                 self.command_aborted = st is Status.ABORTED
                 self.error_id = h.error_id if self.error else ErrorID.OK
+                if self.error and h.reason:
+                    self.error_text = h.reason
                 self._terminal_outputs(h)
             else:
                 self._handle = None
@@ -244,6 +276,24 @@ class ExecuteFB(FunctionBlock):
             self.done = self.error = self.command_aborted = False
             self.error_id = ErrorID.OK
             self._busy_outputs(h)
+
+    def _scan_failed(self, exc: Exception) -> None:
+        """An unexpected exception in this scan: the command (if the axis runs it) ends with
+        Error INTERNAL_ERROR, and the FB shows that Error under the usual output rules."""
+        reason = f"internal error in {type(self).__name__}: {type(exc).__name__}: {exc}"
+        h = self._handle
+        axis = self.axis
+        if h is not None and not h.terminal and isinstance(axis, Axis):
+            axis.fail_command(h, ErrorID.INTERNAL_ERROR)
+        self._handle = _failed(ErrorID.INTERNAL_ERROR, reason)
+        self._seen = True
+        self._prev_execute = bool(self.execute)
+        self._busy_status = None
+        self._dirty = True
+        self.busy = self.active = self.done = self.command_aborted = False
+        self.error = True
+        self.error_id = ErrorID.INTERNAL_ERROR
+        self.error_text = reason
 
     def _before_outputs(self, execute: bool) -> None:
         """Hook run every scan before the outputs are computed."""
@@ -316,6 +366,12 @@ class EnableFB(FunctionBlock):
             self.error_text = ""
         elif self._values_traced:
             self._dirty = True
+
+    def _scan_failed(self, exc: Exception) -> None:
+        super()._scan_failed(exc)
+        self.valid = False
+        self.busy = bool(self.enable)
+        self._reset_values()
 
     def _update(self, axis: Axis) -> None:
         """Compute the values (subclasses); raise InputError for a (recoverable) error."""

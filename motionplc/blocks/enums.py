@@ -74,6 +74,9 @@ class ErrorID(IntEnum):
     INVALID_OVERRIDE = 0x1009
     INVALID_EXECUTION_MODE = 0x100A
     TARGET_OUTSIDE_SW_LIMITS = 0x100B
+    # the axis stands at (or beyond) a software limit and the command would move it further
+    # out (only moves back towards the allowed range are accepted there)
+    MOVE_BEYOND_SW_LIMIT = 0x100C
     STATE_DISABLED = 0x2000
     STATE_STANDSTILL = 0x2001
     STATE_HOMING = 0x2002
@@ -103,7 +106,12 @@ class ErrorID(IntEnum):
     COMM_EXCEPTION = 0x400C  # exception response from the drive (Modbus)
     SETPOINT_LOST = 0x400D  # the drive faulted because setpoints stopped (RPDO timeout, SYNC loss)
     MASTER_LOST = 0x400E  # the drive faulted because the master went silent (heartbeat, watchdog)
+    # the planner could not plan a command whose inputs passed validation (PlanningError; the
+    # reason is in the FB's error_text / the axis' axis_error_reason)
     PLANNING_FAILED = 0x5001
+    # an unexpected exception inside an FB's scan or the motion kernel (a defect): the FB ends
+    # with Error, or the axis goes to ErrorStop with a controlled stop; the cycle goes on
+    INTERNAL_ERROR = 0x5002
 
     @staticmethod
     def for_state(state: AxisState) -> ErrorID:

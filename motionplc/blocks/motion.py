@@ -4,11 +4,32 @@ MC_Stop and MC_Home.
 Rules pinned for motionplc (spec 1.4 leaves them open):
 
 * Acceleration, Deceleration or Jerk = 0 means "the axis' configured limit" (``a_max`` /
-  ``j_max``; ``j_max = inf`` gives trapezoidal profiles). Inputs above the axis' limits, negative
-  values, NaN or infinities give ``error`` with the input's ErrorID (never a silent clamp).
-* Velocity of a move must be in (0, v_max]; MC_MoveVelocity accepts [-v_max, v_max] and applies
-  Direction (negative Velocity x NEGATIVE = positive motion; CURRENT keeps the sign of the
-  current set velocity; SHORTEST is an error).
+  ``j_max``; ``j_max = inf`` gives trapezoidal profiles). Input ranges (checked at Execute and
+  at every ContinuousUpdate, before anything is planned; outside them the FB gives ``error``
+  with the input's ErrorID and ``error_text`` names the input and the range; never a clamp).
+  With T = 1e4 s (``axis.SUPPORTED_DURATION``), v_top / a_top the larger speed /
+  acceleration limit of the axis and span = v_max + |v_min|:
+
+  - Acceleration, Deceleration (moves, MC_MoveVelocity, MC_Halt, MC_Stop): 0 or
+    [span / T, a_top] -- a velocity change over the whole speed range lasts at most T;
+  - Jerk: 0 or [max(a_top / T, 4 span / T^2), j_max] (finite, also if j_max is inf);
+  - Velocity of a move: [1e-6 v_top, v_top], and the move (distance / Velocity) must not last
+    longer than T (else INVALID_VELOCITY when its target is resolved);
+  - Position / Distance: finite, the target within +-1e12 (the planner's state range);
+  - MC_MoveVelocity's Velocity: [-|v_min|, v_max] after Direction (0 and tiny values are fine:
+    the velocity change is short).
+
+  So 1e-300, 1e300, inf and NaN are refused wherever they would reach the planner.
+* MC_MoveVelocity accepts Velocity in [-v_max, v_max] and applies Direction (negative Velocity
+  x NEGATIVE = positive motion; CURRENT keeps the sign of the current set velocity; SHORTEST
+  is an error).
+* Software limits (linear axes): a move whose target lies beyond a limit is refused at
+  Execute (TARGET_OUTSIDE_SW_LIMITS; the axis keeps doing what it did) unless the axis stands
+  beyond that limit and the target lies back towards the allowed range; a velocity command
+  heading out of a limit the axis stands at is refused (MOVE_BEYOND_SW_LIMIT). A motion that
+  would cross a limit (MC_MoveVelocity, or a profile overshooting) brakes to rest exactly at
+  the limit with the axis' own limits; the axis then goes to ErrorStop (SW_LIMIT) and MC_Reset
+  brings it back to Standstill there (no re-trip; moving back is free).
 * On modulo axes Position must be in [0, modulo); Direction picks the way (SHORTEST: a tie at
   half a period goes the positive way; CURRENT: the sign of the set velocity, SHORTEST at rest).
   Direction is ignored on linear axes.
@@ -30,8 +51,8 @@ from __future__ import annotations
 from operator import attrgetter
 from typing import Any, ClassVar
 
-from motionplc.blocks.axis import Axis, Command, Handle
-from motionplc.blocks.base import InputError, MotionFB, check_number
+from motionplc.blocks.axis import POSITION_MAX, VELOCITY_RATIO_MIN, Axis, Command, Handle
+from motionplc.blocks.base import InputError, MotionFB, check_dynamic, check_number
 from motionplc.blocks.enums import BufferMode, Direction, ErrorID
 
 
@@ -44,19 +65,27 @@ def _buffer_mode(value: Any) -> BufferMode:
         ) from None
 
 
-def _a_top(axis: Axis) -> float:
-    """Upper bound of the Acceleration / Deceleration inputs: the larger axis acceleration
-    side (asymmetric limits: the input caps each side, see ``Axis._limits``)."""
-    return max(axis.cfg.a_max, axis.cfg.a_neg)
+def _decel(fb: Any, axis: Axis) -> float:
+    lo, hi = axis.cfg.acceleration_range()
+    return check_dynamic("deceleration", fb.deceleration, ErrorID.INVALID_DECELERATION, lo, hi)
+
+
+def _jerk(fb: Any, axis: Axis) -> float:
+    lo, hi = axis.cfg.jerk_range()
+    return check_dynamic("jerk", fb.jerk, ErrorID.INVALID_JERK, lo, hi)
 
 
 def _dynamics(fb: Any, axis: Axis) -> tuple[float, float, float]:
-    cfg = axis.cfg
-    a_top = _a_top(axis)
-    acc = check_number("acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, 0.0, a_top)
-    dec = check_number("deceleration", fb.deceleration, ErrorID.INVALID_DECELERATION, 0.0, a_top)
-    jerk = check_number("jerk", fb.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
-    return acc, dec, jerk
+    """Acceleration, Deceleration, Jerk: 0 (the axis' limit) or within the axis' ranges
+    (``AxisConfig.acceleration_range`` / ``jerk_range``; asymmetric limits: the input caps
+    each side, see ``Axis._limits``)."""
+    lo, hi = axis.cfg.acceleration_range()
+    acc = check_dynamic("acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, lo, hi)
+    return acc, _decel(fb, axis), _jerk(fb, axis)
+
+
+def _position(name: str, value: Any, error_id: ErrorID) -> float:
+    return check_number(name, value, error_id, -POSITION_MAX, POSITION_MAX)
 
 
 class _ContinuousUpdate(MotionFB):
@@ -134,10 +163,16 @@ class _MoveFB(_ContinuousUpdate):
         self, axis: Axis, kind: str, position: float, direction: Direction
     ) -> Command:
         # Velocity caps the speed of both directions (each within its own axis limit)
-        v_top = max(axis.cfg.v_max, axis.cfg.v_neg)
+        v_lo, v_top = axis.cfg.velocity_range()
         v = check_number(
             "velocity", self.velocity, ErrorID.INVALID_VELOCITY, 0.0, v_top, lo_open=True
         )
+        if v < v_lo:
+            raise InputError(
+                ErrorID.INVALID_VELOCITY,
+                f"velocity must be a finite number in (0, {v_top:g}] and at least {v_lo:g} "
+                f"({VELOCITY_RATIO_MIN:g} x the axis' speed limit), got {self.velocity!r}",
+            )
         acc, dec, jerk = _dynamics(self, axis)
         mode = _buffer_mode(self.buffer_mode)
         return Command(
@@ -178,7 +213,7 @@ class MC_MoveAbsolute(_MoveFB):
     def _command(self, axis: Axis) -> Command:
         m = axis.cfg.modulo
         if m is None:
-            pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+            pos = _position("position", self.position, ErrorID.INVALID_POSITION)
         else:
             pos = check_number("position", self.position, ErrorID.INVALID_POSITION, 0.0, m)
             if pos >= m:
@@ -215,7 +250,7 @@ class MC_MoveRelative(_MoveFB):
         super().__init__(name, **inputs)
 
     def _command(self, axis: Axis) -> Command:
-        d = check_number("distance", self.distance, ErrorID.INVALID_DISTANCE)
+        d = _position("distance", self.distance, ErrorID.INVALID_DISTANCE)
         return self._move_command(axis, self._KIND, d, Direction.POSITIVE)
 
 
@@ -315,11 +350,7 @@ class MC_Halt(MotionFB):
         super().__init__(name, **inputs)
 
     def _start(self, axis: Axis) -> Handle:
-        cfg = axis.cfg
-        dec = check_number(
-            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, _a_top(axis)
-        )
-        jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
+        dec, jerk = _decel(self, axis), _jerk(self, axis)
         return axis.submit(
             Command(kind="halt", mode=_buffer_mode(self.buffer_mode), deceleration=dec, jerk=jerk)
         )
@@ -341,11 +372,7 @@ class MC_Stop(MotionFB):
         super().__init__(name, **inputs)
 
     def _start(self, axis: Axis) -> Handle:
-        cfg = axis.cfg
-        dec = check_number(
-            "deceleration", self.deceleration, ErrorID.INVALID_DECELERATION, 0.0, _a_top(axis)
-        )
-        jerk = check_number("jerk", self.jerk, ErrorID.INVALID_JERK, 0.0, cfg.j_max)
+        dec, jerk = _decel(self, axis), _jerk(self, axis)
         return axis.submit(Command(kind="stop", deceleration=dec, jerk=jerk))
 
     def _before_outputs(self, execute: bool) -> None:
@@ -368,7 +395,7 @@ class MC_Home(MotionFB):
         super().__init__(name, **inputs)
 
     def _start(self, axis: Axis) -> Handle:
-        pos = check_number("position", self.position, ErrorID.INVALID_POSITION)
+        pos = _position("position", self.position, ErrorID.INVALID_POSITION)
         m = axis.cfg.modulo
         if m is not None and not 0.0 <= pos < m:
             raise InputError(

@@ -9,22 +9,35 @@ from motionplc.errors import PlanningError
 
 _INF = math.inf
 
+# The supported input envelope of the planner (SI units). A finite limit is in
+# [LIMIT_MIN, LIMIT_MAX] (or infinite: no limit), a state value (position, velocity,
+# acceleration, target velocity) is within +-STATE_MAX. Inside it the solver's arithmetic stays
+# far from overflow and underflow (measured: every combination of limits at 1e-15, 1 and 1e15
+# and of states at 0, +-1e-12, +-1 and +-1e12 plans or raises PlanningError, see
+# tests/planning/test_degenerate_inputs.py); profiles longer than the supported durations
+# (``plan.MAX_DURATION`` for one axis, ``sync.MAX_SYNC_DURATION`` synchronised) are rejected.
+LIMIT_MIN = 1e-15
+LIMIT_MAX = 1e15
+STATE_MAX = 1e12
+_RANGE = f"[{LIMIT_MIN:g}, {LIMIT_MAX:g}] or inf (the supported part of (0, inf])"
+_NEG_RANGE = f"[{-LIMIT_MAX:g}, {-LIMIT_MIN:g}] or -inf (the supported part of [-inf, 0))"
+
 
 def _check_positive(name: str, value: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise PlanningError(f"Limits.{name} must be a number in (0, inf], got {value!r}")
+        raise PlanningError(f"Limits.{name} must be a number in {_RANGE}, got {value!r}")
     value = float(value)
-    if math.isnan(value) or value <= 0.0:
-        raise PlanningError(f"Limits.{name} must be in (0, inf], got {value!r}")
+    if value != _INF and not LIMIT_MIN <= value <= LIMIT_MAX:
+        raise PlanningError(f"Limits.{name} must be in {_RANGE}, got {value!r}")
     return value
 
 
 def _check_negative(name: str, value: float) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise PlanningError(f"Limits.{name} must be a number in [-inf, 0), got {value!r}")
+        raise PlanningError(f"Limits.{name} must be a number in {_NEG_RANGE}, got {value!r}")
     value = float(value)
-    if math.isnan(value) or value >= 0.0:
-        raise PlanningError(f"Limits.{name} must be in [-inf, 0), got {value!r}")
+    if value != -_INF and not -LIMIT_MAX <= value <= -LIMIT_MIN:
+        raise PlanningError(f"Limits.{name} must be in {_NEG_RANGE}, got {value!r}")
     return value
 
 
@@ -33,6 +46,9 @@ class Limits:
     """Velocity, acceleration and jerk limits (SI units; ``math.inf`` = no limit).
 
     ``v_min`` and ``a_min`` default to ``-v_max`` and ``-a_max``. The jerk limit is symmetric.
+    A finite limit must lie in [``LIMIT_MIN``, ``LIMIT_MAX``] = [1e-15, 1e15] (minima: the
+    negated range); anything else (NaN, 0, a sign error, 1e-300, 1e300) raises
+    :class:`PlanningError` naming the field and the range.
     An infinite ``j_max`` gives second-order (trapezoidal velocity) profiles, an infinite
     ``a_max`` with infinite ``j_max`` first-order ones. At least one of ``v_max``, ``a_max``,
     ``j_max`` must be finite for a position move.

@@ -9,15 +9,14 @@ acceleration (no jump) and jerk within the limit. Time is injected as the cycle 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import Limits
-from motionplc.planning.plan import plan, plan_velocity
+from motionplc.planning.plan import _check_state, plan, plan_velocity
 from motionplc.planning.profile import Profile, Sample
 from motionplc.planning.state import State
-from motionplc.planning.sync import plan_sync
+from motionplc.planning.sync import _sequence, check_dt, plan_sync
 from motionplc.planning.trajectory import Trajectory
 
 
@@ -27,7 +26,9 @@ class OnlineGenerator:
     ``limits``: one :class:`Limits` (single axis; targets are :class:`State`) or a sequence of
     them (a group; targets are sequences of :class:`State`, synchronised with ``sync``).
     ``interface``: "position" (default) or "velocity" (single axis; the target's ``v`` and
-    ``a`` are used). ``start``: the initial commanded state(s).
+    ``a`` are used). ``start``: the initial commanded state(s). ``sync``: "time", "phase" or
+    "none" (groups). ``dt`` in [1e-9, 1e4] s. Anything else raises :class:`PlanningError`
+    naming the argument (states: values within +-1e12, see :func:`plan`).
     """
 
     def __init__(
@@ -39,12 +40,11 @@ class OnlineGenerator:
         interface: str = "position",
         sync: str = "time",
     ) -> None:
-        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not dt > 0.0:
-            raise PlanningError(f"dt must be a positive number of seconds, got {dt!r}")
-        if not math.isfinite(dt):
-            raise PlanningError(f"dt must be finite, got {dt!r}")
-        if interface not in ("position", "velocity"):
+        dt = check_dt(dt)
+        if not isinstance(interface, str) or interface not in ("position", "velocity"):
             raise PlanningError(f"interface must be 'position' or 'velocity', got {interface!r}")
+        if not isinstance(sync, str) or sync not in ("time", "phase", "none"):
+            raise PlanningError(f"sync must be one of 'time', 'phase', 'none', got {sync!r}")
         self._group = not isinstance(limits, Limits)
         self._limits: Limits | tuple[Limits, ...]
         if self._group:
@@ -57,13 +57,16 @@ class OnlineGenerator:
             n = len(lims)
             if start is None:
                 start = [State() for _ in range(n)]
-            starts = tuple(start)  # type: ignore[arg-type]
+            starts = tuple(_sequence("start", start))
             if len(starts) != n:
                 raise PlanningError(f"start must have {n} states, got {len(starts)}")
+            for i, s in enumerate(starts):
+                _check_state(f"start[{i}]", s)
             self._state: State | tuple[State, ...] = starts
         else:
             self._limits = limits  # type: ignore[assignment]
             self._state = State() if start is None else start  # type: ignore[assignment]
+            _check_state("start", self._state)
         self.dt = float(dt)
         self.interface = interface
         self.sync = sync

@@ -6,23 +6,48 @@ import math
 
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _lower, _third, _velocity
-from motionplc.planning.limits import Limits
+from motionplc.planning.limits import STATE_MAX, Limits
 from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
 _INF = math.inf
 MAX_DURATION = 1e8  # [s] the longest single-axis profile planned (about 3 years)
+_NEG_STATE_MAX = -STATE_MAX
 
 
 def _finite(name: str, value: object) -> float:
-    if type(value) is float and value - value == 0.0:  # fast path: a finite float
+    """``value`` as a float in [-STATE_MAX, STATE_MAX] (1e12); else PlanningError naming it."""
+    if type(value) is float and _NEG_STATE_MAX <= value <= STATE_MAX:  # fast path
         return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise PlanningError(f"{name} must be a finite number, got {value!r}")
+        raise PlanningError(
+            f"{name} must be a finite number in [{-STATE_MAX:g}, {STATE_MAX:g}], got {value!r}"
+        )
     x = float(value)
-    if not math.isfinite(x):
-        raise PlanningError(f"{name} must be a finite number, got {x!r}")
+    if not _NEG_STATE_MAX <= x <= STATE_MAX:
+        raise PlanningError(
+            f"{name} must be a finite number in [{-STATE_MAX:g}, {STATE_MAX:g}], got {x!r}"
+        )
     return x
+
+
+def _internal(what: str, exc: Exception, inputs: str) -> PlanningError:
+    """A numerical failure inside the solver for inputs that passed validation, as a
+    PlanningError naming the inputs (never a bare ZeroDivisionError/OverflowError from deep
+    inside). Inside the documented envelope this does not happen (see the limits module)."""
+    return PlanningError(
+        f"{what}: internal numerical failure ({type(exc).__name__}: {exc}) for {inputs} "
+        "(planner defect: please report these inputs)"
+    )
+
+
+def _check_duration(T: float, inputs: str) -> None:
+    if not T <= MAX_DURATION:  # also NaN
+        raise PlanningError(
+            f"the profile would last {T:.6g} s, beyond the supported {MAX_DURATION:g} s "
+            "(limits far too small for the states: double precision cannot keep its end state "
+            f"and continuity; Ruckig stops at about 7.6e3 s) for {inputs}"
+        )
 
 
 def _check_state(name: str, s: object) -> tuple[float, float, float]:
@@ -88,13 +113,12 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
     _check_target_va(vf, af, lim)
     if arrived(p0, v0, a0, pf, vf, af):
         return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
-    T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
-    if T > MAX_DURATION:
-        raise PlanningError(
-            f"the profile would last {T:.6g} s, beyond the supported {MAX_DURATION:g} s "
-            "(limits far too small for the states: double precision cannot keep its end state "
-            "and continuity; Ruckig stops at about 7.6e3 s)"
-        )
+    try:
+        T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
+    except ArithmeticError as exc:
+        raise _internal("plan", exc, f"start={start!r}, target={target!r}, {lim!r}") from exc
+    if not T <= MAX_DURATION:
+        _check_duration(T, f"start={start!r}, target={target!r}, {lim!r}")
     return Profile(State(p0, v0, a0), phases, kind)
 
 
@@ -168,7 +192,9 @@ def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float
     """Time-optimal change of velocity (velocity interface); the position is free.
 
     Velocity limits bound the target only; the acceleration is first brought inside
-    [a_min, a_max] with full jerk if it starts outside.
+    [a_min, a_max] with full jerk if it starts outside. ``v_target`` and ``a_target`` must be
+    within +-STATE_MAX (1e12) like the state values, and the profile must not last longer than
+    ``MAX_DURATION`` (else :class:`PlanningError`): its end position is then finite.
     """
     p0, v0, a0 = _check_state("start", start)
     vf = _finite("v_target", v_target)
@@ -187,8 +213,21 @@ def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float
         raise PlanningError(
             f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
         )
-    _, phases, kind = velocity_phases(v0, a0, vf, af, amax, amin, J)
-    return Profile(State(p0, v0, a0), phases, kind)
+    try:
+        T, phases, kind = velocity_phases(v0, a0, vf, af, amax, amin, J)
+    except ArithmeticError as exc:
+        raise _internal(
+            "plan_velocity", exc, f"start={start!r}, v_target={vf!r}, a_target={af!r}, {lim!r}"
+        ) from exc
+    if not T <= MAX_DURATION:
+        _check_duration(T, f"start={start!r}, v_target={vf!r}, {lim!r}")
+    prof = Profile(State(p0, v0, a0), phases, kind)
+    if not -_INF < prof.end.p < _INF:
+        raise PlanningError(
+            f"plan_velocity: the end position {prof.end.p!r} is not finite for start={start!r}, "
+            f"v_target={vf!r}, {lim!r}"
+        )
+    return prof
 
 
 def velocity_phases(

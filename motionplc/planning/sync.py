@@ -50,6 +50,7 @@ from motionplc.planning.plan import (
     _check_limits,
     _check_state,
     _check_target_va,
+    _internal,
     arrived,
     position_phases,
     velocity_phases,
@@ -66,6 +67,31 @@ Phases = list[tuple[float, ...]]
 # Longest synchronised duration planned (Ruckig stops at about 7.6e3 s): beyond it double
 # precision no longer keeps the axes' end times within 1e-9 s of each other.
 MAX_SYNC_DURATION = 1e4
+
+
+DT_MIN = 1e-9  # [s] the shortest cycle time accepted (a nanosecond)
+
+
+def check_dt(dt: object, name: str = "dt") -> float:
+    """A cycle time in [DT_MIN, MAX_SYNC_DURATION] = [1e-9 s, 1e4 s]; else PlanningError."""
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, (int, float))
+        or not DT_MIN <= dt <= MAX_SYNC_DURATION
+    ):
+        raise PlanningError(
+            f"{name} must be a number of seconds in [{DT_MIN:g}, {MAX_SYNC_DURATION:g}], got {dt!r}"
+        )
+    return float(dt)
+
+
+def _sequence(name: str, value: object) -> Sequence:  # type: ignore[type-arg]
+    """``value`` as a list if it is a sequence (list, tuple, ...), else PlanningError."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
+        raise PlanningError(
+            f"{name} must be a sequence (list or tuple), got {type(value).__name__}"
+        )
+    return list(value)
 
 
 def _dur_tol(T: float) -> float:
@@ -1044,7 +1070,22 @@ def _phase_sync(
 
 def plan_fixed_duration(start: State, target: State, limits: Limits, T: float) -> Profile | None:
     """A profile from ``start`` to ``target`` lasting exactly ``T`` (within 1e-9 s), or None if
-    the axis cannot take that duration (shorter than its minimum, or blocked)."""
+    the axis cannot take that duration (shorter than its minimum, or blocked).
+
+    ``T`` must be a number in [0, MAX_SYNC_DURATION] (1e4 s), else :class:`PlanningError`."""
+    if isinstance(T, bool) or not isinstance(T, (int, float)) or not 0.0 <= T <= MAX_SYNC_DURATION:
+        raise PlanningError(
+            f"T must be a number of seconds in [0, {MAX_SYNC_DURATION:g}], got {T!r}"
+        )
+    try:
+        return _fixed_duration(start, target, limits, float(T))
+    except ArithmeticError as exc:
+        raise _internal(
+            "plan_fixed_duration", exc, f"start={start!r}, target={target!r}, {limits!r}, T={T!r}"
+        ) from exc
+
+
+def _fixed_duration(start: State, target: State, limits: Limits, T: float) -> Profile | None:
     ax = _make_axis(start, target, limits, False, 0)
     ext = _extremals(ax)
     Tr = T - ax.t_pre
@@ -1070,7 +1111,16 @@ def plan_sync(
     straight line where the inputs are collinear, else "time" with a note) or "none" (each axis
     time-optimal). ``dt``: round the duration up to a whole number of cycles. ``interface``: per
     axis "position" or "velocity" (a velocity axis ignores its target position).
+
+    Input ranges (checked before solving, :class:`PlanningError` naming the input otherwise):
+    ``starts``/``targets``/``limits`` sequences of equal non-zero length of :class:`State` and
+    :class:`Limits` (state values within +-1e12, finite limits in [1e-15, 1e15]); ``sync`` one of
+    the three names; ``dt`` None or in [1e-9, 1e4] s. A synchronised duration beyond
+    ``MAX_SYNC_DURATION`` (1e4 s) is rejected.
     """
+    starts = _sequence("starts", starts)
+    targets = _sequence("targets", targets)
+    limits = _sequence("limits", limits)
     n = len(starts)
     if len(targets) != n or len(limits) != n:
         raise PlanningError(
@@ -1082,17 +1132,30 @@ def plan_sync(
     if sync not in ("time", "phase", "none"):
         raise PlanningError(f"sync must be one of 'time', 'phase', 'none', got {sync!r}")
     if dt is not None:
-        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not dt > 0.0:
-            raise PlanningError(f"dt must be a positive number of seconds or None, got {dt!r}")
-        if not math.isfinite(dt):
-            raise PlanningError(f"dt must be finite, got {dt!r}")
-        dt = float(dt)
-    ifaces = list(interface) if interface is not None else ["position"] * n
+        dt = check_dt(dt)
+    ifaces = list(_sequence("interface", interface)) if interface is not None else ["position"] * n
     if len(ifaces) != n:
         raise PlanningError(f"interface must have {n} entries, got {len(ifaces)}")
     for i, kind in enumerate(ifaces):
         if kind not in ("position", "velocity"):
             raise PlanningError(f"interface[{i}] must be 'position' or 'velocity', got {kind!r}")
+    try:
+        return _plan_sync(starts, targets, limits, sync, dt, ifaces)
+    except ArithmeticError as exc:
+        raise _internal(
+            "plan_sync", exc, f"starts={starts!r}, targets={targets!r}, limits={limits!r}"
+        ) from exc
+
+
+def _plan_sync(
+    starts: Sequence[State],
+    targets: Sequence[State],
+    limits: Sequence[Limits],
+    sync: str,
+    dt: float | None,
+    ifaces: list[str],
+) -> Trajectory:
+    n = len(starts)
     axes = [
         _make_axis(starts[i], targets[i], limits[i], ifaces[i] == "velocity", i) for i in range(n)
     ]

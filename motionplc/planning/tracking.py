@@ -28,10 +28,10 @@ import numpy as np
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import Limits
-from motionplc.planning.plan import plan
+from motionplc.planning.plan import _check_state, plan
 from motionplc.planning.profile import Profile, Sample
 from motionplc.planning.state import State
-from motionplc.planning.sync import plan_fixed_duration
+from motionplc.planning.sync import check_dt, plan_fixed_duration
 
 
 def _extrapolate(s: State, tau: float) -> State:
@@ -53,8 +53,9 @@ class Tracker:
     ) -> None:
         if not isinstance(limits, Limits):
             raise PlanningError(f"limits must be a Limits(...), got {type(limits).__name__}")
-        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not dt > 0.0:
-            raise PlanningError(f"dt must be a positive number of seconds, got {dt!r}")
+        dt = check_dt(dt)
+        if start is not None:
+            _check_state("start", start)
         if mode not in ("predict", "replan"):
             raise PlanningError(f"mode must be 'predict' or 'replan', got {mode!r}")
         if isinstance(latency, bool) or not isinstance(latency, int) or latency < 0:
