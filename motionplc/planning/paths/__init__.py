@@ -25,3 +25,22 @@ from motionplc.planning.paths.topp import DEFAULT_GRID, plan_path  # noqa: E402
 from motionplc.planning.paths.trajectory import PathSample, PathSamples, PathTrajectory  # noqa: E402
 
 __all__ += ["DEFAULT_GRID", "PathSample", "PathSamples", "PathTrajectory", "plan_path"]
+from motionplc.planning.paths.arclength import ArcLengthTable, adaptive_simpson  # noqa: E402
+from motionplc.planning.paths.bspline import (  # noqa: E402
+    BSplineFit,
+    BSplinePath,
+    Deviation,
+    deviation,
+    fit_bspline,
+)
+from motionplc.planning.paths.hermite import HermitePath  # noqa: E402
+from motionplc.planning.paths.orientation import (  # noqa: E402
+    OrientationSpline,
+    quat_from_axis_angle,
+    quat_to_matrix,
+    slerp,
+)
+
+__all__ += ["ArcLengthTable", "BSplineFit", "BSplinePath", "Deviation", "HermitePath"]
+__all__ += ["OrientationSpline", "adaptive_simpson", "deviation", "fit_bspline"]
+__all__ += ["quat_from_axis_angle", "quat_to_matrix", "slerp"]
