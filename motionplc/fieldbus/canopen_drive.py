@@ -27,7 +27,7 @@ Failure modes as values (never raised in the cycle):
 =====================  ========  ==========  ===================================  ===========
 condition              fault     comm_ok     error_code                           kind
 =====================  ========  ==========  ===================================  ===========
-drive FAULT / FRA      True      True        EMCY code, else 0x603F (TPDO2)
+drive FAULT / FRA      True      True        0x603F (TPDO2), else EMCY code
 heartbeat lost         False     False       0x8130                               heartbeat
 node not OPERATIONAL   False     False       0x8130 (boot-up seen or NMT state)   heartbeat
 no TPDO > limit        False     False       0x8250                               no_feedback
@@ -540,7 +540,8 @@ class CanopenDrive(Drive):
         error_code = 0
         detail = ""
         if fault:
-            error_code = self.emcy_code or self.drive_error_code
+            # 0x603F (TPDO2) is the fault's own code; a later EMCY may be a mere warning
+            error_code = self.drive_error_code or self.emcy_code
             detail = f"drive fault 0x{error_code:04X} ({state.value})"
         elif self.emcy_code and self._have_feedback:
             detail = f"EMCY 0x{self.emcy_code:04X}"
