@@ -947,9 +947,8 @@ def build(
                 watchdog_sensitivity=t.watchdog_sensitivity,
             )
         masters: dict[str, Any] = {}
-        modbus_first: set[str] = set()
         for ax in config.axes:
-            drive = _make_drive(machine, ax, masters, modbus_first, unique_channels)
+            drive = _make_drive(machine, ax, masters, unique_channels)
             lim = ax.limits
             options: dict[str, Any] = {
                 "v_min": lim.v_min,  # asymmetric limits run as given (None: symmetric)
@@ -976,7 +975,6 @@ def _make_drive(
     machine: Machine,
     ax: AxisSpec,
     masters: dict[str, Any],
-    modbus_first: set[str],
     unique_channels: bool,
 ) -> Any:
     d = ax.drive
@@ -1030,7 +1028,7 @@ def _make_drive(
     from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig
 
     port = bus.port
-    peer = None
+    peer = None  # the in-process server: stepped once per cycle (idempotent), answers exactly
     if bus.drives == "simulated":
         if d.bus not in masters:
             from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
@@ -1046,9 +1044,7 @@ def _make_drive(
             machine.peers[d.bus] = server
             masters[d.bus] = server
         port = masters[d.bus].port
-        if d.bus not in modbus_first:
-            modbus_first.add(d.bus)
-            peer = masters[d.bus]
+        peer = masters[d.bus]
     assert d.unit_id is not None
     return ModbusDrive(
         ax.name,
