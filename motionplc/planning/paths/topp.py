@@ -52,7 +52,7 @@ def _per_axis(name: str, value: float | Sequence[float], dim: int, allow_inf: bo
     arr = np.atleast_1d(np.asarray(value, dtype=float))
     if arr.ndim != 1 or (arr.size != 1 and arr.size != dim):
         raise PlanningError(
-            f"{name}: needs one value or one per axis ({dim}), got shape {arr.shape}"
+            f"{name}: must be one value or one per axis ({dim} values), got shape {arr.shape}"
         )
     if arr.size == 1:
         arr = np.full(dim, float(arr[0]))
@@ -162,7 +162,7 @@ def _lines(grid: _Grid, A: np.ndarray, C: np.ndarray, rows: np.ndarray):
     absc = np.abs(c)
     small = absc <= grid.tiny
     A3 = np.broadcast_to(A[:, None, :], c.shape)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s_acc = np.where(small, np.inf, A3 / absc)
         w_acc = np.where(small, 0.0, -q2 / c)
         stat = np.where(small & (q2 != 0.0), A3 / np.abs(q2), np.inf)

@@ -251,6 +251,14 @@ def plan_jerk_limited(path: Path, lim: PathLimits, vs: float, ve: float, n: int)
                 cap[: k0 + 1] = x0
             if k1 is not None:
                 cap[k1:] = xe
+    # a simple feasible candidate: a 1-D jerk-limited profile of u under constant limits that
+    # give every term of the chain rule its share (kept when it passes the same check)
+    ref = _reference_law(path, grid, lim, jm, math.sqrt(x0), math.sqrt(xe))
+    if ref is not None and (best is None or ref.duration < best[0]):
+        rv, ra, rj = _check(path, ref, lim, jm)
+        if max(rv.max(), ra.max(), rj.max()) <= 1.0 + _ACCEPT:
+            xs = np.interp(grid.u[::2], *ref.evaluate(np.linspace(0, ref.duration, 4 * n))[:2])
+            best = (ref.duration, ref, xs**2, 0.0)
     if best is None:
         raise PlanningError(
             "j_max: no jerk-limited motion found along this path within the limits "
@@ -261,6 +269,40 @@ def plan_jerk_limited(path: Path, lim: PathLimits, vs: float, ve: float, n: int)
     return PathTrajectory(
         path, law, 3, grid.u[::2], np.sqrt(xb), np.sqrt(np.maximum(sol2.mvc, 0.0)), t2, info
     )
+
+
+def _reference_law(
+    path: Path, grid: _Grid, lim: PathLimits, jm: np.ndarray, s0: float, se: float
+) -> SpeedLaw | None:
+    from motionplc.planning import Limits, State, plan
+
+    g1, g2 = np.abs(grid.q1).max(axis=0), np.abs(grid.q2).max(axis=0)
+    g3 = np.abs(np.asarray(path.evaluate(grid.u, 3), dtype=float)).max(axis=0)
+    with np.errstate(divide="ignore"):
+        sig = min(
+            float(np.min(lim.v_max / g1)),
+            float(np.min(np.sqrt(lim.a_max / (2 * g2)))),
+            float(np.min((jm / (3 * g3)) ** (1 / 3))),
+        )
+        if math.isfinite(lim.v_path):
+            sig = min(sig, lim.v_path / math.sqrt(float(grid.speed2.max())))
+        acc = min(float(np.min(lim.a_max / (2 * g1))), float(np.min(jm / (9 * g2 * sig))))
+        jrk = float(np.min(jm / (3 * g1)))
+    if not (0 < sig < math.inf and 0 < acc < math.inf and 0 < jrk < math.inf):
+        return None
+    if s0 > sig or se > sig:
+        return None
+    try:
+        prof = plan(
+            State(0.0, s0), State(float(path.u_end), se), Limits(v_max=sig, a_max=acc, j_max=jrk)
+        )
+    except Exception:  # noqa: BLE001 - the reference is optional
+        return None
+    k = prof.knots
+    if not k:
+        return None
+    arr = np.array([[kn.t, kn.p, kn.v, kn.a, kn.j] for kn in k])
+    return SpeedLaw(*arr.T, prof.duration, float(path.u_end))
 
 
 def _holds(base: _Base, t_hold: float, start: bool) -> bool:
