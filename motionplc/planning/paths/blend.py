@@ -283,9 +283,13 @@ class CornerBlend(Immutable, Path):
         """The derivatives of the given orders at ``u`` (neighbours evaluated once)."""
         orders = tuple(check_order(k) for k in orders)
         uu, scalar = param_1d(u, self.u_end)
-        vals = self._derivs(uu, max(orders))
-        out = tuple(vals[k] for k in orders)
+        out = self._eval_orders(uu, orders)
         return tuple(o[0] for o in out) if scalar else out
+
+    def _eval_orders(self, t: np.ndarray, orders: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """Unchecked evaluation of 1-D ``t`` (already in range) for several orders."""
+        vals = self._derivs(t, max(orders))
+        return tuple(vals[k] for k in orders)
 
     def _derivs(self, t: np.ndarray, m: int) -> list[np.ndarray]:
         two_d = 2.0 * self._d

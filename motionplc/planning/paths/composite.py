@@ -206,8 +206,9 @@ class CompositePath(Immutable, Path):
         for k, sel in self._groups(idx):
             seg = self._segments[k]
             loc = np.clip(local[sel], 0.0, seg.u_end)
-            if hasattr(seg, "derivatives_of"):
-                vals = seg.derivatives_of(loc, orders)
+            fast = getattr(seg, "_eval_orders", None)  # checked segments of this package
+            if fast is not None:
+                vals = fast(loc, orders)
             else:
                 vals = tuple(seg.evaluate(loc, o) for o in orders)
             for out, v in zip(outs, vals, strict=True):

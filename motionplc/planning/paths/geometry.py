@@ -156,6 +156,10 @@ class PathSegment(Immutable, Path):
     def _eval(self, u: np.ndarray, order: int) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _eval_orders(self, u: np.ndarray, orders: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+        """Unchecked evaluation of 1-D ``u`` (already in range) for several orders."""
+        return tuple(self._eval(u, k) for k in orders)
+
     def trim(self, u0: float, u1: float) -> PathSegment:
         """The piece ``[u0, u1]`` of this segment (``0 <= u0 < u1 <= length``), same kind."""
         a = as_scalar("u0", u0, low=0.0, low_open=False, high=self.length)
