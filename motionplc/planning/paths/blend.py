@@ -405,6 +405,11 @@ class BlendedPath(CompositePath):
     :attr:`corners` has one :class:`Corner` per junction of :attr:`source` (the segments as
     programmed). Continuity: G2 at every junction except the corners whose
     :attr:`Corner.needs_stop` is true (kept exact: TransitionMode.NONE or a reversal).
+
+    Parameter: a blend of corner distance ``d`` has parameter length ``2 d``, exactly the
+    programmed arc length it replaces, so ``u_end`` equals the programmed length and outside
+    the blends ``u`` is the arc-length position on the programmed path (``length`` is the
+    shorter blended length). ``u`` in ``[corner.u_start, corner.u_end]`` is inside a blend.
     """
 
     __slots__ = ("_corners", "_source")
