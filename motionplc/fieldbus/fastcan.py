@@ -281,27 +281,36 @@ class RxGuard:
         fast = cyclic() if cyclic is not None else ()
         checks = CHECK_FACTOR * limit
         bad = 0
-        chosen: set[int] = set()
-        for group in (
-            [m for m in rel if m.arbitration_id in fast],
-            [m for m in rel if m.arbitration_id not in fast],
-        ):
-            for msg in reversed(group):
-                if len(chosen) >= limit or checks <= 0:
-                    break
+        picked: list[int] = []
+
+        def check(j: int) -> None:
+            nonlocal bad
+            msg = rel[j]
+            try:
+                kind = frame_error(msg) or service_error(msg.arbitration_id, msg.data)
+            except Exception as exc:  # noqa: BLE001 - not a usable frame at all
+                self.failed(t, -1, exc)
+                bad += 1
+                return
+            if kind is None:
+                picked.append(j)
+            else:
+                self.malformed(kind, t, msg.arbitration_id, msg.data)
+                bad += 1
+
+        # newest first: the frames of the cyclic exchange, then the others
+        for j in reversed([i for i, m in enumerate(rel) if m.arbitration_id in fast]):
+            if len(picked) >= limit or checks <= 0:
+                break
+            checks -= 1
+            check(j)
+        j = len(rel)
+        while j and len(picked) < limit and checks > 0:
+            j -= 1
+            if rel[j].arbitration_id not in fast:
                 checks -= 1
-                try:
-                    kind = frame_error(msg) or service_error(msg.arbitration_id, msg.data)
-                except Exception as exc:  # noqa: BLE001 - not a usable frame at all
-                    self.failed(t, -1, exc)
-                    bad += 1
-                    continue
-                if kind is None:
-                    chosen.add(id(msg))
-                else:
-                    self.malformed(kind, t, msg.arbitration_id, msg.data)
-                    bad += 1
-        out = [m for m in rel if id(m) in chosen]
+                check(j)
+        out = [rel[j] for j in sorted(picked)]
         dropped = len(frames) - len(out) - bad
         self.frames_dropped += dropped
         self.overflow_cycles += 1

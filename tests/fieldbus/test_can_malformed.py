@@ -25,6 +25,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
 from motionplc.fieldbus.drives_main import BoundedStderrHandler, DrivesSpec, run_drives
 from motionplc.fieldbus.fastcan import (
     CHECK_FACTOR,
@@ -35,6 +36,7 @@ from motionplc.fieldbus.fastcan import (
     frame_error,
     service_error,
 )
+from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
 
 from .conftest import CanRig
 from .test_canopen_drive import enable_all
@@ -601,3 +603,34 @@ def test_drives_process_with_unread_stderr_answers_after_garbage() -> None:
         for pipe in (proc.stdout, proc.stderr):
             if pipe is not None:
                 pipe.close()
+
+
+def test_setup_without_peer_survives_malformed_frames(
+    channel: str, injector: can.BusABC, caplog: pytest.LogCaptureFixture
+) -> None:
+    """Setup SDO traffic through the temporary Notifier (no in-process peer) takes the same
+    guarded path: malformed frames during the configuration are counted, the setup works."""
+    rack = VirtualCanBus(can.Bus(interface="virtual", channel=channel), [VirtualCia402Drive(N)])
+    stop = threading.Event()
+
+    def pump() -> None:
+        while not stop.is_set():
+            rack.step(0.0, wait=0.005)
+
+    pumper = threading.Thread(target=pump, name="virtual-drive-pump", daemon=True)
+    pumper.start()
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), sdo_timeout=0.5)
+    try:
+        drive = CanopenDrive("ax", master, CanopenDriveConfig(node_id=N))
+        for msg in (frame(0x80 + N, b"\x10"), frame(0x700 + N, b""), frame(0x580 + N, b"\x60")):
+            injector.send(msg)
+        with caplog.at_level(logging.ERROR, logger="canopen"):
+            drive.open()
+        assert rack[N].nmt_state == "OPERATIONAL"
+        assert master.malformed_frames == {"emcy": 1, "heartbeat": 1, "sdo": 1}
+        assert not caplog.records  # nothing reached canopen's own error logging
+    finally:
+        stop.set()
+        pumper.join(timeout=2.0)
+        master.close()
+        rack.close()
