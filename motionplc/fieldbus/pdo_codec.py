@@ -59,6 +59,7 @@ class PdoCodec:
             return None
         if self._struct is not None:
             return self._struct.unpack(data)
+        self.pdo_map.data = bytearray(data)  # canopen's variables decode the map's data
         return tuple(var.raw for var in self.pdo_map.map)
 
     def transmit(self, values: Sequence[int]) -> None:

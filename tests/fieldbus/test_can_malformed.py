@@ -21,6 +21,7 @@ import threading
 from collections.abc import Callable, Iterator
 
 import can
+import canopen
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -36,7 +37,8 @@ from motionplc.fieldbus.fastcan import (
     frame_error,
     service_error,
 )
-from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+from motionplc.fieldbus.pdo_codec import PdoCodec
+from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive, load_od
 
 from .conftest import CanRig
 from .test_canopen_drive import enable_all
@@ -634,3 +636,18 @@ def test_setup_without_peer_survives_malformed_frames(
         pumper.join(timeout=2.0)
         master.close()
         rack.close()
+
+
+def test_pdo_codec_bit_level_map_decodes_the_given_frame() -> None:
+    """A map that is not byte-aligned takes canopen's per-variable path: it must decode the
+    frame it is given (not the map's last data) and refuse a frame of the wrong length."""
+    node = canopen.RemoteNode(N, load_od(N))
+    pdo_map = node.tpdo[1]
+    pdo_map.clear()
+    pdo_map.add_variable(0x6041, length=12)
+    pdo_map.add_variable(0x6061, length=4)
+    codec = PdoCodec(pdo_map)
+    assert codec.length == 2
+    assert codec.unpack(bytes([0x37, 0x82])) == (0x237, 8)
+    assert codec.unpack(bytes([0x21, 0x72])) == (0x221, 7)
+    assert codec.unpack(b"\x01") is None and codec.unpack(bytes(3)) is None
