@@ -271,16 +271,15 @@ class Trace:
             size = self._chunk_size(k)
             self._chunks.append([np.empty((len(cols), size), d) for d, cols in self._groups])
         chunk = self._chunks[k]
+        staged = self._stage.T  # (columns, rows) view
         for (d, cols), dest in zip(self._groups, chunk, strict=True):
-            src = self._stage[:, cols].T
-            if d != np.float64:
-                conv = src.astype(d)
-                if not np.array_equal(conv, src):
-                    bad = int(np.argmax(~(conv == src).all(axis=1)))
-                    name = self._columns[int(cols[bad])]
-                    raise ValueError(f"trace column {name!r} ({d}) cannot hold the value recorded")
-                src = conv
-            dest[:, off : off + m] = src
+            src = staged[cols]
+            part = dest[:, off : off + m]
+            part[...] = src  # a small-integer group casts here: checked right after
+            if d.kind != "f" and (part != src).any():
+                bad = int(np.argmax((part != src).any(axis=1)))
+                name = self._columns[int(cols[bad])]
+                raise ValueError(f"trace column {name!r} ({d}) cannot hold the value recorded")
         n = self._ring_rows
         self._dropped += max(0, self._count + m - n)
         self._count = min(n, self._count + m)
