@@ -4,6 +4,13 @@
 codes: 0 success, 1 the run failed (an expectation, an FB or axis error, a timeout), 2 invalid
 input (configuration, sequence or program errors: one line each, ``FILE:LINE: key.path:
 problem (allowed: ...)``).
+
+A failed run prints one ``FAILED:`` line per failure on stderr; an FB that failed because its
+axis went to ErrorStop names the axis' error, code and reason (``... failed with
+AXIS_ERROR_STOP (0x4000) at t = 0.672 s in step 'move_z' (line 5): axis 'z':
+COMMUNICATION_LOST (0x4004): receive: Connection reset by peer``). The log of the fieldbus
+libraries (pymodbus, canopen, python-can) is quiet unless ``run``/``drives`` get ``-v``
+(warnings and errors) or ``-vv`` (debug); see :func:`log_routing`.
 """
 
 from __future__ import annotations
