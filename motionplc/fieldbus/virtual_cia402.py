@@ -41,7 +41,6 @@ COB-IDs, the rest is dropped and counted).
 
 from __future__ import annotations
 
-import math
 import struct
 from collections.abc import Callable, Collection, Iterable, Sequence
 from importlib import resources
@@ -79,6 +78,8 @@ ABORT_VALUE_RANGE = 0x06090030
 ABORT_DEVICE_STATE = 0x08000022
 ABORT_INVALID_COMMAND = 0x05040001
 ABORT_OUT_OF_MEMORY = 0x05040005
+INTERPOLATION_PERIOD_MIN = 0.999e-6  # [s] 0x60C2 accepted from 1 µs ...
+INTERPOLATION_PERIOD_MAX = 1.0  # [s] ... to 1 s
 SDO_MAX_SEGMENTED = 1024  # [bytes] largest segmented download accepted (the OD has no more)
 
 
@@ -368,8 +369,8 @@ class VirtualCia402Drive:
             elif subindex == 2:
                 exponent = struct.unpack("<b", data)[0]
             period = value * 10.0**exponent
-            if not (period > 0.0 and math.isfinite(period)):
-                raise SdoAbortedError(ABORT_VALUE_RANGE)
+            if not INTERPOLATION_PERIOD_MIN <= period <= INTERPOLATION_PERIOD_MAX:
+                raise SdoAbortedError(ABORT_VALUE_RANGE)  # 0, absurd, or a plant step of 1e127 s
             self.interpolation_period = period
         elif index == 0x1006:
             self.comm_cycle_period = struct.unpack("<I", data)[0] * 1e-6

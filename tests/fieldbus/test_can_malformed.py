@@ -651,3 +651,21 @@ def test_pdo_codec_bit_level_map_decodes_the_given_frame() -> None:
     assert codec.unpack(bytes([0x37, 0x82])) == (0x237, 8)
     assert codec.unpack(bytes([0x21, 0x72])) == (0x221, 7)
     assert codec.unpack(b"\x01") is None and codec.unpack(bytes(3)) is None
+
+
+@pytest.mark.parametrize(
+    ("sub", "value"),
+    [(2, 0x7F), (2, 0x80), (1, 0x00)],  # 1 * 10^127 s, 1 * 10^-128 s, 0 s
+)
+def test_virtual_drive_refuses_absurd_interpolation_periods(
+    can_rig: Callable[..., CanRig], injector: can.BusABC, sub: int, value: int
+) -> None:
+    """A third node's SDO write of 0x60C2 must not give the plant an absurd step."""
+    rig = can_rig((N,))
+    enable_all(rig)
+    sniff(injector)
+    injector.send(frame(0x600 + N, bytes([0x2F, 0xC2, 0x60, sub, value, 0, 0, 0])))
+    fb = rig.hold(1, enable=True)[0]
+    assert _sdo_answers(injector) == [struct.pack("<BHBL", 0x80, 0x60C2, sub, 0x06090030)]
+    assert rig.rack[N].interpolation_period == pytest.approx(0.001)
+    assert fb.enabled and fb.comm_ok
