@@ -1039,7 +1039,6 @@ class Axis:
                 self._fail_all(ErrorID.AXIS_ERROR_STOP)
                 self._start_ramp("estop", 0.0, 0.0, self.cfg.j_max)
             else:
-                self.active = None
                 self.raise_axis_error(kind, reason)
         except Exception:  # noqa: BLE001 - last line of defence: hold still
             self.active = None
