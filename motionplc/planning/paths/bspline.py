@@ -574,7 +574,8 @@ class BSplineFit:
     after the first fit; ``history``: the largest deviation after every fit (first fit
     included, also re-fits not kept); ``converged``: ``deviation.max <= tolerance``;
     ``reason``: ``"converged"``, ``"max_iterations"``, ``"increased"`` (stop_on_increase) or
-    ``"stalled"`` (no new point could be placed).
+    ``"stalled"`` (no new point could be placed); ``insertions``: the reference parameters
+    inserted at every re-fit (``len(insertions) == iterations``; also re-fits not kept).
     """
 
     spline: BSplinePath
@@ -587,6 +588,7 @@ class BSplineFit:
     converged: bool
     reason: str
     tolerance: float
+    insertions: tuple[tuple[float, ...], ...]
 
 
 def fit_bspline(
@@ -658,6 +660,7 @@ def fit_bspline(
     spline, dev = fit(v)
     history = [dev.max]
     inserted: list[float] = []
+    insertions: list[tuple[float, ...]] = []
     best = (spline, dev, v, 0)
     reason = "max_iterations"
     iterations = 0
@@ -691,6 +694,7 @@ def fit_bspline(
         v_next = np.union1d(v, new)
         spline_next, dev_next = fit(v_next)
         iterations += 1
+        insertions.append(tuple(new))
         history.append(dev_next.max)
         if stop_on_increase and dev_next.max > dev.max:
             reason = "increased"
@@ -717,4 +721,5 @@ def fit_bspline(
         converged=b_dev.max <= tol,
         reason=reason,
         tolerance=tol,
+        insertions=tuple(insertions),
     )

@@ -37,10 +37,11 @@ Choices where the seed is incomplete (each documented and tested, none produces 
   value much larger than the chords gives loops and overshoot, a limitation of the method).
 * The passing angle is computed as ``2 atan2(|â - b̂|, |â + b̂|)`` (accurate near 0 and 180°).
 * Turn-back with no ``W[i+2]`` (the point before the last), or ``W[i+2]`` on the line
-  ``W[i] W[i+1]`` (``|w⊥| <= 1e-12 |w|``): the normal points towards the side of the previous
-  point ``W[i-1]`` (``+unit(a⊥)``; in the seed's own configuration, where ``W[i-1]`` and
-  ``W[i+2]`` lie on opposite sides, both rules agree); if ``W[i-1]`` is on that line too (an
-  exact reversal), the normal is ``unit(e - (e·d̂) d̂)`` for the coordinate axis ``e`` least
+  ``W[i] W[i+1]`` (``|w⊥| <= 1e-12 |w|``): the normal points away from the side of the
+  previous point ``W[i-1]`` (``-unit(a⊥)``): the seed turns away from where the curve goes
+  next; with nothing there, turning away from where it came from lets the incoming section
+  reach ``W[i]`` without crossing the line ``W[i] W[i+1]``. If ``W[i-1]`` is on that line too
+  (an exact reversal), the normal is ``unit(e - (e·d̂) d̂)`` for the coordinate axis ``e`` least
   aligned with ``d``. In 1-D no normal exists: the velocity at a turn-back is zero.
 * Duplicate consecutive points (zero-length ``a`` or ``b``, zero path derivative): points closer
   than ``1e-12 * max(1, max|coordinate|)`` to their predecessor are **dropped** (the first of
@@ -121,7 +122,7 @@ def _turn_back_normal(W: np.ndarray, i: int) -> np.ndarray:
             return -n  # away from W[i+2] (the seed's rule)
     n = _perp(W[i - 1] - W[i], d)
     if n is not None:
-        return n  # towards the side of the previous point (no usable W[i+2])
+        return -n  # away from the side of the previous point (no usable W[i+2])
     e = np.zeros_like(d)
     e[int(np.argmin(np.abs(d)))] = 1.0
     n = _perp(e, d)
