@@ -492,6 +492,11 @@ _AXIS = {
     "drive": False,
     "queue_depth": False,
 }
+# supported ranges, the same as motionplc.blocks.axis (AXIS_LIMIT_MIN, AXIS_LIMIT_MAX,
+# POSITION_MAX); kept as literals so that loading a configuration does not import the kernel
+_LIMIT_LO = 1e-6
+_LIMIT_HI = 1e9
+_POSITION_MAX = 1e12
 _LIMITS = {"v_max": True, "a_max": True, "j_max": False, "v_min": False, "a_min": False}
 _SWLIM = {"min": False, "max": False}
 _HOMING = {"method": False, "switch": False, "velocity": False}
@@ -634,6 +639,25 @@ def _parse_axis(
         for key, val in (("v_min", v_min), ("a_min", a_min)):
             if val is not None and val == 0.0:
                 c.error(lm.line_of(key), join(lp, key), "got 0", "a number < 0")
+        # the supported range of axis limits (blocks.axis.AXIS_LIMIT_MIN / _MAX): inside it
+        # every FB input range and every profile the kernel plans stay in the planner's envelope
+        for key, val in (("v_max", v_max), ("a_max", a_max), ("j_max", j_max)):
+            if val is not None and val != math.inf and not _LIMIT_LO <= val <= _LIMIT_HI:
+                c.error(
+                    lm.line_of(key),
+                    join(lp, key),
+                    f"got {_fmt(val)}",
+                    f"a number in [{_fmt(_LIMIT_LO)}, {_fmt(_LIMIT_HI)}]"
+                    + (", or .inf" if key == "j_max" else ""),
+                )
+        for key, val in (("v_min", v_min), ("a_min", a_min)):
+            if val is not None and val != 0.0 and not -_LIMIT_HI <= val <= -_LIMIT_LO:
+                c.error(
+                    lm.line_of(key),
+                    join(lp, key),
+                    f"got {_fmt(val)}",
+                    f"a number in [{_fmt(-_LIMIT_HI)}, {_fmt(-_LIMIT_LO)}]",
+                )
         if v_max is not None and a_max is not None:
             lim = LimitsSpec(v_max, a_max, j_max or math.inf, v_min or None, a_min or None)
     sw_min = sw_max = None
@@ -641,8 +665,8 @@ def _parse_axis(
         sp = join(path, "software_limits")
         sm = c.mapping(m["software_limits"], m.line_of("software_limits"), sp, _SWLIM)
         if sm is not None:
-            sw_min = c.number(sm, "min", sp, None)
-            sw_max = c.number(sm, "max", sp, None)
+            sw_min = c.number(sm, "min", sp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
+            sw_max = c.number(sm, "max", sp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
             if sw_min is not None and sw_max is not None and not sw_min < sw_max:
                 c.error(
                     sm.line_of("max"),
@@ -666,7 +690,7 @@ def _parse_axis(
         hm = c.mapping(m["homing"], m.line_of("homing"), hp, _HOMING)
         if hm is not None:
             method = c.choice(hm, "method", hp, HOMING, "set_position")
-            sw = c.number(hm, "switch", hp, None)
+            sw = c.number(hm, "switch", hp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
             hv = c.number(hm, "velocity", hp, None, gt=0.0)
             if method == "switch" and sw is None:
                 c.error(hm.line, join(hp, "switch"), "missing for method switch", "a number")

@@ -371,3 +371,28 @@ DegenerateMachine.TestCase.settings = settings(
     suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
 )
 TestDegenerateMachine = DegenerateMachine.TestCase
+
+
+# -- configuration: the YAML accepts the same axis ranges ----------------------------------
+@pytest.mark.parametrize(
+    ("limits", "expected"),
+    [
+        ("{v_max: 1.0e-300, a_max: 2.0}", "v_max: got 1e-300 (allowed: a number in [1e-06"),
+        ("{v_max: 1.0, a_max: 1.0e300}", "a_max: got 1e+300 (allowed: a number in [1e-06"),
+        ("{v_max: 1.0, a_max: 2.0, j_max: 1.0e-9}", "j_max: got 1e-09 (allowed: a number in"),
+        ("{v_max: 1.0, a_max: 2.0, a_min: -1.0e-300}", "a_min: got -1e-300 (allowed: a number in"),
+    ],
+)  # fmt: skip
+def test_config_limits_outside_the_axis_range(tmp_path, limits: str, expected: str) -> None:
+    from motionplc.config import load_config
+    from motionplc.errors import ConfigError
+
+    f = tmp_path / "c.yaml"
+    f.write_text(
+        f"runtime:\n  tasks:\n    motion: {{period: 0.001}}\naxes:\n  x:\n    limits: {limits}\n"
+    )
+    with pytest.raises(ConfigError) as exc:
+        load_config(f)
+    assert any(expected in line for line in exc.value.errors), exc.value.errors
+    with pytest.raises(ValueError, match="must be in"):  # the axis itself checks the same
+        AxisConfig("x", v_max=1e-300, a_max=2.0)
