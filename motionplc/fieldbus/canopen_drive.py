@@ -472,6 +472,10 @@ class CanopenDrive(Drive):
                 for index in objects:
                     pdo_map.add_variable(index)
             pdo_map.save()
+            # canopen subscribes every saved map; TPDOs are decoded by our handlers below and
+            # RPDOs are ours to send: a frame on their COB-ID is not for this master
+            if pdo_map.on_message in self.master.network.subscribers.get(cob_id, ()):
+                self.master.network.unsubscribe(cob_id, pdo_map.on_message)
         self._rpdo1 = PdoCodec(self.node.rpdo[1])
         self._rpdo2 = PdoCodec(self.node.rpdo[2]) if self.config.velocity_feed_forward else None
         self._tpdo1 = PdoCodec(self.node.tpdo[1])
