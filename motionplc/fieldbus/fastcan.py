@@ -347,4 +347,5 @@ class RxGuard:
         """Count a handler exception caught on frame ``cob_id`` (the frame is dropped)."""
         kind = "handler_error"
         self.malformed_frames[kind] = self.malformed_frames.get(kind, 0) + 1
-        self.log(kind, t, f"handler of frame 0x{cob_id:03X} failed: {type(exc).__name__}: {exc}")
+        frame = f"frame 0x{cob_id:03X}" if cob_id >= 0 else "an unreadable frame"
+        self.log(kind, t, f"handling {frame} failed: {type(exc).__name__}: {exc}")
