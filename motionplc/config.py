@@ -374,6 +374,7 @@ class RuntimeSpec:
     overrun: str = "skip"
     trace_capacity: int = 500_000
     blend_replans_per_cycle: int = 2
+    trace_bytes: int = 32 * 1024 * 1024
 
     def task(self, name: str) -> TaskSpec:
         return next(t for t in self.tasks if t.name == name)
@@ -473,6 +474,7 @@ _RUNTIME = {
     "clock": False,
     "overrun": False,
     "trace_capacity": False,
+    "trace_bytes": False,
     "blend_replans_per_cycle": False,
     "tasks": True,
 }
@@ -525,6 +527,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
     clock = c.choice(m, "clock", path, CLOCKS, "simulated")
     overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
     cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
+    trace_bytes = c.integer(m, "trace_bytes", path, 32 * 1024 * 1024, lo=64 * 1024)
     budget = c.integer(m, "blend_replans_per_cycle", path, 2, lo=1, hi=1000)
     tasks: list[TaskSpec] = []
     tm = c.mapping(m["tasks"], m.line_of("tasks"), "runtime.tasks", None) if "tasks" in m else None
@@ -560,7 +563,15 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
             tasks.append(
                 TaskSpec(name, period or tick, prio if prio is not None else 0, wd_time, wd_sens)
             )
-    return RuntimeSpec(tick, clock, tuple(tasks), overrun, cap or 500_000, budget or 2)
+    return RuntimeSpec(
+        tick,
+        clock,
+        tuple(tasks),
+        overrun,
+        cap or 500_000,
+        budget or 2,
+        trace_bytes or 32 * 1024 * 1024,
+    )
 
 
 def _is_loopback(host: str) -> bool:
@@ -953,6 +964,7 @@ def build(
         cycle=rs.tick,
         clock=RealtimeClock() if use_rt else SimClock(),
         trace_capacity=rs.trace_capacity,
+        trace_bytes=rs.trace_bytes,
         overrun_policy=rs.overrun,
         check_invariants=check_invariants,
         blend_replans_per_cycle=rs.blend_replans_per_cycle,

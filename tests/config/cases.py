@@ -51,8 +51,14 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         _cfg(_X, runtime="  tick: 0.001\n  cycle: 0.002\n  tasks:\n    motion: {}\n"),
         [
             "{f}:3: runtime.cycle: unknown key "
-            "(allowed: tick, clock, overrun, trace_capacity, blend_replans_per_cycle, tasks)"
+            "(allowed: tick, clock, overrun, trace_capacity, trace_bytes, "
+            "blend_replans_per_cycle, tasks)"
         ],
+    ),
+    (
+        "trace byte budget too small",
+        _cfg(_X, runtime="  trace_bytes: 1000\n  tasks:\n    motion: {}\n"),
+        ["{f}:2: runtime.trace_bytes: got 1000 (allowed: an integer >= 65536)"],
     ),
     (
         "blend re-plan budget out of range",

@@ -100,3 +100,14 @@ def test_blend_replan_budget_reaches_the_runtime(tmp_path: Path) -> None:
     cfg.write_text(text.replace("runtime:\n", "runtime:\n  blend_replans_per_cycle: 5\n", 1))
     with build(load_config(cfg)) as machine:
         assert machine.runtime._budget is not None and machine.runtime._budget.per_cycle == 5
+
+
+def test_trace_byte_budget_reaches_the_runtime(tmp_path: Path) -> None:
+    text = (CONFIGS / "demo.yaml").read_text()
+    with build(load_config(CONFIGS / "demo.yaml")) as machine:
+        assert machine.runtime.trace.nbytes <= 32 * 1024 * 1024
+        default_rows = machine.runtime.trace.rows_capacity
+    cfg = tmp_path / "trace.yaml"
+    cfg.write_text(text.replace("runtime:\n", "runtime:\n  trace_bytes: 1048576\n", 1))
+    with build(load_config(cfg)) as machine:
+        assert machine.runtime.trace.rows_capacity < default_rows / 16
