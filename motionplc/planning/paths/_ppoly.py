@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from motionplc.errors import PlanningError
-from motionplc.planning.paths.base import as_param
 
 MAX_ORDER = 3
 
@@ -126,11 +125,31 @@ def check_int(name: str, value: object, *, low: int, high: int | None = None) ->
 
 
 def param_1d(u: float | np.ndarray, u_end: float, u_start: float = 0.0) -> tuple[np.ndarray, bool]:
-    """``u`` checked to lie in ``[u_start, u_end]`` as a 1-D array, plus "was a scalar"."""
-    arr = as_param(np.asarray(u, dtype=float) - u_start, u_end - u_start) + u_start
+    """``u`` checked to lie in ``[u_start, u_end]`` as a 1-D array, plus "was a scalar".
+
+    Same rule as :func:`~motionplc.planning.paths.base.as_param`: NaN or a value outside by
+    more than ``1e-9 * max(1, u_end - u_start)`` raises PlanningError naming ``u`` and the
+    interval; a rounding outside is clipped. Plain floats take a fast path.
+    """
+    tol = 1e-9 * max(1.0, u_end - u_start)
+    if isinstance(u, float | int | np.floating | np.integer) and not isinstance(u, bool):
+        x = float(u)
+        if not math.isfinite(x):
+            raise PlanningError("u: path parameter must be finite")
+        if not u_start - tol <= x <= u_end + tol:
+            raise PlanningError(f"u: path parameter must be in [{u_start!r}, {u_end!r}], got {x!r}")
+        return np.array([min(max(x, u_start), u_end)]), True
+    arr = np.asarray(u, dtype=float)
     if arr.ndim > 1:
         raise PlanningError(f"u: must be a float or a 1-D array, got shape {arr.shape}")
-    return np.atleast_1d(arr), arr.ndim == 0
+    if not np.all(np.isfinite(arr)):
+        raise PlanningError("u: path parameter must be finite")
+    if arr.size and (arr.min() < u_start - tol or arr.max() > u_end + tol):
+        raise PlanningError(
+            f"u: path parameter must be in [{u_start!r}, {u_end!r}], got "
+            f"[{float(arr.min())!r}, {float(arr.max())!r}]"
+        )
+    return np.atleast_1d(np.minimum(np.maximum(arr, u_start), u_end)), arr.ndim == 0
 
 
 def drop_duplicates(points: np.ndarray, rtol: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
@@ -184,7 +203,7 @@ class PiecewisePoly(Frozen):
     def piece(self, u: np.ndarray) -> np.ndarray:
         """Index of the piece used at each ``u`` (right-continuous, last piece at the end)."""
         k = np.searchsorted(self.breaks, u, side="right") - 1
-        return np.clip(k, 0, len(self.breaks) - 2)
+        return np.minimum(np.maximum(k, 0), len(self.breaks) - 2)
 
     def __call__(self, u: np.ndarray, order: int = 0) -> np.ndarray:
         """Derivative ``order`` (0..3) at the 1-D array ``u``; shape ``(len(u), dim)``."""
