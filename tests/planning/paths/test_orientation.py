@@ -12,7 +12,13 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motionplc.errors import PlanningError
-from motionplc.planning.paths import OrientationSpline, quat_from_axis_angle, quat_to_matrix, slerp
+from motionplc.planning.paths import (
+    BSplinePath,
+    OrientationSpline,
+    quat_from_axis_angle,
+    quat_to_matrix,
+    slerp,
+)
 from motionplc.planning.paths.orientation import (
     quat_conjugate,
     quat_from_matrix,
@@ -278,3 +284,33 @@ def test_property_unit_through_keys_and_c1(data: tuple[np.ndarray, np.ndarray]) 
         wl, wr = o.angular_velocity(u[i] - eps), o.angular_velocity(u[i])
         scale = max(1.0, float(np.linalg.norm(wr)))
         np.testing.assert_allclose(wl, wr, atol=1e-6 * scale)
+
+
+def test_seed000_literal_axis_angle_bspline_pipeline() -> None:
+    # seed 000 §4.9 as printed: a quintic B-spline through [rx ry rz θ], then
+    # q = [cos(θ/2), sin(θ/2) r] normalised as a whole (not slerp; kept for reproduction)
+    aa = np.array(
+        [
+            [0, 0, -1, math.pi / 2],
+            [0, 0, -1, 3 * math.pi / 4],
+            [1, 1, -1, 3 * math.pi / 4],
+            [1, 0, -1, math.pi / 2],
+            [-1, 0, -1, 3 * math.pi / 2],
+            [0, 0, -1, 0],
+        ]
+    )
+    b = BSplinePath.interpolate(aa, 5)
+    np.testing.assert_array_equal(b.knots, [0.0] * 6 + [1.0] * 6)  # one quintic Bézier
+    np.testing.assert_allclose(b.evaluate(b.point_params), aa, atol=1e-12)
+    u = np.linspace(0, 1, 1001)
+    v = b.evaluate(u)
+    q = quat_from_axis_angle(v[:, :3], v[:, 3], normalize="quaternion")
+    assert np.max(np.abs(np.linalg.norm(q, axis=1) - 1)) < 1e-15
+    # at the keys it is the seed's quaternion of the given (r, θ), which is not the rotation by
+    # θ about r when |r| != 1 (pass2: |r| = √3)
+    qk = quat_from_axis_angle(aa[:, :3], aa[:, 3], normalize="quaternion")
+    got = quat_from_axis_angle(
+        b.evaluate(b.point_params)[:, :3], b.evaluate(b.point_params)[:, 3], normalize="quaternion"
+    )
+    np.testing.assert_allclose(got, qk, atol=1e-12)
+    assert not np.allclose(quat_to_matrix(qk[2]), axis_angle_matrix(aa[2, :3], aa[2, 3]))
