@@ -216,6 +216,38 @@ class PiecewisePoly(Frozen):
             out += c[:, j, :]
         return out
 
+    def speed_breaks(self, rtol: float = 1e-6) -> np.ndarray:
+        """The break points plus every interior local minimum of ``|p'|²`` that is below
+        ``rtol`` times the largest ``|p'|²`` of its piece: where the speed ``|p'|`` may have
+        a kink (``p' = 0``, always possible in 1-D, a cusp in n-D), so the arc-length
+        quadrature can split there."""
+        out = [self.breaks]
+        c1 = self._coeffs[1]  # (K, deg, dim): p' in ascending powers
+        for k in range(c1.shape[0]):
+            width = self.breaks[k + 1] - self.breaks[k]
+            q = np.zeros(max(2 * c1.shape[1] - 1, 1))
+            for d in range(c1.shape[2]):
+                q += np.convolve(c1[k, :, d], c1[k, :, d])  # |p'|² (ascending powers)
+            dq = np.polynomial.polynomial.polyder(q)
+            if not np.any(dq):
+                continue
+            roots = np.polynomial.polynomial.polyroots(np.trim_zeros(dq, "b"))
+            x = roots.real[np.abs(roots.imag) <= 1e-9 * width]
+            x = x[(x > 1e-9 * width) & (x < (1.0 - 1e-9) * width)]  # the ends are breaks
+            if x.size == 0:
+                continue
+            grid = np.linspace(0.0, width, 17)
+            top = float(np.max(np.polynomial.polynomial.polyval(grid, q)))
+            low = np.polynomial.polynomial.polyval(x, q) <= rtol * top
+            out.append(self.breaks[k] + x[low])
+        b = np.unique(np.concatenate(out))
+        keep = np.concatenate(([True], np.diff(b) > 1e-12 * (b[-1] - b[0])))
+        keep[-1] = True
+        b = b[keep]
+        if b.size > 2 and b[-1] - b[-2] <= 1e-12 * (b[-1] - b[0]):
+            b = np.delete(b, -2)
+        return b
+
     def speed(self, u: np.ndarray) -> np.ndarray:
         """``|p'(u)|`` at the 1-D array ``u``."""
         d = self(u, 1)

@@ -1,7 +1,8 @@
 """Arc length of parametric curves and its inverse (seed 000 §4.7–4.8), vectorised.
 
 * :class:`ArcLengthTable` — built once from the speed ``f(u) = |p'(u)|`` and the curve's break
-  points (Hermite sections, B-spline knot spans, where ``f`` is smooth): every piece is split
+  points (Hermite sections, B-spline knot spans, and the zeros of ``p'`` where ``|p'|`` has a
+  kink: between them ``f`` is smooth, which the error estimate needs): every piece is split
   adaptively (8-point Gauss–Legendre on an interval against the sum over its two halves) until
   the error estimate of each leaf is below ``rtol * length * width / total width``; the sum of
   the estimates is therefore below ``rtol * length`` (default ``rtol = 1e-10``; the estimate is

@@ -16,7 +16,8 @@
   (as in :class:`~motionplc.planning.paths.hermite.HermitePath`); degree 3 needs >= 4 distinct
   points and degree 5 >= 6 (the interpolant needs ``n >= p + 1`` points; fewer is a
   PlanningError, not a silent lower degree). Arc length: the adaptive Gauss–Legendre table of
-  :mod:`~motionplc.planning.paths.arclength` over the knot spans.
+  :mod:`~motionplc.planning.paths.arclength` over the knot spans (also split where the speed
+  has a (near-)zero, a kink of ``|C'|``).
 * :func:`deviation` — the true largest distance of a curve from a reference path, for any two
   :class:`~motionplc.planning.paths.base.Path` objects: ``max_u min_v |C(u) - R(v)|`` (a
   one-sided Hausdorff distance; the seed's index-matched ``|B_k - Q_k|`` is not a distance
@@ -211,7 +212,9 @@ class BSplinePath(Frozen, Path):
         coeffs /= np.array([math.factorial(k) for k in range(p + 1)])[None, :, None]
         breaks = np.concatenate((U[spans], [U[-1]]))
         poly = PiecewisePoly(breaks, coeffs)
-        table = ArcLengthTable(poly.speed, breaks, rtol=check_scalar("rtol", rtol, low=0.0))
+        table = ArcLengthTable(
+            poly.speed, poly.speed_breaks(), rtol=check_scalar("rtol", rtol, low=0.0)
+        )
         pts, h, src = _data if _data is not None else (None, None, None)
         self._freeze(
             knots=U,

@@ -57,8 +57,9 @@ axis ``x(t) = a t³ + b t² + c t + d`` with ``a = 2x0 - 2x1 + v0 + v1``,
 ``b = -3x0 + 3x1 - 2v0 - v1``, ``c = v0``, ``d = x0`` — :attr:`HermitePath.coefficients` has
 shape ``(n - 1, dim, 4)`` in the order ``(a, b, c, d)``.
 
-Arc length: :class:`~motionplc.planning.paths.arclength.ArcLengthTable` on the sections
-(adaptive 8-point Gauss–Legendre, estimated error <= ``rtol * length``, default 1e-10);
+Arc length: :class:`~motionplc.planning.paths.arclength.ArcLengthTable` on the sections, also
+split where the speed ``|p'|`` has a (near-)zero, i.e. a kink (adaptive 8-point Gauss–Legendre,
+estimated error <= ``rtol * length``, default 1e-10);
 :meth:`HermitePath.arc_length` and the inverse :meth:`HermitePath.u_at_arc_length` are
 vectorised. Everything is computed in the constructor; the object is immutable.
 """
@@ -258,7 +259,9 @@ class HermitePath(Frozen, Path):
         coeffs = np.stack((P0, V0, b, a), axis=1)  # ascending powers of t
         breaks = np.arange(len(W), dtype=float)
         poly = PiecewisePoly(breaks, coeffs)
-        table = ArcLengthTable(poly.speed, breaks, rtol=check_scalar("rtol", rtol, low=0.0))
+        table = ArcLengthTable(
+            poly.speed, poly.speed_breaks(), rtol=check_scalar("rtol", rtol, low=0.0)
+        )
         self._freeze(
             points=W,
             source_index=idx,

@@ -259,6 +259,32 @@ def test_arc_length_against_quadrature_simpson_and_inverse() -> None:
     np.testing.assert_allclose(h.arc_length(uu), ss, atol=1e-12 * h.length)
 
 
+def exact_length_1d(h: HermitePath) -> float:
+    """Arc length of a 1-D curve: the sum of |x(t_j+1) - x(t_j)| between the roots of x'."""
+    total = 0.0
+    for a, b, c, d in h.coefficients[:, 0]:
+        x = np.polynomial.Polynomial([d, c, b, a])
+        roots = [r.real for r in x.deriv().roots() if abs(r.imag) < 1e-12 and 0 < r.real < 1]
+        ts = [0.0, *sorted(roots), 1.0]
+        total += sum(abs(x(t1) - x(t0)) for t0, t1 in zip(ts[:-1], ts[1:], strict=True))
+    return total
+
+
+@pytest.mark.parametrize(
+    ("pts", "r"),
+    [
+        ([[0.0], [4.23792713]], 12.941925703706818),  # r > 3 chords: x' < 0 inside (two kinks)
+        ([[0.0], [2.20011957], [0.0]], 3.0),  # turn-back in 1-D: speed 0 at the point
+    ],
+)
+def test_arc_length_exact_where_the_speed_vanishes(pts: list[list[float]], r: float) -> None:
+    # regressions: the speed |x'| has kinks there; the table splits at them
+    h = HermitePath(pts, r=r)
+    assert h.length == pytest.approx(exact_length_1d(h), rel=1e-12)
+    s = h.arc_length(np.linspace(0, h.u_end, 201))
+    assert np.all(np.diff(s) >= 0)
+
+
 def test_derivatives_match_finite_differences() -> None:
     h = HermitePath([[0, 0, 0], [1, 2, 0], [3, 1, 1], [2, -1, 2]], r=2.0)
     u = away_from(np.linspace(0, h.u_end, 97), h.point_params, 1e-3)
