@@ -25,7 +25,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from motionplc.errors import MotionPlcError
+from motionplc.errors import MotionPlcError, ProgramError
 from motionplc.planning import Limits, State, plan
 
 LIBRARY_LOGGERS = ("pymodbus", "canopen", "can")
@@ -247,6 +247,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)")
         chunk = 1.0
         next_report = 5.0
+        program_error = ""
         try:
             while rt.time < limit - 1e-9:
                 span = min(chunk, limit - rt.time)
@@ -266,6 +267,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     next_report += 5.0
         except KeyboardInterrupt:
             failures.append("interrupted")
+        except ProgramError as exc:  # the task halted, its axes are at rest
+            program_error = str(exc)
+            if runner is None or not runner.failures:
+                failures.append(program_error)
         if runner is not None:
             failures.extend(runner.failures)
             if not runner.finished and not runner.failed and not failures:
@@ -276,7 +281,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         for name, ax in machine.axes.items():
             if ax.state is AxisState.ERROR_STOP and not any(f"{name!r}" in f for f in failures):
                 failures.append(f"axis {name!r} ends in ERROR_STOP ({axis_error_text(ax)})")
-        if rt.error_reason:
+        if rt.error_reason and rt.error_reason != program_error:
             failures.append(rt.error_reason)
         if args.trace:
             path = Path(args.trace)

@@ -26,3 +26,15 @@ class ConfigError(MotionPlcError, ValueError):
     def __init__(self, errors: str | list[str] | tuple[str, ...]) -> None:
         self.errors: tuple[str, ...] = (errors,) if isinstance(errors, str) else tuple(errors)
         super().__init__("\n".join(self.errors))
+
+
+class ProgramError(MotionPlcError, RuntimeError):
+    """A task's program raised: the task was halted, the axes of the task were brought to a
+    controlled stop (ErrorStop, INTERNAL_ERROR), then ``Runtime.run`` raised this error with
+    the program's exception as ``__cause__``. ``task`` names the task, ``where`` the
+    program's file and line (empty when unknown)."""
+
+    def __init__(self, message: str, task: str = "", where: str = "") -> None:
+        super().__init__(message)
+        self.task = task
+        self.where = where

@@ -96,7 +96,10 @@ def load_program(path: str | Path) -> Program:
 
 
 def _user_line(exc: BaseException, path: Path) -> int:
-    frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename) == path]
+    path = path.resolve()
+    frames = [
+        f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).resolve() == path
+    ]
     return frames[-1].lineno or 1 if frames else 1
 
 
@@ -195,13 +198,15 @@ class ProgramRunner:
                 if self.program.setup is not None:
                     self.program.setup(self.ctx)
             self.program.program(self.ctx)
-        except Exception as exc:  # noqa: BLE001 - a user program error fails the run
+        except Exception as exc:
+            # a user program error fails the run; the runtime halts the task and brings its
+            # axes to a controlled stop (Runtime.run raises ProgramError once they are at rest)
             line = _user_line(exc, Path(self.program.path))
             self.failures.append(
                 f"{self.program.path}:{line}: program raised {type(exc).__name__}: {exc} "
                 f"(t = {ctx.t:.3f} s)"
             )
-            return
+            raise
         if not self.finished and ctx.t >= self.program.timeout - 1e-12:
             self.fail(
                 f"timeout: the program did not call ctx.done() within {self.program.timeout:g} s"

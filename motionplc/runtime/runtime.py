@@ -23,10 +23,13 @@ from __future__ import annotations
 import gc
 import inspect
 import math
+import os
+import traceback
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis import ReplanBudget, planner_calls
+from motionplc.errors import ProgramError
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
 from motionplc.runtime.task import Program, Task, TaskStats
@@ -123,7 +126,8 @@ class Runtime:
         self._hooks: list[CycleHook] = []
         self._last_run_tick: dict[str, int] = {}
         self.last_due: list[str] = []  # names of the tasks run in the last tick, in run order
-        self.error_reason = ""  # set when a watchdog tripped (runtime state ERROR)
+        self.error_reason = ""  # set when a watchdog tripped or a program raised
+        self._failed_tasks: list[Task] = []  # programs that raised, their axes still stopping
         if check_invariants:
             from motionplc.runtime.invariants import InvariantChecker
 
@@ -243,7 +247,13 @@ class Runtime:
         return self.tick * self.cycle
 
     def run(self, seconds: float | None = None, cycles: int | None = None) -> None:
-        """Run ``cycles`` base ticks, or ``seconds`` of (virtual or real) time."""
+        """Run ``cycles`` base ticks, or ``seconds`` of (virtual or real) time.
+
+        A program that raises halts its task: the task's axes go to ErrorStop (INTERNAL_ERROR)
+        with a controlled stop, the cycles go on until they are at rest (or the run's end),
+        then :class:`~motionplc.errors.ProgramError` is raised (the program's exception as its
+        ``__cause__``). The task stays halted; the other tasks and axes run on.
+        """
         if (seconds is None) == (cycles is None):
             raise TypeError("run() takes exactly one of seconds= or cycles=")
         n = round(seconds / self.cycle) if seconds is not None else int(cycles)  # type: ignore[arg-type]
@@ -304,8 +314,17 @@ class Runtime:
                         skipped = (k_new - 1) // pt - (self.tick - 1) // pt
                         task.omitted_cycles += max(0, skipped)
                     self.tick = min(k_new, end_tick)
+            if self._failed_tasks:  # a program raised: run on until its axes are at rest
+                if self._failed_tasks_at_rest():
+                    failed, self._failed_tasks = self._failed_tasks, []
+                    raise failed[0].program_error  # type: ignore[misc]
+                continue
             if pred is not None and pred():
                 return True
+        if self._failed_tasks:  # the stop goes on in the next run
+            failed = self._failed_tasks[0]
+            self._failed_tasks = []
+            raise failed.program_error  # type: ignore[misc]
         return pred is None
 
     def _run_tick(self, k: int, deadline: int, start: int) -> None:
@@ -335,7 +354,11 @@ class Runtime:
                     ax.read_inputs(t_virtual)
                 except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
                     _drive_failed(ax, "read", exc)
-            task.program(ctx)
+            if task.program_error is None:
+                try:
+                    task.program(ctx)
+                except Exception as exc:  # noqa: BLE001 - the task halts, the axes stop
+                    self._program_failed(task, exc)
             n_plans = planner_calls()
             for ax in axes:
                 ax.step(dt)
@@ -368,6 +391,31 @@ class Runtime:
             for ax in self._axis_list:
                 row += ax.trace_values()
         trace.record(row)
+
+    def _program_failed(self, task: Task, exc: Exception) -> None:
+        """A program raised: halt its task (the program is not called again), put the task's
+        axes in ErrorStop with a controlled stop, and have ``run`` raise once they are at
+        rest."""
+        where = ""
+        package = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+        for frame in reversed(traceback.extract_tb(exc.__traceback__)):
+            if not os.path.abspath(frame.filename).startswith(package + os.sep):
+                where = f"{frame.filename}:{frame.lineno}"
+                break
+        reason = f"task {task.name!r}: program raised {type(exc).__name__}: {exc}" + (
+            f" ({where})" if where else ""
+        )
+        task.program_error = ProgramError(reason, task.name, where)
+        task.program_error.__cause__ = exc
+        self.error_reason = self.error_reason or reason
+        self._failed_tasks.append(task)
+        for ax in task.axes:
+            ax.raise_axis_error("INTERNAL_ERROR", reason)
+
+    def _failed_tasks_at_rest(self) -> bool:
+        return all(
+            ax.active is None and ax.v == 0.0 for task in self._failed_tasks for ax in task.axes
+        )
 
     def _spend(self, seconds: float) -> None:
         self.clock.spend(round(seconds * 1e9))

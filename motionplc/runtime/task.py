@@ -106,6 +106,7 @@ class Task:
         self.cycle_time_exceeded = False
         self.watchdog_tripped = False
         self.watchdog_reason = ""
+        self.program_error: Exception | None = None  # the task is halted (see Runtime.run)
 
     @property
     def sort_key(self) -> tuple[int, int]:

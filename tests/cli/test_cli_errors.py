@@ -193,3 +193,38 @@ def test_long_run_writes_the_kept_cycles_and_says_what_was_dropped(
     assert len(lines) == kept + 1 and lines[1].split(",")[0] == str(dropped)
     assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 0
     assert "<svg" in (tmp_path / "t.html").read_text()
+
+
+RAISING_PROGRAM = """\
+from motionplc.blocks import MC_MoveVelocity, MC_Power
+
+power = MC_Power()
+jog = MC_MoveVelocity()
+
+
+def program(ctx):
+    x = ctx.axes["x"]
+    power(axis=x, enable=True)
+    jog(axis=x, execute=power.status, velocity=0.4)
+    if ctx.t > 0.5:
+        ctx.vars["n"] = 1 / 0
+"""
+
+
+def test_a_raising_program_stops_its_axes_and_is_located(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A program given by a relative path raises while its axis moves: the FAILED line names
+    the program's own line, the axis is brought to rest in ErrorStop, the trace is written."""
+    monkeypatch.chdir(tmp_path)
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(CAN_TIGHT.replace("CHANNEL", f"cli-{os.getpid()}-prog").replace("1.0e-6", "1.0"))
+    (tmp_path / "prog.py").write_text(RAISING_PROGRAM)
+    assert main(["run", str(cfg), "prog.py", "-q", "--trace", "t.csv"]) == 1
+    err = capsys.readouterr().err
+    assert "FAILED: prog.py:12: program raised ZeroDivisionError: division by zero" in err
+    assert "axis 'x' ends in ERROR_STOP (INTERNAL_ERROR (0x5002)" in err
+    rows = (tmp_path / "t.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    last = dict(zip(header, rows[-1].split(","), strict=True))
+    assert float(last["x.velocity"]) == 0.0  # the stop ran to rest before the run ended
