@@ -73,6 +73,16 @@ def test_knots_are_averages_of_chord_parameters() -> None:
     np.testing.assert_allclose(g.evaluate(np.linspace(0, 1, 9)), Q, atol=1e-12)
 
 
+def test_duplicate_points_are_dropped_and_mapped() -> None:
+    pts = [[0, 0], [1, 0], [1, 0], [2, 1], [3, 0], [3, 0], [4, 2]]
+    b = BSplinePath.interpolate(pts, 3)
+    np.testing.assert_array_equal(b.source_index, [0, 1, 3, 4, 6])
+    np.testing.assert_allclose(b.evaluate(b.point_params), b.points, atol=1e-12)
+    assert np.all(np.isfinite(b.evaluate(np.linspace(0, 1, 101), 3)))
+    with pytest.raises(PlanningError, match="^points: degree 5 needs at least 6 distinct points"):
+        BSplinePath.interpolate(pts, 5)
+
+
 def test_seed_orientation_data_six_points_degree5_is_one_bezier() -> None:
     # seed 000 §5.5: 6 points and p = 5 give the knot vector {0 x 6, 1 x 6}, no interior knot
     pts = [[0, 0, 0], [1, 0, 0], [2, 1, 0], [3, 2, 1], [4, 2, 3], [5, 2, 2]]
