@@ -22,7 +22,15 @@ from collections.abc import Callable
 import numpy as np
 
 from motionplc.errors import PlanningError
-from motionplc.planning.paths._ppoly import Frozen, check_int, check_scalar
+from motionplc.planning.paths._ppoly import (
+    Frozen,
+    PiecewisePoly,
+    check_int,
+    check_order,
+    check_scalar,
+    param_1d,
+)
+from motionplc.planning.paths.base import Path, as_param
 
 __all__ = ["ArcLengthTable", "adaptive_simpson"]
 
@@ -181,3 +189,37 @@ def adaptive_simpson(
             stack.append((x0, x1, f0, fl, f1, left, 0.5 * t, depth + 1))
             stack.append((x1, x2, f1, fr, f2, right, 0.5 * t, depth + 1))
     return total, err
+
+
+class TabulatedCurve(Frozen, Path):
+    """A curve in its own parameter with an :class:`ArcLengthTable` (``_table``) and a
+    vectorised ``_poly(u, order)`` evaluator: the Path interface shared by the Hermite and
+    B-spline curves."""
+
+    __slots__ = ()
+    _table: ArcLengthTable
+    _poly: PiecewisePoly
+
+    @property
+    def length(self) -> float:
+        """Arc length of the whole curve (estimated error <= ``rtol * length``)."""
+        return self._table.length
+
+    def arc_length(self, u: float | np.ndarray) -> float | np.ndarray:
+        """Arc length from ``u = 0`` to ``u`` (vectorised)."""
+        uu, scalar = param_1d(u, self.u_end)
+        s = self._table.s(uu)
+        return float(s[0]) if scalar else s
+
+    def u_at_arc_length(self, s: float | np.ndarray) -> float | np.ndarray:
+        """The parameter ``u`` at arc length ``s`` in ``[0, length]`` (vectorised inverse)."""
+        arr = as_param(s, self.length)
+        uu = self._table.u(np.atleast_1d(arr))
+        return float(uu[0]) if arr.ndim == 0 else uu
+
+    def evaluate(self, u: float | np.ndarray, order: int = 0) -> np.ndarray:
+        """The ``order``-th derivative (0..3) with respect to ``u``; (dim,) or (len(u), dim)."""
+        order = check_order(order)
+        uu, scalar = param_1d(u, self.u_end)
+        out = self._poly(uu, order)
+        return out[0] if scalar else out

@@ -47,7 +47,6 @@ import numpy as np
 
 from motionplc.errors import PlanningError
 from motionplc.planning.paths._ppoly import (
-    Frozen,
     PiecewisePoly,
     check_int,
     check_order,
@@ -56,8 +55,8 @@ from motionplc.planning.paths._ppoly import (
     drop_duplicates,
     param_1d,
 )
-from motionplc.planning.paths.arclength import ArcLengthTable
-from motionplc.planning.paths.base import Path, as_param
+from motionplc.planning.paths.arclength import ArcLengthTable, TabulatedCurve
+from motionplc.planning.paths.base import Path
 
 __all__ = ["BSplineFit", "BSplinePath", "Deviation", "deviation", "fit_bspline"]
 
@@ -158,7 +157,7 @@ def _check_knots(knots: object, p: int, n_ctrl: int) -> np.ndarray:
     return U
 
 
-class BSplinePath(Frozen, Path):
+class BSplinePath(TabulatedCurve):
     """A clamped B-spline curve of degree 3 or 5 in R^dim; immutable.
 
     Guarantees: ``evaluate(u, k)`` is the exact k-th derivative (0..3) of ``sum N_{i,p}(u) P_i``
@@ -295,30 +294,6 @@ class BSplinePath(Frozen, Path):
     @property
     def u_end(self) -> float:
         return float(self.knots[-1])
-
-    @property
-    def length(self) -> float:
-        """Arc length of the whole curve (estimated error <= ``rtol * length``)."""
-        return self._table.length
-
-    def arc_length(self, u: float | np.ndarray) -> float | np.ndarray:
-        """Arc length from ``u = 0`` to ``u`` (vectorised)."""
-        uu, scalar = param_1d(u, self.u_end)
-        s = self._table.s(uu)
-        return float(s[0]) if scalar else s
-
-    def u_at_arc_length(self, s: float | np.ndarray) -> float | np.ndarray:
-        """The parameter ``u`` at arc length ``s`` in ``[0, length]`` (vectorised inverse)."""
-        arr = as_param(s, self.length)
-        uu = self._table.u(np.atleast_1d(arr))
-        return float(uu[0]) if arr.ndim == 0 else uu
-
-    def evaluate(self, u: float | np.ndarray, order: int = 0) -> np.ndarray:
-        """The ``order``-th derivative (0..3) with respect to ``u``; (dim,) or (len(u), dim)."""
-        order = check_order(order)
-        uu, scalar = param_1d(u, self.u_end)
-        out = self._poly(uu, order)
-        return out[0] if scalar else out
 
     # -- B-spline data -------------------------------------------------------------------------
 

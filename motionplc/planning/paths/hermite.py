@@ -73,17 +73,13 @@ import numpy as np
 
 from motionplc.errors import PlanningError
 from motionplc.planning.paths._ppoly import (
-    Frozen,
     PiecewisePoly,
-    check_order,
     check_points,
     check_scalar,
     check_vector,
     drop_duplicates,
-    param_1d,
 )
-from motionplc.planning.paths.arclength import ArcLengthTable
-from motionplc.planning.paths.base import Path, as_param
+from motionplc.planning.paths.arclength import ArcLengthTable, TabulatedCurve
 
 __all__ = ["HermitePath", "hermite_velocities"]
 
@@ -171,7 +167,7 @@ def hermite_velocities(
     return V, theta, tuple(branch)
 
 
-class HermitePath(Frozen, Path):
+class HermitePath(TabulatedCurve):
     """C¹ piecewise cubic Hermite curve through ordered passing points (seed 002); immutable.
 
     Guarantees: passes through every (kept) point at ``u = i``; ``evaluate(i, 1) == V[i]``
@@ -283,30 +279,6 @@ class HermitePath(Frozen, Path):
     @property
     def u_end(self) -> float:
         return float(len(self.points) - 1)
-
-    @property
-    def length(self) -> float:
-        """Arc length of the whole curve (estimated error <= ``rtol * length``)."""
-        return self._table.length
-
-    def arc_length(self, u: float | np.ndarray) -> float | np.ndarray:
-        """Arc length from ``u = 0`` to ``u`` (vectorised)."""
-        uu, scalar = param_1d(u, self.u_end)
-        s = self._table.s(uu)
-        return float(s[0]) if scalar else s
-
-    def u_at_arc_length(self, s: float | np.ndarray) -> float | np.ndarray:
-        """The parameter ``u`` at arc length ``s`` in ``[0, length]`` (vectorised inverse)."""
-        arr = as_param(s, self.length)
-        uu = self._table.u(np.atleast_1d(arr))
-        return float(uu[0]) if arr.ndim == 0 else uu
-
-    def evaluate(self, u: float | np.ndarray, order: int = 0) -> np.ndarray:
-        """The ``order``-th derivative (0..3) with respect to ``u``; (dim,) or (len(u), dim)."""
-        order = check_order(order)
-        uu, scalar = param_1d(u, self.u_end)
-        out = self._poly(uu, order)
-        return out[0] if scalar else out
 
     # -- curve data ----------------------------------------------------------------------------
 
