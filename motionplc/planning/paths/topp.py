@@ -43,6 +43,7 @@ _SUB = 8  # sub-intervals per grid interval in the feasibility check
 _MARGIN = 1e-11  # relative margin on every limit (rounding)
 _ACCEPT = 1e-12  # a bound up to 1 + _ACCEPT counts as held
 _MAX_REPAIRS = 12
+_MARGIN_FACTOR = 3.0  # first repair: margin in units of the sub-point second difference
 
 
 # -- input checking -------------------------------------------------------------------------
@@ -177,24 +178,39 @@ def _lines(grid: _Grid, A: np.ndarray, C: np.ndarray, rows: np.ndarray):
 
 
 def _prune(alpha: np.ndarray, beta: np.ndarray, top: np.ndarray) -> list[tuple[list, list]]:
-    """Per row, the lines ``alpha * y + beta`` that are the minimum for some ``y`` in
-    ``[0, top]`` (the lower envelope; ties keep the first line)."""
+    """Per row, a small superset of the lines ``alpha * y + beta`` that are the minimum for
+    some ``y`` in ``[0, top]`` (so the minimum over the kept lines equals the minimum over all
+    of them there).
+
+    O(rows x lines): with ``c0``/``cT`` the lowest lines at ``y = 0``/``y = top`` and ``U`` the
+    smaller of the two, ``line - U`` is convex on ``[0, top]`` with its only kink where ``c0`` and
+    ``cT`` cross (``y*``), and it is >= 0 at both ends; a line can be below ``U`` (and so on
+    the lower envelope) only if it is below ``U`` at ``y*``. Rows whose ``top`` is too large to
+    evaluate the lines keep every finite line.
+    """
+    m = alpha.shape[1]
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         b = np.where(np.isnan(beta), np.inf, beta)
-        m = b.shape[1]
-        # line c <= line c'  <=>  (a_c - a_c') y <= b_c' - b_c
-        d = alpha[:, :, None] - alpha[:, None, :]
-        r = b[:, None, :] - b[:, :, None]
-        y = r / np.where(d != 0.0, d, 1.0)
-        y = np.where(np.isnan(y), np.inf, y)
-        up = np.where(d > 0.0, y, np.inf).min(axis=2)
-        lo = np.where(d < 0.0, y, -np.inf).max(axis=2)
-        order = np.arange(m)
-        earlier = order[None, :] < order[:, None]  # [c, c']: c' comes before c
-        tie_lost = (d == 0.0) & ((r < 0.0) | ((r == 0.0) & earlier[None, :, :]))
-        keep = (
-            np.isfinite(b) & ~tie_lost.any(axis=2) & (lo <= up) & (up >= 0.0) & (lo <= top[:, None])
-        )
+        finite = np.isfinite(b)
+        if m == 0:
+            return [([], [])] * len(b)
+        topc = np.where(top > _PRUNE_TOP, 0.0, np.maximum(top, 0.0))
+        vt = alpha * topc[:, None] + b
+        vt = np.where(np.isnan(vt), np.inf, vt)
+        rows = np.arange(len(b))
+        c0 = np.argmin(b, axis=1)
+        ct = np.argmin(vt, axis=1)
+        a0, b0 = alpha[rows, c0], b[rows, c0]
+        at, bt = alpha[rows, ct], b[rows, ct]
+        da = a0 - at
+        ys = np.where(da != 0.0, (bt - b0) / np.where(da != 0.0, da, 1.0), 0.0)
+        ys = np.clip(np.nan_to_num(ys, nan=0.0, posinf=0.0, neginf=0.0), 0.0, topc)
+        us = np.minimum(a0 * ys + b0, at * ys + bt)
+        vs = alpha * ys[:, None] + b
+        below = vs < us[:, None] - 1e-13 * np.abs(us[:, None])
+        keep = finite & (below | (np.arange(m)[None, :] == c0[:, None]))
+        keep |= finite & (np.arange(m)[None, :] == ct[:, None])
+        keep |= finite & (top > _PRUNE_TOP)[:, None]
     counts = keep.sum(axis=1)
     fa = alpha[keep].tolist()
     fb = b[keep].tolist()
@@ -203,7 +219,60 @@ def _prune(alpha: np.ndarray, beta: np.ndarray, top: np.ndarray) -> list[tuple[l
     return [(fa[i:j], fb[i:j]) for i, j in zip(starts, ends, strict=True)]
 
 
+_PRUNE_TOP = 1e150  # a larger range keeps every line
 _BIG = 1e300  # stands for "unbounded" in x (a path piece that does not move)
+_MVC_STEPS = 12
+
+
+def _pairwise_mvc(lo_p, lo_r, up_s, up_w, static) -> np.ndarray:
+    """Interval maximum-velocity curve: the largest ``x_i`` with ``max_c lo_c(x) <= min_d
+    hi_d(x)``. ``x = 0`` (with ``a = 0``) is always feasible, so each pair of lines bounds ``x``
+    from above only: the minimum over all pairs (O(rows x lines^2))."""
+    m = len(static)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        den = lo_r[:, :, None] - up_w[:, None, :]
+        num = up_s[:, None, :] - lo_p[:, :, None]
+        val = np.where(den > 0.0, num / np.where(den > 0.0, den, 1.0), np.inf)
+    return np.minimum(static, val.reshape(m, -1).min(axis=1, initial=np.inf))
+
+
+def _interval_mvc(lo_p, lo_r, up_s, up_w, static) -> np.ndarray:
+    """The same value as :func:`_pairwise_mvc` in O(rows x lines x iterations): Newton's method
+    from the right on the concave piecewise-linear ``g(x) = min_d hi_d(x) - max_c lo_c(x)``
+    (``g(0) >= 0``). Each step jumps to where the two active lines cross (computed from the
+    lines alone, no cancellation against a huge ``x``); for a concave ``g`` that point is never
+    left of the root, and the active pair changes at most once per line. Rows that have not
+    settled after a few steps are solved pairwise."""
+    x = np.minimum(static, _BIG)
+    rows = np.arange(len(x))
+    active = rows
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        for _ in range(_MVC_STEPS):
+            xa = x[active, None]
+            hi = up_s[active] + up_w[active] * xa
+            lo = lo_p[active] + lo_r[active] * xa
+            d = np.argmin(hi, axis=1)
+            c = np.argmax(lo, axis=1)
+            k = np.arange(len(active))
+            g = hi[k, d] - lo[k, c]
+            bad = ~(g >= 0.0)
+            if not bad.any():
+                return x
+            active = active[bad]
+            c, d = c[bad], d[bad]
+            den = lo_r[active, c] - up_w[active, d]
+            xn = (up_s[active, d] - lo_p[active, c]) / den
+            xo = x[active]
+            xn = np.where((den > 0.0) & (xn >= 0.0), np.minimum(xn, xo), 0.0)
+            x[active] = xn
+            moving = xn < xo * (1.0 - 4e-16)
+            active = active[moving]
+            if not len(active):
+                return x
+    x[active] = _pairwise_mvc(
+        lo_p[active], lo_r[active], up_s[active], up_w[active], static[active]
+    )
+    return x
 
 
 class _Solver:
@@ -274,14 +343,7 @@ class _Solver:
     def _update(self, rows: np.ndarray) -> None:
         h = self.grid.h
         lo_p, lo_r, up_s, up_w, static = _lines(self.grid, self.A, self.C, rows)
-        m = len(rows)
-        # Interval maximum-velocity curve: largest x_i with max_c lo_c(x) <= min_d hi_d(x).
-        # x = 0 (with a = 0) is always feasible, so each pair of lines bounds x from above only.
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            den = lo_r[:, :, None] - up_w[:, None, :]
-            num = up_s[:, None, :] - lo_p[:, :, None]
-            val = np.where(den > 0.0, num / np.where(den > 0.0, den, 1.0), np.inf)
-        mvc_r = np.minimum(static, val.reshape(m, -1).min(axis=1))
+        mvc_r = _interval_mvc(lo_p, lo_r, up_s, up_w, static)
         self.mvc[rows] = np.clip(mvc_r, 0.0, _BIG)
         self._back_lines(lo_p, lo_r, rows)
         prev = np.setdiff1d(rows - 1, rows)  # a changed mvc_i changes the range of row i - 1
@@ -304,6 +366,8 @@ class _Solver:
 class _Check:
     acc: np.ndarray  # (n, dim) bound of |a_k| / a_max_k per interval
     speed: np.ndarray  # (n,) bound of the squared speed ratio (velocity and path speed)
+    acc_d2: np.ndarray  # (n, dim) largest |second difference| of a_k / a_max_k on the sub-points
+    speed_d2: np.ndarray  # (n,) the same for the squared speed ratio
     worst: float
 
 
@@ -311,39 +375,46 @@ def _dense_eval(path: Path, n: int, sub: int) -> tuple[np.ndarray, np.ndarray]:
     u = np.linspace(0.0, float(path.u_end), n * sub + 1)
     q1 = np.asarray(path.evaluate(u, 1), dtype=float).reshape(len(u), -1)
     q2 = np.asarray(path.evaluate(u, 2), dtype=float).reshape(len(u), -1)
-    return q1, q2
+    sub_idx = sub * np.arange(n)[:, None] + np.arange(sub + 1)[None, :]
+    return q1[sub_idx], q2[sub_idx]
 
 
-def _bound(f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Conservative (max, min) over the sub-interval axis (axis 1) of samples ``f``."""
-    d2 = np.abs(np.diff(f, 2, axis=1)).max(axis=1) * 0.25 if f.shape[1] > 2 else 0.0
-    return f.max(axis=1) + d2, f.min(axis=1) - d2
+def _bound(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Conservative (max, min) over the sub-interval axis (axis 1) of samples ``f``, and the
+    largest |second difference| (a quarter of it is the allowance added to both)."""
+    d2 = np.abs(np.diff(f, 2, axis=1)).max(axis=1)
+    return f.max(axis=1) + 0.25 * d2, f.min(axis=1) - 0.25 * d2, d2
 
 
 def _check(dense: tuple[np.ndarray, np.ndarray], x: np.ndarray, lim: PathLimits, h: float):
-    q1, q2 = dense
+    Q1, Q2 = dense  # (n, sub+1, dim)
     n = len(x) - 1
-    sub = (len(q1) - 1) // n
-    idx = sub * np.arange(n)[:, None] + np.arange(sub + 1)[None, :]
+    sub = Q1.shape[1] - 1
     th = np.arange(sub + 1) / sub
     a = (x[1:] - x[:-1]) / (2.0 * h)  # (n,)
     xs = x[:-1, None] + th[None, :] * (x[1:] - x[:-1])[:, None]  # (n, sub+1)
-    Q1 = q1[idx]
-    Q2 = q2[idx]
-    acc = Q1 * a[:, None, None] + Q2 * xs[:, :, None]  # (n, sub+1, dim)
-    hi, lo = _bound(acc)
-    racc = np.maximum(hi, -lo) / lim.a_max[None, :]
+    acc = (Q1 * a[:, None, None] + Q2 * xs[:, :, None]) / lim.a_max  # (n, sub+1, dim)
+    hi, lo, acc_d2 = _bound(acc)
+    racc = np.maximum(hi, -lo)
     speed = np.zeros((n, sub + 1))
     with np.errstate(divide="ignore", invalid="ignore"):
         if np.any(np.isfinite(lim.v_max)):
             g = Q1**2 * xs[:, :, None] / (lim.v_max**2)[None, None, :]
-            speed = np.nanmax(np.where(np.isfinite(g), g, 0.0), axis=2)
+            speed = np.where(np.isfinite(g), g, 0.0).max(axis=2)
         if math.isfinite(lim.v_path):
             sp = np.einsum("ijk,ijk->ij", Q1, Q1) * xs / lim.v_path**2
             speed = np.maximum(speed, sp)
-    rspeed = _bound(speed)[0]
+    rspeed, _, speed_d2 = _bound(speed)
     worst = max(float(racc.max(initial=0.0)), float(rspeed.max(initial=0.0)))
-    return _Check(racc, rspeed, worst)
+    return _Check(racc, rspeed, acc_d2, speed_d2, worst)
+
+
+def _neighbour_max(f: np.ndarray) -> np.ndarray:
+    """``max(f[i - 1], f[i], f[i + 1])`` along axis 0."""
+    g = f.copy()
+    g[1:] = np.maximum(g[1:], f[:-1])
+    g[:-1] = np.maximum(g[:-1], f[1:])
+    return g
 
 
 # -- public entry ---------------------------------------------------------------------------
@@ -454,6 +525,23 @@ def solve_second_order(
         if it == _MAX_REPAIRS:
             break
         info["repairs"] = it + 1.0
+        if it == 0:
+            # First repair, on every interval at once: between the three constraint points a
+            # ratio can exceed its value there by the linear-interpolation error (<= 2 x the
+            # second difference on the 4x finer sub-points) plus the check's own allowance
+            # (0.25 x); 3 x the largest second difference of the interval and its neighbours
+            # (the solution moves a little) covers both.
+            # Only where a ratio comes that close to its limit (the boundary speeds a caller
+            # imposes through extra_cap stay untouched where they are not near a limit).
+            ma = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.acc_d2), 0.5)
+            mv = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.speed_d2), 0.5)
+            ma = np.where(_neighbour_max(chk.acc) + ma > 1.0, ma, 0.0)
+            mv = np.where(_neighbour_max(chk.speed) + mv > 1.0, mv, 0.0)
+            A = A * (1.0 - ma)
+            C = C * (1.0 - mv)[:, None]
+            rows = np.flatnonzero((ma > 0.0).any(axis=1) | (mv > 0.0))
+            sol = solver.solve(A, C, rows)
+            continue
         # tighten by twice the excess (the excess moves a little as the solution changes)
         fa = np.where(chk.acc > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.acc - 1.0 + 1e-9), 1.0)
         fv = np.where(chk.speed > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.speed - 1.0 + 1e-9), 1.0)

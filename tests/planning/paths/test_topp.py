@@ -245,3 +245,26 @@ def test_jerk_limited_with_start_and_end_speed() -> None:
     assert np.linalg.norm(s.v[:, 0]) == pytest.approx(0.9, rel=1e-9)
     assert np.linalg.norm(s.v[:, 1]) == pytest.approx(0.9, rel=1e-9)
     assert abs(s.ddu[0]) < 1e-9 and abs(s.ddu[1]) < 1e-9
+
+
+@pytest.mark.parametrize(
+    "path, vm, am",
+    [
+        (circle((0, 0), 0.5), [1.0, 0.7], [2.0, 1.5]),
+        (wiggly(), [1.0, 0.8, 1.5], [2.0, 3.0, 1.0]),
+        (wiggly(), float("inf"), [2.0, 3.0, 1.0]),
+    ],
+)
+def test_interval_mvc_equals_the_pairwise_minimum(path, vm, am) -> None:
+    from motionplc.planning.paths import topp
+
+    n = 300
+    lim, _, _, _ = topp._validate(path, vm, am, None, None, 0.0, 0.0, n)
+    grid = topp._evaluate_grid(path, n)
+    caps = topp._speed_caps(grid, lim)
+    C = caps[2 * np.arange(n)[:, None] + np.arange(3)[None, :]]
+    A = np.broadcast_to(lim.a_max, (n, path.dim)).copy()
+    lines = topp._lines(grid, A, C, np.arange(n))
+    fast = topp._interval_mvc(*lines)
+    ref = topp._pairwise_mvc(*lines)
+    assert np.allclose(np.minimum(fast, 1e300), np.minimum(ref, 1e300), rtol=1e-12, atol=0)
