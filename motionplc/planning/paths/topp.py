@@ -493,15 +493,20 @@ def solve_second_order(
     grid: _Grid | None = None,
     extra_cap: np.ndarray | None = None,
     acc_scale: np.ndarray | None = None,
+    span: tuple[int, int] | None = None,
 ) -> tuple[_Solution, _Grid, dict[str, float]]:
     """The feasible discretised optimum ``x_i`` on ``n`` intervals (see the module docstring).
 
     ``extra_cap`` (half-grid, x units) and ``acc_scale`` ((n, dim) factors <= 1) tighten the
-    problem further (used by the jerk-limited planner). Raises :class:`PlanningError` when the
-    start speed exceeds what the path allows or the end speed cannot be reached.
+    problem further (used by the jerk-limited planner). ``span = (i0, i1)`` solves only on the
+    grid intervals ``i0 .. i1 - 1``, from ``x0`` at grid point ``i0`` to ``x_end`` at ``i1``,
+    and holds ``x = x0`` before and ``x = x_end`` after (constant path speed; the caller checks
+    those pieces). Raises :class:`PlanningError` when the start speed exceeds what the path
+    allows or the end speed cannot be reached.
     """
     if grid is None:
         grid = _evaluate_grid(path, n)
+    full_grid = grid
     caps = _speed_caps(grid, lim, extra_cap) * (1.0 - _MARGIN)
     idx = 2 * np.arange(n)[:, None] + np.arange(3)[None, :]
     C = caps[idx].copy()
@@ -509,6 +514,15 @@ def solve_second_order(
     if acc_scale is not None:
         A *= acc_scale
     dense = _dense_eval(path, n, _SUB)
+    i0, i1 = (0, n) if span is None else (int(span[0]), int(span[1]))
+    if not 0 <= i0 < i1 <= n:
+        raise ValueError(f"span: must satisfy 0 <= i0 < i1 <= {n}, got {span!r}")
+    if (i0, i1) != (0, n):
+        k = slice(2 * i0, 2 * i1 + 1)
+        grid = _Grid(i1 - i0, grid.h, grid.u[k], grid.q1[k], grid.q2[k], grid.speed2[k], grid.tiny)
+        C, A = C[i0:i1], A[i0:i1]
+        dense = (dense[0][i0:i1], dense[1][i0:i1])
+        n = i1 - i0
     info: dict[str, float] = {"repairs": 0.0}
     h = grid.h
     solver = _Solver(grid, x0, x_end)
@@ -564,6 +578,13 @@ def solve_second_order(
         raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
     xs = sol.x.copy()
     xs[-1] = x_end if x_end > 0.0 else xs[-1]
+    if grid is not full_grid:
+        n_full = full_grid.n
+        pre, post = np.full(i0, x0), np.full(n_full - i1, x_end)
+        xs = np.concatenate([pre, xs, post])
+        X = np.concatenate([pre, sol.X, post])
+        mvc = np.concatenate([pre, sol.mvc, post])
+        return _Solution(xs, X, mvc), full_grid, info
     return _Solution(xs, sol.X, sol.mvc), grid, info
 
 

@@ -18,7 +18,10 @@ reports that optimum (``second_order_duration``). The moving average is not time
 the third-order problem; it is a feasible, smooth, fast construction.
 
 A non-zero start (end) speed is kept constant for ``T_f / 2`` at the start (end) of the base
-law, so that the smoothed law starts (ends) exactly at that speed with zero path acceleration.
+law, so that the smoothed law starts (ends) exactly at that speed with zero path acceleration:
+the base problem is solved only between those holds (whole grid intervals), from the start
+speed to the end speed, and tightening never caps the speed below a boundary speed within one
+filter length of its hold (there only the path acceleration is tightened).
 """
 
 from __future__ import annotations
@@ -195,22 +198,18 @@ def plan_jerk_limited(path: Path, lim: PathLimits, vs: float, ve: float, n: int)
     for fac in _FILTER_FACTORS:
         tf = fac * tau0
         cap = jcap.copy()
-        # hold the boundary speeds for tf/2 (plus one interval), on whole intervals (a cap
-        # starting at an interval's middle would force a dip below it)
-        k0 = 2 * min(n, math.ceil((math.sqrt(x0) * tf / 2.0) / grid.h) + 1) if x0 > 0.0 else -1
-        k1 = (
-            2 * max(0, n - math.ceil((math.sqrt(xe) * tf / 2.0) / grid.h) - 1) if xe > 0.0 else None
-        )
-        if x0 > 0.0:
-            cap[: k0 + 1] = np.minimum(cap[: k0 + 1], x0)
-        if k1 is not None:
-            cap[k1:] = np.minimum(cap[k1:], xe)
+        # the base law holds the boundary speeds for tf/2 on whole grid intervals; the
+        # second-order problem is solved between those holds (span)
+        i0 = math.ceil((math.sqrt(x0) * tf / 2.0) / grid.h * (1.0 + 1e-12)) if x0 > 0.0 else 0
+        i1 = n - math.ceil((math.sqrt(xe) * tf / 2.0) / grid.h * (1.0 + 1e-12)) if xe > 0.0 else n
+        if not 0 <= i0 < i1 <= n:
+            continue  # the path is too short to hold the boundary speeds this long
         acc_scale = np.ones((n, dim))
         for _ in range(_MAX_ITER):
             tried += 1
             try:
                 sol, _, _ = solve_second_order(
-                    path, lim, x0, xe, n, grid, extra_cap=cap, acc_scale=acc_scale
+                    path, lim, x0, xe, n, grid, extra_cap=cap, acc_scale=acc_scale, span=(i0, i1)
                 )
             except PlanningError:
                 break
@@ -246,11 +245,16 @@ def plan_jerk_limited(path: Path, lim: PathLimits, vs: float, ve: float, n: int)
                 else:
                     acc_scale[imask] *= g
                     cap[mask] = np.minimum(cap[mask], xb[mask] * g ** (2.0 / 3.0))
-            # the boundary holds keep their speeds (violations there are fixed elsewhere)
+            # the spans' ends keep their boundary speeds (violations there are fixed elsewhere)
+            # and for one filter length beyond them (a speed cap below the boundary speed
+            # right after a hold would ask for an instant brake; there only the path
+            # acceleration is tightened)
             if x0 > 0.0:
-                cap[: k0 + 1] = x0
-            if k1 is not None:
-                cap[k1:] = xe
+                near = grid.u <= grid.u[2 * i0] + math.sqrt(x0) * tf
+                cap[near] = np.maximum(cap[near], x0)
+            if xe > 0.0:
+                near = grid.u >= grid.u[2 * i1] - math.sqrt(xe) * tf
+                cap[near] = np.maximum(cap[near], xe)
     # a simple feasible candidate: a 1-D jerk-limited profile of u under constant limits that
     # give every term of the chain rule its share (kept when it passes the same check)
     ref = _reference_law(path, grid, lim, jm, math.sqrt(x0), math.sqrt(xe))

@@ -268,3 +268,19 @@ def test_interval_mvc_equals_the_pairwise_minimum(path, vm, am) -> None:
     fast = topp._interval_mvc(*lines)
     ref = topp._pairwise_mvc(*lines)
     assert np.allclose(np.minimum(fast, 1e300), np.minimum(ref, 1e300), rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("vs, ve", [(0.3, 0.5), (0.0, 0.5), (0.5, 0.0), (0.6, 0.2)])
+def test_jerk_limited_with_unequal_start_and_end_speeds(vs: float, ve: float) -> None:
+    c = circle((0, 0), 0.5)
+    tr = plan_path(c, 1.0, 2.0, j_max=10.0, v_start=vs, v_end=ve, n_grid=300)
+    r = worst_ratios(tr, 1.0, 2.0, 10.0)
+    assert r["v"] <= 1 + TOL and r["a"] <= 1 + TOL and r["j"] <= 1 + TOL, r
+    s = tr.sample([0.0, tr.duration])
+    assert np.linalg.norm(s.v[:, 0]) == pytest.approx(vs, rel=1e-9, abs=1e-12)
+    assert np.linalg.norm(s.v[:, 1]) == pytest.approx(ve, rel=1e-9, abs=1e-12)
+    assert abs(s.ddu[0]) < 1e-9 and abs(s.ddu[1]) < 1e-9
+    assert np.allclose(tr.at(tr.duration).p, c.end, atol=1e-9)
+    # a smoothed time-optimal base law, not the slow constant-limit fallback (filter_time 0)
+    assert tr.info["filter_time"] > 0.0
+    assert tr.second_order_duration <= tr.duration < 1.25 * tr.second_order_duration
