@@ -2,7 +2,9 @@
 paths and limits, measured in the same run (the machine is noisy: compare the ratios).
 
 Cases: a straight line, a circle, a 6-axis cubic spline through 5 waypoints (the same scipy
-CubicSpline toppra's SplineInterpolator builds), a 3-axis curve with many curvature changes.
+CubicSpline toppra's SplineInterpolator builds), a 3-axis curve with many curvature changes,
+seed 000's line/arc path with G2 corner blends (``join`` + ``blend_corners``, 0.05 m) and the
+package's interpolating cubic B-spline through 5 points (``BSplinePath.interpolate``).
 For each: durations (ours at N intervals, toppra at N and at 4N), the worst limit ratios on
 dense resampling (1 ms and 20 samples per grid interval) for both planners, compute times
 (median of --repeat runs, interleaved) and their ratio; then the jerk-limited duration against
@@ -26,7 +28,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from motionplc.planning.paths import plan_path  # noqa: E402
 from tests.planning.paths._topp_checks import worst_ratios  # noqa: E402
 from tests.planning.paths._topp_oracle import toppra_solve, toppra_violation  # noqa: E402
-from tests.planning.paths._topp_paths import circle, line, spline, wiggly  # noqa: E402
+from tests.planning.paths._topp_paths import (  # noqa: E402
+    BSPLINE_POINTS,
+    bspline_through,
+    circle,
+    line,
+    seed000_blended,
+    spline,
+    wiggly,
+)
 
 
 def cases():
@@ -37,6 +47,13 @@ def cases():
         "circle": (circle((0.2, 0.1), 0.5), [1.0, 0.7], [2.0, 1.5], [10.0, 10.0]),
         "spline6": (sp6, np.linspace(1.0, 2.0, 6), np.linspace(2.0, 4.0, 6), np.full(6, 20.0)),
         "wiggly3": (wiggly(), [1.0, 0.8, 1.5], [2.0, 3.0, 1.0], [20.0, 10.0, 15.0]),
+        "seed000": (seed000_blended(), [1.0, 0.8, 1.2], [2.0, 3.0, 1.5], [20.0, 20.0, 20.0]),
+        "bspline3": (
+            bspline_through(BSPLINE_POINTS),
+            [1.0, 0.8, 1.2],
+            [2.0, 3.0, 1.5],
+            [20.0, 20.0, 20.0],
+        ),
     }
 
 

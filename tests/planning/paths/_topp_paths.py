@@ -111,3 +111,36 @@ def wiggly(n_waves: int = 6, length: float = 1.0) -> FuncPath:
         return g
 
     return FuncPath([f(0), f(1), f(2), f(3)], L, 3)
+
+
+# Seed 000 §5.1: start, two arcs (the vector is the arc's start tangent), two lines.
+SEED000_POINTS = [
+    ([0, 0, 0], 0),
+    ([1, 1, 1], [1, -1, -1]),
+    ([2, 2, 2], [-1, 1, 1]),
+    ([3, 3, 3], 1),
+    ([4, 4, 2], 1),
+]
+
+
+def seed000_blended(tolerance: float = 0.05):
+    """Seed 000's line/arc path (the colleagues' ``join``) with G2 corner blends."""
+    from motionplc.planning.paths import Transition, blend_corners, join
+
+    return blend_corners(join(SEED000_POINTS), Transition.max_corner_deviation(tolerance))
+
+
+def bspline_through(points, degree: int = 3):
+    """The colleagues' interpolating clamped B-spline through ``points``."""
+    from motionplc.planning.paths import BSplinePath
+
+    return BSplinePath.interpolate(np.asarray(points, float), degree)
+
+
+BSPLINE_POINTS = [
+    [0.0, 0.0, 0.0],
+    [0.4, 0.3, 0.1],
+    [0.7, 0.0, 0.3],
+    [1.2, 0.5, 0.2],
+    [1.5, 0.2, 0.0],
+]
