@@ -1,8 +1,17 @@
 """Geometric paths and time-optimal motion along them.
 
+Public API::
+
+    from motionplc.planning.paths import Line, Arc, Helix, CompositePath, polyline, join
+    from motionplc.planning.paths import blend_corners, Transition      # G2 corner blends
+    from motionplc.planning.paths import HermitePath, BSplinePath, fit_bspline, deviation
+    from motionplc.planning.paths import OrientationSpline, slerp
+    from motionplc.planning.paths import plan_path, PathTrajectory      # time-optimal motion
+
 The interface every path implements is :class:`~motionplc.planning.paths.base.Path`.
 """
 
+from motionplc.planning.paths.arclength import ArcLengthTable, adaptive_simpson
 from motionplc.planning.paths.base import Path, as_param
 from motionplc.planning.paths.blend import (
     BlendedPath,
@@ -14,33 +23,58 @@ from motionplc.planning.paths.blend import (
     blend_corners,
     blend_polyline,
 )
-from motionplc.planning.paths.composite import CompositePath, join, polyline
-from motionplc.planning.paths.geometry import Arc, Helix, Line, PathSegment
-
-__all__ = ["Path", "as_param"]
-__all__ += ["Arc", "CompositePath", "Helix", "Line", "PathSegment", "join", "polyline"]
-__all__ += ["BlendedPath", "Corner", "CornerBlend", "CornerKind", "Transition", "TransitionMode"]
-__all__ += ["blend_corners", "blend_polyline"]
-from motionplc.planning.paths.topp import DEFAULT_GRID, plan_path  # noqa: E402
-from motionplc.planning.paths.trajectory import PathSample, PathSamples, PathTrajectory  # noqa: E402
-
-__all__ += ["DEFAULT_GRID", "PathSample", "PathSamples", "PathTrajectory", "plan_path"]
-from motionplc.planning.paths.arclength import ArcLengthTable, adaptive_simpson  # noqa: E402
-from motionplc.planning.paths.bspline import (  # noqa: E402
+from motionplc.planning.paths.bspline import (
     BSplineFit,
     BSplinePath,
     Deviation,
     deviation,
     fit_bspline,
 )
-from motionplc.planning.paths.hermite import HermitePath  # noqa: E402
-from motionplc.planning.paths.orientation import (  # noqa: E402
+from motionplc.planning.paths.composite import CompositePath, join, polyline
+from motionplc.planning.paths.geometry import Arc, Helix, Line, PathSegment
+from motionplc.planning.paths.hermite import HermitePath
+from motionplc.planning.paths.orientation import (
     OrientationSpline,
     quat_from_axis_angle,
     quat_to_matrix,
     slerp,
 )
+from motionplc.planning.paths.topp import DEFAULT_GRID, plan_path
+from motionplc.planning.paths.trajectory import PathSample, PathSamples, PathTrajectory
 
-__all__ += ["ArcLengthTable", "BSplineFit", "BSplinePath", "Deviation", "HermitePath"]
-__all__ += ["OrientationSpline", "adaptive_simpson", "deviation", "fit_bspline"]
-__all__ += ["quat_from_axis_angle", "quat_to_matrix", "slerp"]
+__all__ = [
+    "DEFAULT_GRID",
+    "Arc",
+    "ArcLengthTable",
+    "BSplineFit",
+    "BSplinePath",
+    "BlendedPath",
+    "CompositePath",
+    "Corner",
+    "CornerBlend",
+    "CornerKind",
+    "Deviation",
+    "Helix",
+    "HermitePath",
+    "Line",
+    "OrientationSpline",
+    "Path",
+    "PathSample",
+    "PathSamples",
+    "PathSegment",
+    "PathTrajectory",
+    "Transition",
+    "TransitionMode",
+    "adaptive_simpson",
+    "as_param",
+    "blend_corners",
+    "blend_polyline",
+    "deviation",
+    "fit_bspline",
+    "join",
+    "plan_path",
+    "polyline",
+    "quat_from_axis_angle",
+    "quat_to_matrix",
+    "slerp",
+]
