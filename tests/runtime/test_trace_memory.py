@@ -91,9 +91,15 @@ def test_ring_keeps_the_exact_tail(
     n = len(tr)
     assert tr.dropped_rows + n == n_rows
     assert min(n_rows, tr.rows_capacity) <= n <= min(n_rows, tr.rows_capacity + 256)
-    # the row capacity is honoured unless the byte budget cannot hold it
+    # the row capacity is honoured unless the byte budget cannot hold one more staging block
+    # of rows (the ring is a whole number of them; the staging block is float64 per column)
     room = budget - tr.event_capacity * EVENT_BYTES
-    assert tr.rows_capacity >= capacity or (tr.rows_capacity + 256) * tr.row_bytes > room
+    stage = tr._plan()[0]
+    staging_bytes = stage * 8 * (2 + len(names))
+    assert (
+        tr.rows_capacity >= capacity
+        or (tr.rows_capacity + stage) * tr.row_bytes + staging_bytes > room
+    )
     assert tr.nbytes <= budget
     expected = np.array(rows[n_rows - n :], dtype=np.float64).reshape(n, 2 + len(names))
     got = tr.array()
