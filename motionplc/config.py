@@ -396,6 +396,7 @@ class BusSpec:
     host: str = "127.0.0.1"
     port: int = 0
     timeout: float = 0.1
+    max_frames_per_cycle: int = 256  # CAN: received frames handled per cycle (the rest counted)
 
 
 @dataclass(frozen=True, slots=True)
@@ -481,7 +482,7 @@ _RUNTIME = {
 _TASK = {"period": False, "priority": False, "watchdog": False}
 _WATCHDOG = {"time": True, "sensitivity": False}
 _BUS = {"type": True, "drives": False}
-_CAN = {"interface": False, "channel": False, "bitrate": False}
+_CAN = {"interface": False, "channel": False, "bitrate": False, "max_frames_per_cycle": False}
 _MODBUS = {"host": False, "port": False, "timeout": False}
 _AXIS = {
     "units": False,
@@ -608,7 +609,16 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
                 "the python-can virtual bus does not reach other processes",
                 "simulated, or interface: socketcan",
             )
-        return BusSpec(name, kind, drives, interface, channel or name, bitrate)
+        max_frames = c.integer(m, "max_frames_per_cycle", path, 256, lo=1, hi=100_000)
+        return BusSpec(
+            name,
+            kind,
+            drives,
+            interface,
+            channel or name,
+            bitrate,
+            max_frames_per_cycle=max_frames or 256,
+        )
     host = c.string(m, "host", path, "127.0.0.1") or "127.0.0.1"
     if drives == "simulated" and not _is_loopback(host):
         c.error(
@@ -1050,7 +1060,11 @@ def _make_drive(
                 )
                 machine._closers.append(rack.close)
                 machine.peers[d.bus] = rack
-            master = CanopenMaster(can.Bus(interface=bus.interface, channel=channel), peer=rack)
+            master = CanopenMaster(
+                can.Bus(interface=bus.interface, channel=channel),
+                peer=rack,
+                max_frames_per_cycle=bus.max_frames_per_cycle,
+            )
             machine._closers.append(master.close)
             masters[d.bus] = master
         assert d.node_id is not None

@@ -236,8 +236,14 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         "Modbus key on a CAN bus",
         _cfg(_X, buses="  can0: {type: can, port: 502}\n"),
         [
-            "{f}:5: buses.can0.port: unknown key (allowed: type, drives, interface, channel, bitrate)"
+            "{f}:5: buses.can0.port: unknown key "
+            "(allowed: type, drives, interface, channel, bitrate, max_frames_per_cycle)"
         ],
+    ),
+    (
+        "CAN frame budget out of range",
+        _cfg(_X, buses="  can0: {type: can, interface: virtual, max_frames_per_cycle: 0}\n"),
+        ["{f}:5: buses.can0.max_frames_per_cycle: got 0 (allowed: an integer in 1..100000)"],
     ),
     (
         "bus type missing",

@@ -111,3 +111,19 @@ def test_trace_byte_budget_reaches_the_runtime(tmp_path: Path) -> None:
     cfg.write_text(text.replace("runtime:\n", "runtime:\n  trace_bytes: 1048576\n", 1))
     with build(load_config(cfg)) as machine:
         assert machine.runtime.trace.rows_capacity < default_rows / 16
+
+
+def test_can_frame_budget_reaches_the_master(tmp_path: Path) -> None:
+    text = (CONFIGS / "demo.yaml").read_text()
+    assert "max_frames_per_cycle" not in text
+    with build(load_config(CONFIGS / "demo.yaml")) as machine:
+        masters = {id(ax.drive.master): ax.drive.master for ax in machine.axes.values()}
+        assert [m.rx.max_frames for m in masters.values()] == [256]
+    cfg = tmp_path / "frames.yaml"
+    cfg.write_text(
+        text.replace("    type: can\n", "    type: can\n    max_frames_per_cycle: 64\n", 1)
+    )
+    assert "max_frames_per_cycle: 64" in cfg.read_text()
+    with build(load_config(cfg)) as machine:
+        masters = {id(ax.drive.master): ax.drive.master for ax in machine.axes.values()}
+        assert [m.rx.max_frames for m in masters.values()] == [64]
