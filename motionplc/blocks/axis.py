@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 import struct
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import TYPE_CHECKING, Any
@@ -60,29 +61,27 @@ def planner_calls() -> int:
     return _planner_calls
 
 
-def _plan(start: State, target: State, limits: Limits) -> Profile:
-    """``plan`` for the kernel: every failure is a PlanningError (the kernel's handlers turn it
-    into an FB or axis error; nothing escapes the cycle)."""
+def _guarded(fn: Callable[..., Profile], *args: object) -> Profile:
+    """Call a planner for the kernel: every failure is a PlanningError (the kernel's handlers
+    turn it into an FB or axis error; nothing escapes the cycle)."""
     global _planner_calls
     _planner_calls += 1
     try:
-        return plan(start, target, limits)
+        return fn(*args)
     except PlanningError:
         raise
     except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
         raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+
+
+def _plan(start: State, target: State, limits: Limits) -> Profile:
+    """``plan`` for the kernel (see :func:`_guarded`)."""
+    return _guarded(plan, start, target, limits)
 
 
 def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
-    """``plan_velocity`` for the kernel (every failure is a PlanningError, see :func:`_plan`)."""
-    global _planner_calls
-    _planner_calls += 1
-    try:
-        return plan_velocity(start, v_target, limits)
-    except PlanningError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
-        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+    """``plan_velocity`` for the kernel (see :func:`_guarded`)."""
+    return _guarded(plan_velocity, start, v_target, limits)
 
 
 _KEY = struct.Struct("<11d")

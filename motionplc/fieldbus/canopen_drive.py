@@ -98,6 +98,7 @@ from motionplc.fieldbus.cia402 import (
 )
 from motionplc.fieldbus.fastcan import (
     DEFAULT_MAX_FRAMES,
+    GuardedEndpoint,
     RxGuard,
     drain,
     make_message,
@@ -182,7 +183,7 @@ class _MasterNetwork(canopen.Network):
             self._master._exchange()
 
 
-class CanopenMaster:
+class CanopenMaster(GuardedEndpoint):
     """One CAN endpoint shared by the CANopen axes on it.
 
     ``bus`` is owned (closed by :meth:`close`). ``peer`` is an in-process simulation of the
@@ -245,15 +246,6 @@ class CanopenMaster:
         self._drain(self.t)
 
     # ------------------------------------------------------------- receiving
-    @property
-    def malformed_frames(self) -> dict[str, int]:
-        """Malformed frames received, per kind (see :mod:`motionplc.fieldbus.fastcan`)."""
-        return self.rx.malformed_frames
-
-    @property
-    def frames_dropped(self) -> int:
-        """Frames dropped because more than ``max_frames_per_cycle`` arrived in one cycle."""
-        return self.rx.frames_dropped
 
     def _relevant_ids(self) -> set[int]:
         return self.rx_handlers.keys() | self.network.subscribers.keys()

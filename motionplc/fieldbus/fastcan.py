@@ -51,6 +51,7 @@ from can.interfaces.virtual import VirtualBus
 
 __all__ = [
     "CHECK_FACTOR",
+    "GuardedEndpoint",
     "DEFAULT_MAX_FRAMES",
     "FastMessage",
     "RateLimitedLog",
@@ -204,6 +205,22 @@ class RateLimitedLog:
         self.log.warning("%s: %s%s", self.name, text, more)
         self.lines += 1
         return True
+
+
+class GuardedEndpoint:
+    """Mixin of a CAN endpoint holding an :class:`RxGuard` as ``rx``: its counters."""
+
+    rx: RxGuard
+
+    @property
+    def malformed_frames(self) -> dict[str, int]:
+        """Malformed frames received on this endpoint, per kind (see the module notes)."""
+        return self.rx.malformed_frames
+
+    @property
+    def frames_dropped(self) -> int:
+        """Frames dropped because more than the per-cycle budget arrived at once."""
+        return self.rx.frames_dropped
 
 
 class RxGuard:

@@ -55,6 +55,7 @@ from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.cia402 import OperationMode
 from motionplc.fieldbus.fastcan import (
     DEFAULT_MAX_FRAMES,
+    GuardedEndpoint,
     RxGuard,
     drain,
     make_message,
@@ -493,7 +494,7 @@ class VirtualCia402Drive:
         self.device.persistent_fault = 0
 
 
-class VirtualCanBus:
+class VirtualCanBus(GuardedEndpoint):
     """Drives behind one CAN endpoint, stepped with simulated time (thread-free).
 
     ``bus`` is any python-can bus (normally ``can.Bus(interface="virtual", channel=...)``); it is
@@ -547,16 +548,6 @@ class VirtualCanBus:
 
     def __getitem__(self, node_id: int) -> VirtualCia402Drive:
         return self.drives[node_id]
-
-    @property
-    def malformed_frames(self) -> dict[str, int]:
-        """Malformed frames received on this endpoint, per kind."""
-        return self.rx.malformed_frames
-
-    @property
-    def frames_dropped(self) -> int:
-        """Frames dropped because more than ``max_frames_per_step`` arrived in one step."""
-        return self.rx.frames_dropped
 
     def _cyclic_ids(self) -> Collection[int]:
         return (self._fast if self._fast is not None else self._fast_table()).keys()

@@ -200,6 +200,17 @@ class TabulatedCurve(Frozen, Path):
     _table: ArcLengthTable
     _poly: PiecewisePoly
 
+    @staticmethod
+    def _tabulate(
+        breaks: np.ndarray, coeffs: np.ndarray, rtol: float
+    ) -> tuple[PiecewisePoly, ArcLengthTable]:
+        """The curve's polynomial pieces and their arc-length table (``rtol`` checked)."""
+        poly = PiecewisePoly(breaks, coeffs)
+        table = ArcLengthTable(
+            poly.speed, poly.speed_breaks(), rtol=check_scalar("rtol", rtol, low=0.0)
+        )
+        return poly, table
+
     @property
     def length(self) -> float:
         """Arc length of the whole curve (estimated error <= ``rtol * length``)."""

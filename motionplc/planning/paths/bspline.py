@@ -210,10 +210,7 @@ class BSplinePath(TabulatedCurve):
         coeffs = np.einsum("ksj,sjd->skd", ders, ctrl)
         coeffs /= np.array([math.factorial(k) for k in range(p + 1)])[None, :, None]
         breaks = np.concatenate((U[spans], [U[-1]]))
-        poly = PiecewisePoly(breaks, coeffs)
-        table = ArcLengthTable(
-            poly.speed, poly.speed_breaks(), rtol=check_scalar("rtol", rtol, low=0.0)
-        )
+        poly, table = self._tabulate(breaks, coeffs, rtol)
         pts, h, src = _data if _data is not None else (None, None, None)
         self._freeze(
             knots=U,

@@ -254,10 +254,7 @@ class HermitePath(TabulatedCurve):
         b = -3.0 * P0 + 3.0 * P1 - 2.0 * V0 - V1
         coeffs = np.stack((P0, V0, b, a), axis=1)  # ascending powers of t
         breaks = np.arange(len(W), dtype=float)
-        poly = PiecewisePoly(breaks, coeffs)
-        table = ArcLengthTable(
-            poly.speed, poly.speed_breaks(), rtol=check_scalar("rtol", rtol, low=0.0)
-        )
+        poly, table = self._tabulate(breaks, coeffs, rtol)
         self._freeze(
             points=W,
             source_index=idx,
