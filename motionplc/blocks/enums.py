@@ -18,6 +18,42 @@ class AxisState(IntEnum):
     ERROR_STOP = 7
 
 
+class GroupState(IntEnum):
+    """The six states of the PLCopen Part 4 axes-group diagram (values used in traces)."""
+
+    GROUP_DISABLED = 0
+    GROUP_STANDBY = 1
+    GROUP_HOMING = 2
+    GROUP_MOVING = 3
+    GROUP_STOPPING = 4
+    GROUP_ERROR_STOP = 5
+
+
+class TransitionMode(IntEnum):
+    """MC_TRANSITION_MODE (PLCopen Part 4 values 0-4; >= 10 would be supplier specific)."""
+
+    TM_NONE = 0
+    TM_START_VELOCITY = 1
+    TM_CONSTANT_VELOCITY = 2
+    TM_CORNER_DISTANCE = 3
+    TM_MAX_CORNER_DEVIATION = 4
+
+
+class CircMode(Enum):
+    """MC_CIRC_MODE: how AuxPoint defines the arc of MC_MoveCircular*."""
+
+    BORDER = "border"  # AuxPoint is a point on the arc
+    CENTER = "center"  # AuxPoint is the centre
+    RADIUS = "radius"  # AuxPoint's first value is the radius, the arc lies in the group's plane
+
+
+class PathChoice(Enum):
+    """MC_CIRC_PATHCHOICE: the sense of an arc (CENTER and RADIUS modes)."""
+
+    CLOCKWISE = "clockwise"
+    COUNTER_CLOCKWISE = "counter_clockwise"
+
+
 class BufferMode(IntEnum):
     """MC_BUFFER_MODE with the spec's values (Table 3)."""
 
