@@ -124,6 +124,21 @@ class ErrorID(IntEnum):
     # MC_Power.EnablePositive/EnableNegative: a command moving in a direction that is not
     # enabled is refused; a running one ends with this error and a controlled stop
     DIRECTION_NOT_ENABLED = 0x2100
+    # axes groups (Part 4): 0x2200 + the GroupState of a command rejected there
+    GROUP_STATE_DISABLED = 0x2200
+    GROUP_STATE_STANDBY = 0x2201
+    GROUP_STATE_HOMING = 0x2202
+    GROUP_STATE_MOVING = 0x2203
+    GROUP_STATE_STOPPING = 0x2204
+    GROUP_STATE_ERROR_STOP = 0x2205
+    AXIS_IN_GROUP = 0x2210  # a single-axis motion command on a member of an enabled group
+    GROUP_AXIS_NOT_READY = 0x2211  # MC_GroupEnable: a member is not powered / not in Standstill
+    INVALID_GROUP = 0x1010  # the AxesGroup input is not connected / not a group
+    INVALID_GROUP_AXIS = 0x1011  # add/remove: unknown axis, axis in another group, duplicate
+    INVALID_TRANSITION_MODE = 0x1012  # TransitionMode / TransitionParameter out of range
+    INVALID_CIRCLE = 0x1013  # MC_MoveCircular*: the points define no arc (collinear, radius)
+    INVALID_POINTS = 0x1014  # passing points: fewer than 2 distinct, wrong dimension
+    NOT_INTERRUPTED = 0x2220  # MC_GroupContinue without an interrupted motion
     QUEUE_FULL = 0x3001
     BLENDING_NOT_SUPPORTED_BY_PREVIOUS = 0x3002
     AXIS_ERROR_STOP = 0x4000  # the axis went to ErrorStop while this FB was busy

@@ -25,7 +25,7 @@ import inspect
 import math
 import os
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis import ReplanBudget, planner_calls
@@ -33,10 +33,11 @@ from motionplc.errors import ProgramError
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
 from motionplc.runtime.task import Program, Task, TaskStats
-from motionplc.runtime.trace import AXIS_DTYPES, AXIS_FIELDS, TRACE_BYTES, Trace
+from motionplc.runtime.trace import AXIS_DTYPES, AXIS_FIELDS, GROUP_DTYPES, TRACE_BYTES, Trace
 
 if TYPE_CHECKING:
     from motionplc.blocks.axis import Axis
+    from motionplc.blocks.group import AxesGroup
     from motionplc.fieldbus.base import Drive
 
 CycleHook = Callable[["Runtime", int], None]
@@ -119,6 +120,7 @@ class Runtime:
         self.overrun_policy = overrun_policy
         self.queue_depth = queue_depth
         self.axes: dict[str, Axis] = {}
+        self.groups: dict[str, AxesGroup] = {}
         self.tasks: list[Task] = []
         self._order: list[Task] = []
         self.tick = 0  # next base tick to run
@@ -178,6 +180,46 @@ class Runtime:
         self.trace.set_formatter(f"{name}.state", lambda x: AxisState(int(x)).name)
         return ax
 
+    def add_group(self, name: str, axes: Sequence[str], **options: Any) -> AxesGroup:
+        """Create an axes group (AXES_GROUP_REF, PLCopen Part 4) of existing axes.
+
+        The group steps in the task of its axes (all members must share one task), after them,
+        and records ``<name>.state`` (GroupState) and ``<name>.path_velocity`` in the trace.
+        ``options`` are :class:`~motionplc.blocks.group.GroupConfig` fields (``queue_depth``,
+        ``tolerance``, ``v_share``). The group starts in GroupDisabled with ``axes`` as members
+        (MC_AddAxisToGroup / MC_RemoveAxisFromGroup change them while it is disabled).
+        """
+        from motionplc.blocks.enums import GroupState
+        from motionplc.blocks.group import AxesGroup, GroupConfig
+
+        if self._started:
+            raise RuntimeError("groups must be added before the first run")
+        if (
+            not isinstance(name, str)
+            or not name
+            or "." in name
+            or name in self.groups
+            or name in self.axes
+        ):
+            raise ValueError(
+                f"group name must be a new non-empty string without '.', not an axis name, "
+                f"got {name!r}"
+            )
+        members = []
+        for a in axes:
+            if a not in self.axes:
+                raise ValueError(f"group {name!r}: unknown axis {a!r}")
+            members.append(self.axes[a])
+        group = AxesGroup(GroupConfig(name=name, **options), [])
+        for ax in members:
+            err = group.add_axis(ax)
+            if err:
+                raise ValueError(f"group {name!r}: axis {ax.name!r} cannot join ({err.name})")
+        self.groups[name] = group
+        self.trace.add_columns([f"{name}.state", f"{name}.path_velocity"], GROUP_DTYPES)
+        self.trace.set_formatter(f"{name}.state", lambda x: GroupState(int(x)).name)
+        return group
+
     def add_task(
         self,
         name: str,
@@ -233,11 +275,20 @@ class Runtime:
             if bind is not None:
                 bind(self.clock.realtime)
             ax.open()
+        for g in self.groups.values():
+            tasks = {ax.task_name for ax in g.axes}
+            if len(tasks) > 1:
+                raise ValueError(
+                    f"group {g.name!r}: its axes run in different tasks {sorted(tasks)}"
+                )
+            task_name = next(iter(tasks)) if tasks else self.tasks[0].name
+            next(t for t in self.tasks if t.name == task_name).groups.append(g)
         self._order = sorted(self.tasks, key=lambda t: t.sort_key)
         # every task runs every tick (the common case): no per-tick selection
         self._all_every_tick = all(t.period_ticks == 1 for t in self._order)
         self._all_names = [t.name for t in self._order]
         self._axis_list = list(self.axes.values())
+        self._group_list = list(self.groups.values())
         self._started = True
 
     # -- running -----------------------------------------------------------------------------
@@ -362,6 +413,8 @@ class Runtime:
             n_plans = planner_calls()
             for ax in axes:
                 ax.step(dt)
+            for g in task.groups:
+                g.step(dt)
             for ax in axes:
                 try:
                     ax.write_outputs(t_virtual)
@@ -387,9 +440,14 @@ class Runtime:
             for ax in self._axis_list:
                 row += ax.trace_values()
                 ax.emit_fb_edges(trace, k)
+            for g in self._group_list:
+                row += g.trace_values()
+                g.emit_fb_edges(trace, k)
         else:
             for ax in self._axis_list:
                 row += ax.trace_values()
+            for g in self._group_list:
+                row += g.trace_values()
         trace.record(row)
 
     def _program_failed(self, task: Task, exc: Exception) -> None:

@@ -89,6 +89,7 @@ class Task:
         self.watchdog_time = watchdog_time
         self.watchdog_sensitivity = watchdog_sensitivity
         self.axes: list[Any] = []
+        self.groups: list[Any] = []  # axes groups stepped after the task's axes
         # statistics
         self.cycle_count = 0
         self.exec_last_ns = 0

@@ -47,6 +47,9 @@ AXIS_FIELDS = (
 # storage type of each axis field (the state is an AxisState value 0..7)
 AXIS_DTYPES: tuple[type[np.generic], ...] = (np.float64,) * 7 + (np.int8,)
 
+# an axes group records its GroupState and its path speed
+GROUP_DTYPES: tuple[type[np.generic], ...] = (np.int8, np.float64)
+
 TRACE_BYTES = 32 * 2**20
 """Default byte budget of a trace (rows, staging block and FB edges)."""
 

@@ -1,0 +1,424 @@
+# ruff: noqa: N806 - the math names of the module docstring (V, A, J, U)
+"""Path pieces for the axes-group kernel: fast scalar evaluation and path-speed caps.
+
+A group moves along a chain of *pieces* (a line, an arc or helix, a corner blend, a span of a
+curve). Each piece is a geometric curve ``p(u)``, ``u`` in ``[0, U]``, and the group runs a
+one-dimensional jerk-limited profile ``u(t)`` on it (see :mod:`motionplc.planning.paths.lookahead`).
+By the chain rule the axis values are::
+
+    v = p' du
+    a = p' ddu + p'' du^2
+    j = p' dddu + 3 p'' du ddu + p''' du^3
+
+so with per-axis bounds ``B1_i >= |p_i'|``, ``B2_i >= |p_i''|``, ``B3_i >= |p_i'''|`` over the
+piece, constant caps ``du <= V``, ``|ddu| <= A``, ``|dddu| <= J`` keep axis ``i`` within
+``v_i, a_i, j_i`` when::
+
+    B1 V <= v_i,   B1 A + B2 V^2 <= a_i,   B1 J + 3 B2 V A + B3 V^3 <= j_i
+
+(:func:`path_caps` chooses ``V, A, J`` under these inequalities). The bounds are exact for lines
+(``B1 = |direction_i|``, ``B2 = B3 = 0``), closed-form upper bounds for arcs and helices, and
+dense maxima of the closed-form polynomial (times a margin) for the line-line corner blend.
+
+Pieces evaluate at one parameter value with plain floats (no numpy on the per-cycle path):
+:meth:`Piece.at` returns ``(p, d1, d2, d3)`` as tuples, one value per axis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from motionplc.errors import PlanningError
+from motionplc.planning.paths.base import Path
+from motionplc.planning.paths.geometry import Line, PathSegment, _Circular
+
+__all__ = [
+    "BlendPiece",
+    "CircularPiece",
+    "CurvePiece",
+    "LinePiece",
+    "SubPiece",
+    "Piece",
+    "path_caps",
+    "piece_for",
+]
+
+Vec = tuple[float, ...]
+
+_BLEND_SAMPLES = 513  # dense samples of a blend's derivative polynomials (bounds)
+_BOUND_MARGIN = 1e-6  # relative margin on sampled bounds (the polynomials are smooth)
+
+
+class Piece:
+    """One piece of a group's path: ``p(u)`` for ``u`` in ``[0, U]``; immutable.
+
+    Attributes: ``dim``, ``U`` (parameter length), ``length`` (arc length), ``b1, b2, b3``
+    (per-axis bounds of ``|p'|, |p''|, |p'''|`` over the piece), ``g0, g1`` (``|p'|`` at the
+    start and at the end: path speed = ``g du`` there), ``start``, ``end`` (points).
+    """
+
+    __slots__ = ("dim", "U", "length", "b1", "b2", "b3", "g0", "g1", "start", "end")
+
+    dim: int
+    U: float
+    length: float
+    b1: Vec
+    b2: Vec
+    b3: Vec
+    g0: float
+    g1: float
+    start: Vec
+    end: Vec
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:  # pragma: no cover - abstract
+        """``(p, p', p'', p''')`` at ``u`` (clamped to ``[0, U]``)."""
+        raise NotImplementedError
+
+    def point(self, u: float) -> Vec:
+        """``p(u)``."""
+        return self.at(u)[0]
+
+    def tangent_out(self) -> Vec:
+        """Unit tangent at the end."""
+        d1 = self.at(self.U)[1]
+        n = math.sqrt(sum(x * x for x in d1))
+        return tuple(x / n for x in d1)
+
+    def tangent_in(self) -> Vec:
+        """Unit tangent at the start."""
+        d1 = self.at(0.0)[1]
+        n = math.sqrt(sum(x * x for x in d1))
+        return tuple(x / n for x in d1)
+
+    def accel_in(self) -> Vec:
+        """``p''(0) / g0^2``: the acceleration per squared path speed at the start (ddu = 0)."""
+        d2 = self.at(0.0)[2]
+        g = self.g0 * self.g0
+        return tuple(x / g for x in d2)
+
+    def accel_out(self) -> Vec:
+        """``p''(U) / g1^2`` (see :meth:`accel_in`)."""
+        d2 = self.at(self.U)[2]
+        g = self.g1 * self.g1
+        return tuple(x / g for x in d2)
+
+    def _finish(self) -> None:
+        p0 = self.at(0.0)
+        p1 = self.at(self.U)
+        self.start = p0[0]
+        self.end = p1[0]
+        self.g0 = math.sqrt(sum(x * x for x in p0[1]))
+        self.g1 = math.sqrt(sum(x * x for x in p1[1]))
+
+
+class LinePiece(Piece):
+    """``p(u) = start + u d`` for ``u`` in ``[0, length]`` (``|d| = 1``)."""
+
+    __slots__ = ("_p0", "_d", "_zero")
+
+    def __init__(self, start: Sequence[float], direction: Sequence[float], length: float) -> None:
+        self._p0 = tuple(float(x) for x in start)
+        self._d = tuple(float(x) for x in direction)
+        self.dim = len(self._p0)
+        self.U = self.length = float(length)
+        self._zero = (0.0,) * self.dim
+        self.b1 = tuple(abs(x) for x in self._d)
+        self.b2 = self.b3 = self._zero
+        self._finish()
+
+    @classmethod
+    def between(cls, a: Sequence[float], b: Sequence[float]) -> LinePiece:
+        """The line from ``a`` to ``b`` (PlanningError if they coincide)."""
+        d = [float(y) - float(x) for x, y in zip(a, b, strict=True)]
+        n = math.sqrt(sum(x * x for x in d))
+        if not n > 0.0:
+            raise PlanningError("end: a line needs end != start")
+        return cls(a, [x / n for x in d], n)
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        p = tuple(x + u * d for x, d in zip(self._p0, self._d, strict=True))
+        return p, self._d, self._zero, self._zero
+
+    def trimmed(self, u0: float, u1: float) -> LinePiece:
+        """The part ``[u0, u1]`` (re-parametrised from 0)."""
+        p = self.at(u0)[0]
+        out = LinePiece(p, self._d, u1 - u0)
+        if u1 >= self.U:  # keep the programmed end point exactly
+            out.end = self.end
+        return out
+
+    @property
+    def direction(self) -> Vec:
+        return self._d
+
+
+class CircularPiece(Piece):
+    """An arc or helix (the closed form of :class:`~motionplc.planning.paths.geometry.Arc` /
+    ``Helix``) by arc length: ``p(u) = base + r (cos(ku) x + sin(ku) y) + c k u n``."""
+
+    __slots__ = ("_base", "_x", "_y", "_n", "_r", "_c", "_k", "_exact_end")
+
+    def __init__(self, seg: _Circular, end: Sequence[float] | None = None) -> None:
+        self._base = tuple(float(v) for v in seg._base)
+        self._x = tuple(float(v) for v in seg._x)
+        self._y = tuple(float(v) for v in seg._y)
+        self._n = tuple(float(v) for v in seg._n)
+        self._r = float(seg._r)
+        self._c = float(seg._c)
+        self._k = float(seg._k)
+        self.dim = len(self._base)
+        self.U = self.length = float(seg._length)
+        self._exact_end = None if end is None else tuple(float(v) for v in end)
+        r, c, k = self._r, self._c, self._k
+        w = [math.hypot(a, b) for a, b in zip(self._x, self._y, strict=True)]
+        self.b1 = tuple(r * k * wi + abs(c * k * ni) for wi, ni in zip(w, self._n, strict=True))
+        self.b2 = tuple(r * k * k * wi for wi in w)
+        self.b3 = tuple(r * k**3 * wi for wi in w)
+        self._finish()
+        if self._exact_end is not None:
+            self.end = self._exact_end
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        k, r, c = self._k, self._r, self._c
+        th = k * u
+        cs, sn = math.cos(th), math.sin(th)
+        x, y, n, b = self._x, self._y, self._n, self._base
+        rk, rk2, rk3, ck = r * k, r * k * k, r * k * k * k, c * k
+        p = tuple(
+            bi + r * (cs * xi + sn * yi) + ck * u * ni
+            for bi, xi, yi, ni in zip(b, x, y, n, strict=True)
+        )
+        d1 = tuple(rk * (cs * yi - sn * xi) + ck * ni for xi, yi, ni in zip(x, y, n, strict=True))
+        d2 = tuple(-rk2 * (cs * xi + sn * yi) for xi, yi in zip(x, y, strict=True))
+        d3 = tuple(rk3 * (sn * xi - cs * yi) for xi, yi in zip(x, y, strict=True))
+        return p, d1, d2, d3
+
+
+def _blend_tables() -> tuple[list[list[float]], list[list[float]], np.ndarray, np.ndarray]:
+    """The blend's universal polynomials in ``sigma`` (blend.py's weights
+    ``w = 10 s^3 - 15 s^4 + 6 s^5``, ``h = s - w / 2``): ``Fa = (1 - w)(2h - 1)`` and
+    ``Fb = 2 w h`` with their derivatives 0..4 (coefficient lists, highest power first), and
+    their dense samples (orders 1..4) for the bounds."""
+    w = np.poly1d([6.0, -15.0, 10.0, 0.0, 0.0, 0.0])
+    h = np.poly1d([1.0, 0.0]) - 0.5 * w
+    fa = (1.0 - w) * (2.0 * h - 1.0)
+    fb = 2.0 * w * h
+    ca, cb = [], []
+    for _ in range(5):
+        ca.append([float(c) for c in fa.coeffs])
+        cb.append([float(c) for c in fb.coeffs])
+        fa, fb = fa.deriv(), fb.deriv()
+    sig = np.linspace(0.0, 1.0, _BLEND_SAMPLES)
+    sa = np.stack([np.polyval(ca[k], sig) for k in range(5)])
+    sb = np.stack([np.polyval(cb[k], sig) for k in range(5)])
+    sa.setflags(write=False)
+    sb.setflags(write=False)
+    return ca, cb, sa, sb
+
+
+_FA, _FB, _SA, _SB = _blend_tables()
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(24)
+
+
+class BlendPiece(Piece):
+    """The G2 corner blend of two lines (exactly
+    :class:`~motionplc.planning.paths.blend.CornerBlend` for line-line corners) as polynomials:
+    with ``sigma = t / 2d`` and ``s = 2d h(sigma)``::
+
+        p(t) = C + (1 - w)(s - d) ta + w s tb = C + d (Fa(sigma) ta + Fb(sigma) tb)
+
+    ``ta``, ``tb``: unit directions of the incoming and outgoing line, ``C`` the corner, ``d`` the
+    corner distance; ``t`` in ``[0, 2d]``, ``|p'| = 1`` at both ends. Deviation from the corner:
+    ``d sin(theta / 2) / 2`` (``theta`` the deflection). Bounds: dense maxima of the derivative
+    polynomials plus half a sample step times the next order's maximum (a true upper bound).
+    """
+
+    __slots__ = ("_c", "_ta", "_tb", "_d", "_scale", "deflection")
+
+    def __init__(
+        self, corner: Sequence[float], ta: Sequence[float], tb: Sequence[float], d: float
+    ) -> None:
+        self._c = tuple(float(x) for x in corner)
+        self._ta = tuple(float(x) for x in ta)
+        self._tb = tuple(float(x) for x in tb)
+        self._d = d = float(d)
+        self.dim = len(self._c)
+        self.U = 2.0 * d
+        dot = sum(a * b for a, b in zip(self._ta, self._tb, strict=True))
+        self.deflection = math.acos(max(-1.0, min(1.0, dot)))
+        inv = 1.0 / (2.0 * d)
+        self._scale = tuple(d * inv**k for k in range(5))  # order k: d (2d)^-k
+        ta_a, tb_a = np.asarray(self._ta), np.asarray(self._tb)
+        comb = np.abs(_SA[1:, :, None] * ta_a + _SB[1:, :, None] * tb_a).max(axis=1)  # (4, dim)
+        half = 0.5 / (_BLEND_SAMPLES - 1)  # half a sample step in sigma
+        m = 1.0 + _BOUND_MARGIN
+        b = [comb[k] + half * comb[k + 1] * 1.01 for k in range(3)]  # orders 1..3 in sigma
+        self.b1 = tuple(float(x) * self._scale[1] * m for x in b[0])
+        self.b2 = tuple(float(x) * self._scale[2] * m for x in b[1])
+        self.b3 = tuple(float(x) * self._scale[3] * m for x in b[2])
+        self._finish()
+        # arc length: Gauss-Legendre on |p'| (a smooth integrand)
+        sg = 0.5 * (_GL_X + 1.0)
+        va = np.polyval(_FA[1], sg)
+        vb = np.polyval(_FB[1], sg)
+        speed = np.linalg.norm(va[:, None] * ta_a + vb[:, None] * tb_a, axis=1) * self._scale[1]
+        self.length = float(d * (_GL_W @ speed))
+
+    @property
+    def distance(self) -> float:
+        """Corner distance ``d``."""
+        return self._d
+
+    @property
+    def corner(self) -> Vec:
+        """The programmed corner."""
+        return self._c
+
+    @property
+    def deviation(self) -> float:
+        """Distance from the corner to the blend: ``d sin(theta / 2) / 2``."""
+        return 0.5 * self._d * math.sin(0.5 * self.deflection)
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        s = u / self.U
+        ta, tb, sc = self._ta, self._tb, self._scale
+        out = []
+        for k in range(4):
+            fa = 0.0
+            for c in _FA[k]:
+                fa = fa * s + c
+            fb = 0.0
+            for c in _FB[k]:
+                fb = fb * s + c
+            fa *= sc[k]
+            fb *= sc[k]
+            out.append(tuple(fa * a + fb * b for a, b in zip(ta, tb, strict=True)))
+        p = tuple(ci + x for ci, x in zip(self._c, out[0], strict=True))
+        return p, out[1], out[2], out[3]
+
+
+class SubPiece(Piece):
+    """The part ``[u0, u1]`` of another piece, re-parametrised to start at 0 (bounds: those of
+    the whole piece, an upper bound)."""
+
+    __slots__ = ("_base", "_u0")
+
+    def __init__(self, base: Piece, u0: float, u1: float) -> None:
+        if isinstance(base, SubPiece):  # flatten
+            u0, u1 = u0 + base._u0, u1 + base._u0
+            base = base._base
+        self._base = base
+        self._u0 = float(u0)
+        self.dim = base.dim
+        self.U = float(u1) - float(u0)
+        self.b1, self.b2, self.b3 = base.b1, base.b2, base.b3
+        self._finish()
+        if u1 >= base.U:
+            self.end = base.end
+        # arc length: proportional estimate refined by Gauss-Legendre on |p'|
+        x, w = _GL_X, _GL_W
+        tot = 0.0
+        for xi, wi in zip(x, w, strict=True):
+            d1 = self.at(0.5 * (xi + 1.0) * self.U)[1]
+            tot += wi * math.sqrt(sum(v * v for v in d1))
+        self.length = 0.5 * self.U * tot
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        return self._base.at(self._u0 + u)
+
+
+class CurvePiece(Piece):
+    """Any :class:`~motionplc.planning.paths.base.Path` over its whole parameter range,
+    evaluated through the path (numpy; slower). Bounds by dense sampling of the derivatives
+    (with the next order bounding the change between samples)."""
+
+    __slots__ = ("_path",)
+
+    def __init__(self, path: Path, samples: int = 4097) -> None:
+        self._path = path
+        self.dim = int(path.dim)
+        self.U = float(path.u_end)
+        self.length = float(path.length)
+        uu = np.linspace(0.0, self.U, samples)
+        ders = path.derivatives(uu, 3)
+        step = self.U / (samples - 1)
+        m = 1.0 + _BOUND_MARGIN
+        b = [np.abs(ders[k]).max(axis=0) for k in (1, 2, 3)]
+        # the change of the third derivative between samples, from its differences
+        d3 = np.abs(np.diff(ders[3], axis=0)).max(axis=0) if samples > 1 else 0.0 * b[2]
+        self.b1 = tuple(float(x) * m for x in b[0] + 0.5 * step * b[1] * 1.01)
+        self.b2 = tuple(float(x) * m for x in b[1] + 0.5 * step * b[2] * 1.01)
+        self.b3 = tuple(float(x) * m for x in b[2] + 0.5 * d3 * 1.01)
+        self._finish()
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        ders = self._path.derivatives(u, 3)
+        return tuple(tuple(float(x) for x in np.ravel(d)) for d in ders)  # type: ignore[return-value]
+
+
+def piece_for(seg: Path) -> Piece:
+    """The fastest piece implementation for a path segment."""
+    if isinstance(seg, Line):
+        return LinePiece(seg.start, seg.direction, seg.length)
+    if isinstance(seg, _Circular):
+        return CircularPiece(seg, seg.end)
+    if isinstance(seg, PathSegment):  # pragma: no cover - every PathSegment is one of the above
+        return CurvePiece(seg)
+    return CurvePiece(seg)
+
+
+def path_caps(
+    piece: Piece,
+    v_max: Sequence[float],
+    a_max: Sequence[float],
+    j_max: Sequence[float],
+    v_prog: float = math.inf,
+    a_prog: float = math.inf,
+    j_prog: float = math.inf,
+    v_share: float = 0.7,
+    j_split: float = 0.5,
+) -> tuple[float, float, float]:
+    """Constant caps ``(V, A, J)`` of ``du, |ddu|, |dddu|`` on ``piece`` that keep every axis
+    within its limits (the inequalities of the module docstring), and within the programmed
+    path speed, acceleration and jerk (``v_prog`` etc.; converted with the largest ``|p'|``).
+
+    ``V`` is the highest speed at which the curvature terms use at most ``v_share`` of every
+    axis' acceleration and jerk budget (``B2 V^2 <= v_share a``, ``B3 V^3 <= v_share j``): at
+    ``v_share = 0.95`` a blend is passed at ``0.95^(1/3)`` (jerk-bound) or ``0.95^(1/2)``
+    (acceleration-bound) of the highest constant speed the bounds allow. ``A`` takes what is
+    left of the acceleration budget and ``(1 - j_split)`` of the jerk left for the mixed term
+    ``3 B2 V A``; ``J`` the rest. On straight pieces (``B2 = B3 = 0``) the whole budgets go to
+    ``A`` and ``J``. All caps are > 0 (a PlanningError if a limit leaves no motion).
+    """
+    gmax = max(piece.b1) or 1.0
+    V = v_prog / gmax if v_prog != math.inf else math.inf
+    for b1, b2, b3, v, a, j in zip(piece.b1, piece.b2, piece.b3, v_max, a_max, j_max, strict=True):
+        if b1 > 0.0:
+            V = min(V, v / b1)
+        if b2 > 0.0:
+            V = min(V, math.sqrt(v_share * a / b2))
+        if b3 > 0.0 and j != math.inf:
+            V = min(V, (v_share * j / b3) ** (1.0 / 3.0))
+    A = a_prog / gmax if a_prog != math.inf else math.inf
+    for b1, b2, b3, a, j in zip(piece.b1, piece.b2, piece.b3, a_max, j_max, strict=True):
+        if b1 > 0.0:
+            A = min(A, (a - b2 * V * V) / b1)
+        if b2 > 0.0 and j != math.inf and V > 0.0:
+            A = min(A, (1.0 - j_split) * (j - b3 * V**3) / (3.0 * b2 * V))
+    J = j_prog / gmax if j_prog != math.inf else math.inf
+    for b1, b2, b3, j in zip(piece.b1, piece.b2, piece.b3, j_max, strict=True):
+        if b1 > 0.0 and j != math.inf:
+            J = min(J, (j - 3.0 * b2 * V * A - b3 * V**3) / b1)
+    if not (V > 0.0 and A > 0.0 and J > 0.0) or math.isinf(V) and math.isinf(A):
+        raise PlanningError(
+            f"the axis limits leave no motion on this piece (V={V:g}, A={A:g}, J={J:g})"
+        )
+    return V, A, J
