@@ -35,22 +35,29 @@ from __future__ import annotations
 
 import math
 import struct
-from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
-from enum import IntEnum
 from typing import TYPE_CHECKING, Any
 
 from motionplc._fastinit import slot_setters
 from motionplc.blocks.axis_state import Event, allowed, next_state
 from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
+from motionplc.blocks.motion_queue import (
+    Handle,
+    MotionQueue,
+    ReplanBudget,
+    Status,
+    junction_velocity,
+)
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
 from motionplc.planning.limits import STATE_MAX
 from motionplc.planning.sync import MAX_SYNC_DURATION
 
 if TYPE_CHECKING:
+    from collections import deque
+
     from motionplc.runtime.trace import Trace
 
 _planner_calls = 0  # planner calls made by the motion kernels (all axes), see planner_calls()
@@ -239,43 +246,6 @@ class AxisConfig:
             raise ValueError(f"axis {self.name!r}: sw_limit_neg must be < sw_limit_pos")
 
 
-class Status(IntEnum):
-    """Life cycle of a submitted command."""
-
-    QUEUED = 0  # accepted, waiting (FB Busy)
-    ACTIVE = 1  # controls the axis (FB Busy + Active)
-    DONE = 2
-    ABORTED = 3
-    ERROR = 4
-
-
-class Handle:
-    """The axis' side of one FB command; written by the axis only."""
-
-    __slots__ = ("status", "error_id", "in_target", "end_velocity", "hold", "kind", "reason")
-
-    def __init__(self, kind: str) -> None:
-        self.kind = kind
-        self.status = Status.QUEUED
-        self.error_id = ErrorID.OK
-        self.reason = ""  # why the command ended with Error (shown as the FB's error_text)
-        self.in_target = False  # InVelocity (velocity jobs)
-        self.end_velocity = 0.0  # effective velocity at the end position (blending)
-        self.hold = True  # MC_Stop: Execute still TRUE
-
-    @property
-    def terminal(self) -> bool:
-        """Done, aborted or failed."""
-        return self.status >= Status.DONE
-
-    def _finish(self, status: Status, error_id: ErrorID = ErrorID.OK, reason: str = "") -> None:
-        if self.status < Status.DONE:
-            self.status = status
-            self.error_id = error_id
-            self.reason = reason
-            self.in_target = False if status is not Status.DONE else self.in_target
-
-
 @dataclass(frozen=True, slots=True)
 class Command:
     """A motion request as latched by an FB (validated before submission)."""
@@ -395,16 +365,9 @@ class _Job:
         return State(e.p + self.shift, e.v, e.a)
 
 
-class ReplanBudget:
-    """How many blending re-plans of running moves the axes of a runtime may still do in the
-    current cycle (reset by the runtime every tick; axes step in declaration order, so which
-    axis waits is deterministic)."""
-
-    __slots__ = ("per_cycle", "left")
-
-    def __init__(self, per_cycle: int) -> None:
-        self.per_cycle = per_cycle
-        self.left = per_cycle
+def _is_stop(job: _Job) -> bool:
+    """An MC_Stop job (kept Busy when other motion is aborted)."""
+    return job.kind == "stop"
 
 
 def _sign(x: float) -> float:
@@ -503,11 +466,7 @@ class Axis:
         self.axis_error_reason = ""
         self._why = ""  # why the last command was refused (the FB's error_text)
         # command queue
-        self._inbox: list[_Job] = []
-        self._pending: list[tuple[Handle, Any]] = []  # ContinuousUpdate values / failures
-        self.active: _Job | None = None
-        self.queue: deque[_Job] = deque()
-        self._stops: list[Handle] = []
+        self.mq: MotionQueue[_Job] = MotionQueue()  # inbox, active job, queue, stops, updates
         self.last_target: float | None = None
         # profiles planned ahead (exact planner inputs -> the immutable profile planned from
         # them): a queued move's start profile is planned in a quiet cycle before the hand-over
@@ -537,6 +496,21 @@ class Axis:
         self.img_enabled = False
         self.img_homed = False
         self.homed = False
+
+    # -- the command queue (public attributes kept for FBs, runtime, tests) -------------------
+    @property
+    def active(self) -> _Job | None:
+        """The job controlling the axis (None: none)."""
+        return self.mq.active
+
+    @active.setter
+    def active(self, job: _Job | None) -> None:
+        self.mq.active = job
+
+    @property
+    def queue(self) -> deque[_Job]:
+        """The jobs waiting behind the active one, in order."""
+        return self.mq.queue
 
     # -- helpers ---------------------------------------------------------------------------
     def __repr__(self) -> str:
@@ -672,18 +646,7 @@ class Axis:
             self._start_ramp("estop", 0.0, 0.0, self.cfg.j_max)
 
     def _fail_all(self, eid: ErrorID, status: Status = Status.ERROR) -> None:
-        jobs = list(self._inbox) + list(self.queue)
-        if self.active is not None:
-            jobs.append(self.active)
-        for job in jobs:
-            job.handle._finish(status, eid)
-        for h in self._stops:
-            h._finish(status, eid)
-        self._inbox.clear()
-        self.queue.clear()
-        self._stops.clear()
-        self._pending.clear()
-        self.active = None
+        self.mq.fail_all(eid, status)
         self.last_target = None
 
     def request_reset(self) -> Handle:
@@ -709,7 +672,7 @@ class Axis:
             )
             self._reset_handle = None
             return
-        if self.active is not None:  # ErrorStop ramp still running: wait for standstill
+        if self.mq.active is not None:  # ErrorStop ramp still running: wait for standstill
             return
         self.axis_error = ErrorID.OK
         self.axis_error_reason = ""
@@ -786,11 +749,11 @@ class Axis:
         h = Handle(cmd.kind)
         if cmd.kind == "setpos":
             job = _Job(cmd, h)
-            if cmd.mode is BufferMode.ABORTING or (self.active is None and not self.queue):
+            if cmd.mode is BufferMode.ABORTING or (self.mq.active is None and not self.mq.queue):
                 self._shift_to(cmd)  # MC_SetPosition mcImmediately: no motion, no state change
                 h._finish(Status.DONE)
             else:
-                self.queue.append(job)
+                self.mq.queue.append(job)
             return h
         event = _EVENTS[cmd.kind]
         state = self.state
@@ -798,10 +761,11 @@ class Axis:
             h._finish(Status.ERROR, ErrorID.for_state(state))
             return h
         job = _Job(cmd, h)
-        idle = self.active is None and not self.queue and not self._inbox
+        mq = self.mq
+        idle = mq.idle()
         immediate = cmd.mode is BufferMode.ABORTING or cmd.kind == "stop" or idle
         if not immediate:
-            tail = self._tail()
+            tail = mq.tail()
             if (
                 cmd.mode >= BufferMode.BLENDING_LOW
                 and tail is not None
@@ -810,8 +774,7 @@ class Axis:
             ):
                 h._finish(Status.ERROR, ErrorID.BLENDING_NOT_SUPPORTED_BY_PREVIOUS)
                 return h
-            waiting = len(self.queue) + sum(1 for j in self._inbox if j.waiting)
-            if waiting >= self.cfg.queue_depth:
+            if mq.full(self.cfg.queue_depth):
                 h._finish(Status.ERROR, ErrorID.QUEUE_FULL)
                 return h
         # resolve the target now when its base is known (set position or predecessor's target)
@@ -826,7 +789,7 @@ class Axis:
                 ):
                     base = self.last_target
             else:
-                tail = self._tail()
+                tail = mq.tail()
                 base = (
                     tail.target
                     if tail is not None and tail.kind in ("absolute", "relative", "additive")
@@ -850,19 +813,12 @@ class Axis:
             self.state = next_state(event, state)
         else:
             job.waiting = True
-        self._inbox.append(job)
+        mq.admit(job)
         if cmd.is_move and job.target is not None:
             self.last_target = job.target
         if cmd.kind == "stop":
-            self._stops.append(h)
+            mq.stops.append(h)
         return h
-
-    def _tail(self) -> _Job | None:
-        if self._inbox:
-            return self._inbox[-1]
-        if self.queue:
-            return self.queue[-1]
-        return self.active
 
     def _resolve(self, job: _Job, base: float) -> ErrorID:
         """Target of a discrete move from its base position; checks the software limits."""
@@ -950,8 +906,7 @@ class Axis:
         self._sent_p += d
         if self.last_target is not None:
             self.last_target += d
-        jobs = ([self.active] if self.active else []) + list(self.queue) + self._inbox
-        for job in jobs:
+        for job in self.mq.jobs():
             job.shift += d
             if job.target is not None:
                 job.target += d
@@ -969,10 +924,11 @@ class Axis:
         using the axis' own limits.
         """
         try:
-            if self._inbox:
+            mq = self.mq
+            if mq.inbox:
                 self._process_inbox()
                 self._ahead = True
-            if self._pending:
+            if mq.pending:
                 self._apply_pending()
                 self._ahead = True
             if self._junction_due is not None:
@@ -983,10 +939,10 @@ class Axis:
             if state is S.DISABLED:
                 self._resync()
                 return
-            job = self.active
+            job = mq.active
             if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
                 self._feed_stop()
-                job = self.active
+                job = mq.active
             sw = self._sw_check
             if sw:
                 p0, v0, a0 = self.p, self.v, self.a
@@ -997,9 +953,9 @@ class Axis:
                 if sw:
                     self._sw_guard(p0, v0, a0, dt)
             state = self.state
-            if state is S.STOPPING and self.active is None:
-                if all(not h.hold for h in self._stops):
-                    self._stops.clear()
+            if state is S.STOPPING and mq.active is None:
+                if all(not h.hold for h in mq.stops):
+                    mq.stops.clear()
                     state = self.state = next_state(Event.STOP_RELEASED, S.STOPPING)  # T19
             if state is not S.ERROR_STOP:
                 lim = self._fe_limit
@@ -1040,7 +996,7 @@ class Axis:
             else:
                 self.raise_axis_error(kind, reason)
         except Exception:  # noqa: BLE001 - last line of defence: hold still
-            self.active = None
+            self.mq.active = None
             self.v = self.a = self.j = 0.0
             if self.state is not S.ERROR_STOP:
                 self.state = S.ERROR_STOP
@@ -1083,7 +1039,7 @@ class Axis:
         ErrorStop with SW_LIMIT and the running command ends with Error SW_LIMIT. Beyond a limit
         (MC_SetPosition, a reset out there), moving further out is stopped the same way as fast
         as possible; moving back is free."""
-        job = self.active
+        job = self.mq.active
         if job is not None and job.kind == "swstop":
             return
         p, v, a = self.p, self.v, self.a
@@ -1126,7 +1082,7 @@ class Axis:
                     prof = None  # cannot stop at the limit any more
             except PlanningError:
                 prof = None
-        act = self.active
+        act = self.mq.active
         if act is not None:
             act.handle._finish(Status.ERROR, ErrorID.SW_LIMIT, reason)
         if prof is None:  # stop as fast as possible from where the axis is
@@ -1145,12 +1101,11 @@ class Axis:
         job.no_override = True
         job.set_chain([prof])
         job.rest_target = limit
-        self.active = job
+        self.mq.active = job
         self._advance(job, dt, dt)
 
     def _process_inbox(self) -> None:
-        inbox = self._inbox
-        self._inbox = []
+        inbox = self.mq.take_inbox()
         failed = False
         for job in inbox:
             if job.handle.terminal:
@@ -1161,13 +1116,13 @@ class Axis:
                 job.handle.status = Status.ACTIVE
                 self._start_job_ramp(job, job.cmd.deceleration, job.cmd.jerk)
                 continue
-            if job.cmd.mode is BufferMode.ABORTING or self.active is None:
+            if job.cmd.mode is BufferMode.ABORTING or self.mq.active is None:
                 if not self._start(job, immediate=True):
                     failed = True
                 continue
-            self.queue.append(job)
-            if len(self.queue) == 1 and job.cmd.mode >= BufferMode.BLENDING_LOW:
-                act = self.active
+            self.mq.queue.append(job)
+            if len(self.mq.queue) == 1 and job.cmd.mode >= BufferMode.BLENDING_LOW:
+                act = self.mq.active
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
                     self._junction_due = act
         if failed:
@@ -1177,12 +1132,12 @@ class Axis:
         """A command accepted at submission (which set the state at once) could not be planned:
         the axis keeps its motion, so the state follows what actually runs (no DiscreteMotion
         without a motion)."""
-        act = self.active
+        act = self.mq.active
         st = self.state
         if st not in (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION):
             return
         if act is None:
-            if not self.queue and not self._inbox:
+            if not self.mq.queue and not self.mq.inbox:
                 self.state = S.STANDSTILL
         elif act.kind == "velocity":
             self.state = S.CONTINUOUS_MOTION
@@ -1194,9 +1149,9 @@ class Axis:
         now if the runtime's budget of such re-plans in this cycle allows, else in a later
         cycle (then from the set state of that cycle; the move runs on meanwhile)."""
         act = self._junction_due
-        queue = self.queue
+        queue = self.mq.queue
         if (
-            act is not self.active
+            act is not self.mq.active
             or act is None
             or act.handle.terminal
             or not queue
@@ -1213,12 +1168,7 @@ class Axis:
         self._replan_active()
 
     def _abort_motion(self) -> None:
-        for q in self.queue:
-            q.handle._finish(Status.ABORTED)
-        self.queue.clear()
-        if self.active is not None and self.active.kind != "stop":
-            self.active.handle._finish(Status.ABORTED)
-        self.active = None
+        self.mq.abort_motion(keep=_is_stop)
 
     def _start(self, job: _Job, immediate: bool) -> bool:
         """Plan ``job`` from the current set state; abort the old motion only on success."""
@@ -1245,7 +1195,7 @@ class Axis:
             return False
         if immediate:
             self._abort_motion()
-        self.active = job
+        self.mq.active = job
         job.handle.status = Status.ACTIVE
         job.dir = self._direction_of(job, self.p)
         return True
@@ -1256,7 +1206,7 @@ class Axis:
 
     def _start_job_ramp(self, job: _Job, dec: float, jerk: float) -> None:
         self._prepare_ramp(job, 0.0, dec, jerk)
-        self.active = job
+        self.mq.active = job
 
     def _start_ramp(self, kind: str, v_target: float, dec: float, jerk: float) -> None:
         job = _Job(Command(kind="halt"), Handle(kind))
@@ -1268,10 +1218,10 @@ class Axis:
             # the axis' own limits always give a ramp for a valid set state; if not (a defect),
             # the set values hold still rather than keep moving
             self.axis_error_reason += f"; {kind} ramp not planned ({exc}): holding still"
-            self.active = None
+            self.mq.active = None
             self.v = self.a = self.j = 0.0
             return
-        self.active = job
+        self.mq.active = job
 
     def _axis_limits(self, acc: float, dec: float, jerk: float, v: float | None = None) -> Limits:
         """Limits of a ramp (Halt, Stop, ErrorStop, homing): ``max(acc, dec)`` caps both
@@ -1348,9 +1298,9 @@ class Axis:
     # -- discrete moves and blending -------------------------------------------------------
     def _successor_junction(self, job: _Job) -> tuple[float, _Job | None]:
         """Requested junction speed |v| between ``job`` and a blending successor."""
-        if not self.queue:
+        if not self.mq.queue:
             return 0.0, None
-        nxt = self.queue[0]
+        nxt = self.mq.queue[0]
         mode = nxt.cmd.mode
         if mode < BufferMode.BLENDING_LOW or not job.cmd.is_move:
             return 0.0, None
@@ -1362,13 +1312,7 @@ class Axis:
         )
         if nxt.kind not in ("absolute", "relative", "additive", "velocity", "halt"):
             return 0.0, None
-        vj = {
-            BufferMode.BLENDING_LOW: min(v1, v2),
-            BufferMode.BLENDING_PREVIOUS: v1,
-            BufferMode.BLENDING_NEXT: v2,
-            BufferMode.BLENDING_HIGH: max(v1, v2),
-        }[mode]
-        return vj, nxt
+        return junction_velocity(mode, v1, v2), nxt
 
     def _plan_memo(self, start: State, target: State, lim: Limits) -> Profile:
         """``plan(start, target, lim)``, reusing a profile planned ahead from the very same
@@ -1399,13 +1343,13 @@ class Axis:
         just misses and plans as before).
         """
         self._ahead = False
-        act = self.active
-        queue = self.queue
+        act = self.mq.active
+        queue = self.mq.queue
         if (
             act is None
             or len(queue) != 1
-            or self._inbox
-            or self._pending
+            or self.mq.inbox
+            or self.mq.pending
             or not act.cmd.is_move
             or act.handle.terminal
             or self._f != 1.0
@@ -1535,7 +1479,7 @@ class Axis:
             job.rest_target = target
 
     def _replan_active(self) -> None:
-        job = self.active
+        job = self.mq.active
         assert job is not None
         try:
             self._prepare_move(job, self._tau_state(), keep_rest=True)
@@ -1575,7 +1519,7 @@ class Axis:
         scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
         inc = ftau if scaled else dt
         tau = job.tau = job.tau + inc
-        if job.kind == "velocity" and self.queue and tau - inc > job.duration:
+        if job.kind == "velocity" and self.mq.queue and tau - inc > job.duration:
             # cruising at its velocity since before this step, now taken over by a buffered
             # job: it ends at the current set state, the successor runs for this step only
             job.shift += job.chain[-1].end.v * (tau - inc - job.duration)
@@ -1587,7 +1531,7 @@ class Axis:
             return
         while True:
             tau = job.tau
-            if tau < job.duration or (job.kind == "velocity" and not self.queue):
+            if tau < job.duration or (job.kind == "velocity" and not self.mq.queue):
                 if job.kind == "velocity" and tau >= job.duration:
                     job.handle.in_target = True
                 break
@@ -1599,11 +1543,11 @@ class Axis:
             self._ahead = True
             nxt = self._finish_job(job)  # sets p (shifted by homing / queued SetPosition)
             if nxt is None:
-                self.active = None
+                self.mq.active = None
                 self.a = self.j = 0.0
                 self.v = end.v if job.kind == "velocity" else 0.0
                 if end.v != 0.0 and job.kind == "velocity":
-                    self.active = job
+                    self.mq.active = job
                 return
             job = nxt
             job.tau = excess
@@ -1624,11 +1568,11 @@ class Axis:
         kind = job.kind
         end = job.end_state()
         self.p, self.v, self.a = end.p, end.v, end.a
-        self.active = None
+        self.mq.active = None
         if kind == "velocity":
             h._finish(Status.ABORTED)  # taken over by a buffered command at InVelocity
         elif kind == "stop":
-            for sh in self._stops:
+            for sh in self.mq.stops:
                 sh._finish(Status.DONE)
             return None
         elif kind in ("estop", "swstop"):
@@ -1655,8 +1599,8 @@ class Axis:
 
     def _activate_queued(self) -> _Job | None:
         """Start the first startable queued job from the current set state (None: none)."""
-        while self.queue:
-            nxt = self.queue.popleft()
+        mq = self.mq
+        while (nxt := mq.pop_next()) is not None:
             if nxt.kind == "setpos":
                 self._shift_to(nxt.cmd)
                 nxt.handle._finish(Status.DONE)
@@ -1678,7 +1622,7 @@ class Axis:
                 continue
             if self._start(nxt, immediate=False):
                 self.state = next_state(event, self.state)
-                if self.active is nxt:
+                if self.mq.active is nxt:
                     return nxt
                 continue  # homing by set position finished at once
         return None
@@ -1710,30 +1654,13 @@ class Axis:
         queued ones end with Error DIRECTION_NOT_ENABLED; controlled stop with the axis' limits
         (DiscreteMotion, like MC_Halt; from Homing the axis stays Homing until standstill)."""
         eid = ErrorID.DIRECTION_NOT_ENABLED
-        for q in self.queue:
-            q.handle._finish(Status.ERROR, eid)
-        self.queue.clear()
-        if self.active is not None:
-            self.active.handle._finish(Status.ERROR, eid)
-        self.active = None
+        self.mq.abort_motion(status=Status.ERROR, error_id=eid)
         self.last_target = None
         if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             self.state = next_state(Event.DISCRETE, self.state)
         self._start_ramp("feedstop", 0.0, 0.0, self.cfg.j_max)
 
     # -- ContinuousUpdate ----------------------------------------------------------------------
-    def _find_job(self, handle: Handle) -> _Job | None:
-        act = self.active
-        if act is not None and act.handle is handle:
-            return act
-        for job in self.queue:
-            if job.handle is handle:
-                return job
-        for job in self._inbox:
-            if job.handle is handle:
-                return job
-        return None
-
     def update(self, handle: Handle, cmd: Command) -> None:
         """ContinuousUpdate: new (validated) inputs for the busy command of ``handle``.
 
@@ -1745,7 +1672,7 @@ class Axis:
         distance. BufferMode is not updated. If the new values cannot be used (software limit,
         direction not enabled) the command ends with Error as in :meth:`fail_command`.
         """
-        self._pending.append((handle, cmd))
+        self.mq.pending.append((handle, cmd))
 
     def fail_command(self, handle: Handle, error_id: ErrorID) -> None:
         """End a busy command with Error in this cycle's kernel step (e.g. an invalid
@@ -1755,11 +1682,10 @@ class Axis:
         current set state at once (spec 2.4); without one the axis stops with its own limits
         (DiscreteMotion until standstill, like MC_Halt).
         """
-        self._pending.append((handle, error_id))
+        self.mq.pending.append((handle, error_id))
 
     def _apply_pending(self) -> None:
-        pending = self._pending
-        self._pending = []
+        pending = self.mq.take_pending()
         for handle, what in pending:
             if isinstance(what, Command):
                 self._apply_update(handle, what)
@@ -1769,7 +1695,7 @@ class Axis:
     def _apply_update(self, handle: Handle, cmd: Command) -> ErrorID:
         if handle.status >= Status.DONE:
             return ErrorID.OK
-        job = self._find_job(handle)
+        job = self.mq.find(handle)
         if job is None or job.kind != cmd.kind:
             return ErrorID.OK
         old_cmd, old_target, old_base = job.cmd, job.target, job.base
@@ -1792,7 +1718,7 @@ class Axis:
             if self.last_target is not None and self.last_target == old_target:
                 self.last_target = job.target
         if (
-            job is self.active
+            job is self.mq.active
             and job.kind == "velocity"
             and self._sw_check
             and self._velocity_blocked(job)
@@ -1800,12 +1726,12 @@ class Axis:
             self._fail_command(handle, ErrorID.MOVE_BEYOND_SW_LIMIT, self._why)
             return ErrorID.MOVE_BEYOND_SW_LIMIT
         if not self._feed_all:
-            d = self._direction_of(job, self.p if job is self.active else job.base)
+            d = self._direction_of(job, self.p if job is self.mq.active else job.base)
             if not self._dir_enabled(d):
                 self._fail_command(handle, ErrorID.DIRECTION_NOT_ENABLED)
                 return ErrorID.DIRECTION_NOT_ENABLED
         try:
-            if job is self.active:
+            if job is self.mq.active:
                 if job.kind == "velocity":
                     self._prepare_velocity(job, self._tau_state())
                     # InVelocity stays only if the axis is at the (new) velocity already
@@ -1813,8 +1739,8 @@ class Axis:
                 elif job.cmd.is_move:
                     self._prepare_move(job, self._tau_state())
                 job.dir = self._direction_of(job, self.p)
-            elif self.queue and job is self.queue[0]:
-                act = self.active
+            elif self.mq.queue and job is self.mq.queue[0]:
+                act = self.mq.active
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
                     if job.cmd.mode >= BufferMode.BLENDING_LOW:
                         self._prepare_move(act, self._tau_state(), keep_rest=True)  # new junction
@@ -1827,17 +1753,14 @@ class Axis:
     def _fail_command(self, handle: Handle, error_id: ErrorID, reason: str = "") -> None:
         if handle.status >= Status.DONE:
             return
-        job = self._find_job(handle)
+        job = self.mq.find(handle)
         handle._finish(Status.ERROR, error_id, reason)
         if job is None:
             return
-        if job is not self.active:
-            if job in self.queue:
-                self.queue.remove(job)
-            elif job in self._inbox:
-                self._inbox.remove(job)
+        if job is not self.mq.active:
+            self.mq.remove(job)
             return
-        self.active = None
+        self.mq.active = None
         if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             self.state = next_state(Event.DISCRETE, self.state)
         if self.state is S.DISCRETE_MOTION and self._activate_queued() is not None:
