@@ -334,7 +334,8 @@ def _split(line: str) -> list[GcodeWord]:
             if letter == "O":  # "O100 sub", "o<name> if [...]": the whole line is control flow
                 raise _WordError(
                     _token(line, i).upper(),
-                    "O-words (subroutines and control flow) are not supported",
+                    "O-words (subroutines and control flow) are not supported "
+                    f"(allowed: {_SUPPORTED})",
                 )
             k = i + 1
             while k < n and line[k] in _SPACES:
@@ -360,11 +361,15 @@ def _split(line: str) -> list[GcodeWord]:
             tok = m.group() if m is not None else ch
             raise _WordError(tok, "number without a letter (allowed: a letter before each number)")
         elif ch == "#":
-            raise _WordError(_token(line, i), "parameters #... are not supported")
+            raise _WordError(
+                _token(line, i), "parameters #... are not supported (allowed: plain numbers)"
+            )
         elif ch == "[":
-            raise _WordError(_bracket(line, i), "expressions [...] are not supported")
+            raise _WordError(
+                _bracket(line, i), "expressions [...] are not supported (allowed: plain numbers)"
+            )
         elif ch == "/":
-            raise _WordError("/", "block delete is not supported")
+            raise _WordError("/", "block delete is not supported (allowed: lines without /)")
         else:
             raise _WordError(ch, f"unexpected character {ch!r} (allowed: words, comments)")
     return words
@@ -445,7 +450,7 @@ def _parse_line(
             if idx != 0:
                 raise _WordError(w.text, "line number not first on the line (allowed: N first)")
             if w.value != int(w.value) or w.value < 0 or "." in w.text or "-" in w.text:
-                raise _WordError(w.text, "line number must be an integer >= 0")
+                raise _WordError(w.text, "line number must be an integer (allowed: N0, N1, ...)")
             number = int(w.value)
             continue
         if w.letter == "G":
@@ -581,7 +586,7 @@ def _parse_line(
             raise _WordError(
                 code_text,
                 f"an arc in the {new.plane} plane needs a {missing[0]} axis, the group has "
-                f"{', '.join(axes)}",
+                f"{', '.join(axes)} (allowed: arcs in a plane of the group's axes)",
             )
         allowed = _OFFSET_LETTERS[new.plane]
         for w in offset_words:
