@@ -74,6 +74,8 @@ _SAME_POINT_RTOL = 1e-12
 # LinuxCNC's TINY: half the chord may exceed |R| by this relative amount (then a semicircle).
 _R_TINY = 1e-12
 _MAX_ERRORS = 100
+# Largest number in a word: 1e15 mm = 1e12 m, the planner's position range.
+_MAX_VALUE = 1e15
 
 _PLANES: dict[str, tuple[int, int, int]] = {
     # plane: (first in-plane axis, second in-plane axis, normal axis) as X=0, Y=1, Z=2
@@ -354,7 +356,12 @@ def _split(line: str) -> list[GcodeWord]:
                         "parameters #... are not supported (allowed: a plain number)",
                     )
                 raise _WordError(letter, "letter without a number (allowed: e.g. X1.5, G1)")
-            words.append(GcodeWord(letter, float(m.group()), letter + m.group()))
+            value = float(m.group())
+            if not abs(value) < _MAX_VALUE:
+                raise _WordError(
+                    letter + m.group(), f"number out of range (allowed: |value| < {_MAX_VALUE:g})"
+                )
+            words.append(GcodeWord(letter, value, letter + m.group()))
             i = m.end()
         elif ch.isdigit() or ch in "+-.":
             m = _NUMBER.match(line, i)
@@ -497,10 +504,10 @@ def _parse_line(
     new_unit = modal.unit if unit_code is None else (INCH if unit_code[0] == "G20" else MM)
     if "F" in letters:
         f = letters["F"]
-        if new_unit != modal.unit:
+        if unit_code is not None and new_unit != modal.unit:
             raise _WordError(
                 f.text,
-                f"F on the line that changes the units ({unit_code[1]}) is ambiguous "  # type: ignore[index]
+                f"F on the line that changes the units ({unit_code[1]}) is ambiguous "
                 "(allowed: F on a line of its own or after the unit change)",
             )
         if not f.value > 0.0:

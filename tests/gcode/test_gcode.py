@@ -79,6 +79,12 @@ ERROR_CASES = [
         ("s",),
         ["t.ngc:1: Y1: the group has no Y axis (allowed: its axes X=s)"],
     ),
+    (
+        "arc, 1 axis",
+        "F1 G2 X1 I1",
+        ("s",),
+        ["t.ngc:1: G2: an arc in the XY plane needs a Y axis, the group has s"],
+    ),
     ("ZX plane, 2 axes", "G18", ("x", "y"), ["t.ngc:1: G18: the ZX plane needs a Z axis"]),
     ("A axis", "G0 A1", XYZ, ["t.ngc:1: A1: A axis word is not supported"]),
     ("arc neither", "F1 G2 X1 Y1", XYZ, ["t.ngc:1: G2: arc with neither centre offsets nor"]),
@@ -115,6 +121,13 @@ ERROR_CASES = [
     ("exact path", "G61.1", XYZ, ["t.ngc:1: G61.1: G61.1 (exact path mode) is not"]),
     ("M fraction", "M2.5", XYZ, ["t.ngc:1: M2.5: not an M code"]),
     ("exponent", "G0 X1e3", XYZ, ["t.ngc:1: E3: E word is not supported"]),
+    ("huge", "G0 X" + "9" * 400, XYZ, ["t.ngc:1: X999999999999999999999"]),
+    (
+        "too large",
+        "G0 X1000000000000000",
+        XYZ,
+        ["t.ngc:1: X1000000000000000: number out of range (allowed: |value| < 1e+15)"],
+    ),
     (
         "every line reported",
         "G0 X1\nM3\nG0 Y1\nT2\nG1 X3\nG1 X4",
@@ -131,6 +144,18 @@ def test_located_error(name: str, text: str, axes: tuple[str, ...], expected: li
     for got, want in zip(errors, expected, strict=True):
         assert got.startswith(want), (got, want)
         assert "allowed: " in got and got.endswith(")"), got
+
+
+def test_split_words_reports_its_location() -> None:
+    words = split_words("n7 g01x-.5 (c) Y 2. ; z9")
+    assert [(w.letter, w.value, w.text) for w in words] == [
+        ("N", 7.0, "N7"),
+        ("G", 1.0, "G01"),
+        ("X", -0.5, "X-.5"),
+        ("Y", 2.0, "Y2."),
+    ]
+    with pytest.raises(GcodeError, match=r"^p\.ngc:4: X: letter without a number"):
+        split_words("G1 X", "p.ngc", 4)
 
 
 def test_error_is_a_located_motionplc_error(tmp_path: Path) -> None:
