@@ -32,6 +32,9 @@ class Event(Enum):
     HOME_DONE = "home_done"
     DISCRETE_DONE = "discrete_done"
     STOP_RELEASED = "stop_released"  # MC_Stop.Done AND NOT Execute
+    # an axes group (Part 4) moves its members: SynchronizedMotion while the group moves
+    GROUP_MOTION = "group_motion"
+    GROUP_DONE = "group_done"
 
 
 _MOVING = (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION)
@@ -60,6 +63,11 @@ for _s in _MOVING:  # T12-T17 and re-issue within the same group
 for _s in (S.STANDSTILL, S.HOMING, *_MOVING, S.STOPPING):
     TRANSITIONS[(Event.STOP, _s)] = S.STOPPING  # T18 (and another MC_Stop while Stopping)
 TRANSITIONS[(Event.STOP_RELEASED, S.STOPPING)] = S.STANDSTILL  # T19
+# T11 as a member of a moving axes group (CODESYS: the members of a GroupMoving group are in
+# SynchronizedMotion), back to Standstill when the group stops moving
+TRANSITIONS[(Event.GROUP_MOTION, S.STANDSTILL)] = S.SYNCHRONIZED_MOTION
+TRANSITIONS[(Event.GROUP_MOTION, S.SYNCHRONIZED_MOTION)] = S.SYNCHRONIZED_MOTION
+TRANSITIONS[(Event.GROUP_DONE, S.SYNCHRONIZED_MOTION)] = S.STANDSTILL
 
 COMMANDS = (
     Event.HOME,

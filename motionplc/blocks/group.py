@@ -62,6 +62,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis import Axis, Handle, Status
+from motionplc.blocks.axis_state import Event as AxisEvent
+from motionplc.blocks.axis_state import next_state as next_axis_state
 from motionplc.blocks.enums import (
     AxisState,
     BufferMode,
@@ -308,7 +310,7 @@ class AxesGroup:
         for ax in self.axes:
             ax.v = ax.a = ax.j = 0.0
             if ax.state is S.SYNCHRONIZED_MOTION:
-                ax.state = S.STANDSTILL
+                ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
         self.state = next_state(GroupEvent.DISABLE, self.state)
         self.error_id = ErrorID.OK
         self.error_reason = ""
@@ -487,10 +489,10 @@ class AxesGroup:
         st = self.state
         moving = bool(self.chain.links)
         for ax in self.axes:
-            if ax.state is S.STANDSTILL and moving and st is G.GROUP_MOVING:
-                ax.state = S.SYNCHRONIZED_MOTION
+            if ax.state is S.STANDSTILL and moving and st is not G.GROUP_ERROR_STOP:
+                ax.state = next_axis_state(AxisEvent.GROUP_MOTION, ax.state)
             elif ax.state is S.SYNCHRONIZED_MOTION and not moving:
-                ax.state = S.STANDSTILL
+                ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
         if moving or self._inbox:
             return
         if st is G.GROUP_MOVING:
@@ -584,12 +586,25 @@ class AxesGroup:
             job.links = [lk]
             self._connect(job, [lk])
         elif kind == "curve":
-            traj, end = self._plan_curve(cmd, base)
+            path, end = self._curve(cmd, base)
+            vp = (cmd.velocity or _INF) * self.override
+            ap, dp, jp = cmd.acceleration or _INF, cmd.deceleration or _INF, cmd.jerk or _INF
+            links = []
+            breaks = _curve_breaks(path)
+            for a, b_ in zip(breaks[:-1], breaks[1:], strict=True):
+                pc = CurvePiece(path, a, b_)
+                links.append(self._link(pc, job, vp, ap, dp, jp, vm, am, jm))
+            for lk, nxt in zip(links[:-1], links[1:], strict=True):
+                acc_a, acc_b = lk.piece.accel_out(), nxt.piece.accel_in()
+                scale = 1.0 + max(abs(x) for x in acc_a + acc_b)
+                g2 = max(abs(x - y) for x, y in zip(acc_a, acc_b, strict=True)) <= 1e-9 * scale
+                # C2 joints (B-spline knots) are passed at speed; the C1 joints of the seed-002
+                # Hermite curve (a curvature jump) need rest there to keep the jerk limit
+                lk.cap_out = _INF if g2 else 0.0
+            links[-1].last = True
             job.end = end
-            lk = Link(_DUMMY, 1.0, 1.0, 1.0, 1.0, owner=job, last=True)
-            lk.sampled = _Sampled(traj, "curve", end)
-            job.links = [lk]
-            self._connect(job, [lk])
+            job.links = links
+            self._connect(job, links)
         else:  # pragma: no cover - submit() filters the kinds
             raise _MoveError(ErrorID.INTERNAL_ERROR, f"unknown move kind {kind!r}")
 
@@ -716,8 +731,8 @@ class AxesGroup:
         targets = [State(t, 0.0, 0.0) for t in target]
         return plan_sync(starts, targets, lims, sync="time")
 
-    def _plan_curve(self, cmd: GroupCommand, base: tuple[float, ...]):
-        from motionplc.planning.paths import BSplinePath, HermitePath, plan_path
+    def _curve(self, cmd: GroupCommand, base: tuple[float, ...]):  # noqa: ANN202
+        from motionplc.planning.paths import BSplinePath, HermitePath
 
         pts = [base] + [tuple(float(x) for x in p) for p in cmd.points]
         n = len(self.axes)
@@ -730,16 +745,7 @@ class AxesGroup:
         except PlanningError as exc:
             raise _MoveError(ErrorID.INVALID_POINTS, f"points: {exc}") from None
         self._check_path_limits([path])
-        vm, am, jm = self._limits()
-        traj = plan_path(
-            path,
-            vm,
-            am,
-            j_max=[j if j != _INF else 1e12 for j in jm],
-            v_path=(cmd.velocity * self.override) if cmd.velocity else None,
-        )
-        end = tuple(float(x) for x in path.end)
-        return traj, end
+        return path, pts[-1]
 
     # -- connecting a move to the chain ----------------------------------------------------
     def _connect(self, job: _GJob, links: list[Link]) -> None:
@@ -1251,7 +1257,7 @@ class _Offset:
 
 
 def _duration(lk: Link) -> float:
-    sampled = getattr(lk, "sampled", None)
+    sampled = lk.sampled
     if sampled is not None:
         return sampled.duration
     prof = lk.profile
@@ -1269,12 +1275,28 @@ def _guard_plan(lk: Link) -> Profile:
 
 
 def _link_end(lk: Link) -> tuple[float, ...]:
-    sampled = getattr(lk, "sampled", None)
+    sampled = lk.sampled
     if sampled is not None:
         return sampled.end
-    if lk.last and lk.owner is not None and lk.owner.end is not None:  # type: ignore[attr-defined]
-        return lk.owner.end  # type: ignore[attr-defined]
+    if lk.stopping and lk.profile is not None and lk.profile.end.p < lk.piece.U:
+        return lk.piece.point(lk.profile.end.p)
+    if lk.last and lk.owner is not None and lk.owner.end is not None:
+        return lk.owner.end
     return lk.piece.end
+
+
+def _curve_breaks(path: Any) -> list[float]:
+    """Section boundaries of a passing-point curve: the Hermite sections (integer parameter
+    values) or the B-spline's distinct knots."""
+    knots = getattr(path, "knots", None)
+    if knots is not None:
+        out: list[float] = []
+        for k in knots:
+            k = float(k)
+            if not out or k > out[-1]:
+                out.append(k)
+        return out
+    return [float(i) for i in range(int(round(path.u_end)) + 1)]
 
 
 def _trim_end(lk: Link, u1: float) -> Piece:

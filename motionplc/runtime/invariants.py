@@ -65,6 +65,14 @@ class InvariantChecker:
             if len(active) > 1:
                 _fail(cycle, ax.name, "A4", f"more than one active FB: {active}")
             self._check_axis(rt, ax, cycle)
+        for g in getattr(rt, "groups", {}).values():
+            for fb in g.fbs:
+                if isinstance(fb, ExecuteFB):
+                    self._check_execute(fb, cycle)
+                elif isinstance(fb, EnableFB):
+                    valid = fb.valid or getattr(fb, "enabled", False)
+                    if valid and fb.error:
+                        _fail(cycle, str(fb.name), "A3", "valid and error both TRUE")
 
     # -- A and B -----------------------------------------------------------------------------
     def _check_execute(self, fb: ExecuteFB, cycle: int) -> None:

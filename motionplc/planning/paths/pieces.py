@@ -335,32 +335,49 @@ class SubPiece(Piece):
 
 
 class CurvePiece(Piece):
-    """Any :class:`~motionplc.planning.paths.base.Path` over its whole parameter range,
-    evaluated through the path (numpy; slower). Bounds by dense sampling of the derivatives
-    (with the next order bounding the change between samples)."""
+    """The part ``[u0, u1]`` of any :class:`~motionplc.planning.paths.base.Path` (default: the
+    whole path), re-parametrised to start at 0 and evaluated through the path (numpy; slower
+    than the closed forms). Bounds: dense maxima of the derivatives plus half a sample step
+    times the next order's maximum (the third derivative's change between samples bounds its
+    own)."""
 
-    __slots__ = ("_path",)
+    __slots__ = ("_path", "_u0", "_u1", "_u1_in")
 
-    def __init__(self, path: Path, samples: int = 4097) -> None:
+    def __init__(
+        self, path: Path, u0: float = 0.0, u1: float | None = None, samples: int = 2049
+    ) -> None:
         self._path = path
+        self._u0 = float(u0)
+        u1 = float(path.u_end) if u1 is None else float(u1)
+        self._u1 = u1
+        self._u1_in = u1 - 1e-12 * (1.0 + abs(u1)) if u1 < float(path.u_end) else u1
         self.dim = int(path.dim)
-        self.U = float(path.u_end)
-        self.length = float(path.length)
-        uu = np.linspace(0.0, self.U, samples)
+        self.U = u1 - self._u0
+        uu = np.linspace(self._u0, self._u1_in, samples)
         ders = path.derivatives(uu, 3)
         step = self.U / (samples - 1)
         m = 1.0 + _BOUND_MARGIN
         b = [np.abs(ders[k]).max(axis=0) for k in (1, 2, 3)]
-        # the change of the third derivative between samples, from its differences
-        d3 = np.abs(np.diff(ders[3], axis=0)).max(axis=0) if samples > 1 else 0.0 * b[2]
+        d3 = np.abs(np.diff(ders[3], axis=0)).max(axis=0)
         self.b1 = tuple(float(x) * m for x in b[0] + 0.5 * step * b[1] * 1.01)
         self.b2 = tuple(float(x) * m for x in b[1] + 0.5 * step * b[2] * 1.01)
         self.b3 = tuple(float(x) * m for x in b[2] + 0.5 * d3 * 1.01)
         self._finish()
+        speed = np.linalg.norm(ders[1], axis=1)
+        self.length = (
+            float(np.trapezoid(speed, uu))
+            if hasattr(np, "trapezoid")
+            else float(
+                np.trapz(speed, uu)  # noqa: NPY201 - numpy < 2
+            )
+        )
 
     def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
-        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
-        ders = self._path.derivatives(u, 3)
+        # one-sided at the end: a section boundary belongs to this piece, not the next one
+        uu = self._u0 + (0.0 if u < 0.0 else u)
+        if uu >= self._u1:
+            uu = self._u1_in
+        ders = self._path.derivatives(uu, 3)
         return tuple(tuple(float(x) for x in np.ravel(d)) for d in ders)  # type: ignore[return-value]
 
 
