@@ -1,0 +1,354 @@
+"""The scope with axes groups: path views coloured by speed, the groups sidecar, decimation.
+
+Traces are synthesized here: a rectangle with rounded corners on x/y (counter-clockwise from
+the middle of the bottom edge), a smooth path speed 0 -> max -> 0, written as a trace CSV like
+``motionplc run --trace`` writes, plus the ``*.groups.json`` sidecar.
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+import struct
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motionplc.cli import main
+from motionplc.errors import MotionPlcError
+from motionplc.scope import (
+    SPEED_LEVELS,
+    ScopeTrace,
+    decimate_path,
+    groups_sidecar_path,
+    read_trace,
+    speed_color,
+    trace_from_runtime,
+    write_groups_sidecar,
+)
+
+WIDTH, HEIGHT, RADIUS = 0.6, 0.3, 0.05
+
+
+def rounded_rectangle(s: np.ndarray) -> tuple[np.ndarray, float]:
+    """Points at arc lengths ``s`` along the rounded rectangle, and its perimeter."""
+    ex, ey, q = WIDTH - 2 * RADIUS, HEIGHT - 2 * RADIUS, np.pi * RADIUS / 2
+    pieces = []  # (length, start point, direction or None, corner centre, start angle)
+    x, y = RADIUS, 0.0
+    for k, (e, d) in enumerate(((ex, (1, 0)), (ey, (0, 1)), (ex, (-1, 0)), (ey, (0, -1)))):
+        pieces.append((e, (x, y), d, None, 0.0))
+        x, y = x + e * d[0], y + e * d[1]
+        a0 = -np.pi / 2 + k * np.pi / 2
+        centre = (x - RADIUS * np.cos(a0), y - RADIUS * np.sin(a0))
+        pieces.append((q, (x, y), None, centre, a0))
+        x, y = (
+            centre[0] + RADIUS * np.cos(a0 + np.pi / 2),
+            centre[1] + RADIUS * np.sin(a0 + np.pi / 2),
+        )
+    per = sum(p[0] for p in pieces)
+    out = np.empty((len(s), 2))
+    base = 0.0
+    for length, start, d, centre, a0 in pieces:
+        m = (s >= base) & (s <= base + length)
+        u = s[m] - base
+        if d is not None:
+            out[m] = np.array(start) + np.outer(u, d)
+        else:
+            a = a0 + u / RADIUS
+            out[m] = np.array(centre) + RADIUS * np.column_stack([np.cos(a), np.sin(a)])
+        base += length
+    return out, per
+
+
+def write_trace(
+    path: Path,
+    n: int = 3001,
+    groups: dict[str, list[str]] | None = None,
+    speed_column: bool = True,
+    state_column: bool = True,
+) -> dict[str, np.ndarray]:
+    """A 2-axis (x, y) trace of one lap; with ``groups`` its columns and sidecar."""
+    dt = 0.001
+    t = np.arange(n) * dt
+    _, per = rounded_rectangle(np.zeros(1))
+    s = np.clip(per * (1 - np.cos(np.pi * t / t[-1])) / 2, 0.0, per)
+    speed = np.abs(per * np.pi / t[-1] * np.sin(np.pi * t / t[-1]) / 2)
+    p, _ = rounded_rectangle(s)
+    vel = np.gradient(p, dt, axis=0)
+    acc = np.gradient(vel, dt, axis=0)
+    jerk = np.gradient(acc, dt, axis=0)
+    cols = ["cycle", "t"]
+    fields = ("position", "velocity", "acceleration", "jerk", "actual_position", "state")
+    for ax in "xy":
+        cols += [f"{ax}.{f}" for f in fields]
+    for g in groups or {}:
+        cols += [f"{g}.path_velocity"] if speed_column else []
+        cols += [f"{g}.state"] if state_column else []
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for i in range(n):
+            moving = 0 < i < n - 1
+            row: list[object] = [i, repr(float(t[i]))]
+            for k in range(2):
+                state = "SYNCHRONIZED_MOTION" if moving else "STANDSTILL"
+                row += [p[i, k], vel[i, k], acc[i, k], jerk[i, k], p[i, k], state]
+            for _g in groups or {}:
+                row += [speed[i]] if speed_column else []
+                row += ["GROUP_MOVING" if moving else "GROUP_STANDBY"] if state_column else []
+            w.writerow(row)
+    with path.with_suffix(".events.csv").open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(["cycle", "fb", "output", "value"])
+        w.writerows([[1, "x.move", "busy", True], [n - 2, "x.move", "busy", False]])
+        w.writerow([n - 2, "x.move", "done", True])
+    if groups is not None:
+        write_groups_sidecar(path, groups)
+    return {"t": t, "p": p, "speed": speed}
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and data[12:16] == b"IHDR"
+    return struct.unpack(">II", data[16:24])
+
+
+def path_views(page: str) -> list[str]:
+    return re.findall(r"<svg class='path-view'.*?</svg>", page, flags=re.S)
+
+
+def segments(view: str) -> tuple[list[str], np.ndarray]:
+    """Per drawn segment its colour, and the drawn vertices (pixels) in order."""
+    colours: list[str] = []
+    vertices: list[tuple[float, float]] = []
+    for pts, colour in re.findall(
+        r"<polyline class='speed' points='([^']*)' style='stroke:(#\w+)'", view
+    ):
+        xy = [tuple(map(float, p.split(","))) for p in pts.split()]
+        assert len(xy) >= 2
+        colours += [colour] * (len(xy) - 1)
+        if vertices:
+            assert vertices[-1] == xy[0]  # runs join up
+            xy = xy[1:]
+        vertices += xy
+    return colours, np.array(vertices)
+
+
+# ---------------------------------------------------------------------------- PNG
+def test_png_has_one_more_column_per_group(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    plain = tmp_path / "plain.csv"
+    write_trace(plain)
+    grouped = tmp_path / "grouped.csv"
+    write_trace(grouped, groups={"g": ["x", "y"]})
+    assert main(["plot", str(plain), "-o", str(tmp_path / "plain.png")]) == 0
+    assert main(["plot", str(grouped)]) == 0  # default output: TRACE.png
+    assert f"wrote {tmp_path / 'grouped.png'}" in capsys.readouterr().out
+    w0, h0 = png_size(tmp_path / "plain.png")
+    w1, h1 = png_size(tmp_path / "grouped.png")
+    assert (w0, h0) == (round(6.5 * 2 * 90), 11 * 90)  # two axis columns, as before groups
+    assert h1 == h0 and w1 == round(6.5 * 3 * 90)  # plus one group column
+    assert (tmp_path / "grouped.png").stat().st_size > 30_000  # not an empty canvas
+
+
+# ---------------------------------------------------------------------------- HTML
+def test_html_path_view_colours_segments_by_speed(tmp_path: Path) -> None:
+    trace = tmp_path / "t.csv"
+    ref = write_trace(trace, n=4001, groups={"g": ["x", "y"]})
+    out = tmp_path / "t.html"
+    from motionplc.scope import write_plot
+
+    write_plot(out, read_trace(trace), "t", max_segments=400)
+    page = out.read_text()
+    views = path_views(page)
+    assert len(views) == 1 and "data-group='g'" in views[0]
+    colours, px = segments(views[0])
+    keep = decimate_path(ref["p"], ref["speed"], 400)
+    assert 100 < len(colours) == len(keep) - 1 <= 400  # decimated, every segment drawn once
+    assert f"data-segments='{len(keep) - 1}'" in views[0]
+    # colours: the fastest segment is the top of the scale, the slowest the bottom, in order
+    stops = re.findall(r"<stop offset='[\d.]+' stop-color='(#\w+)'/>", views[0])
+    v = ref["speed"][keep[:-1]]
+    assert colours[int(np.argmax(v))] == stops[-1] == speed_color(1.0)
+    assert colours[int(np.argmin(v))] == stops[0] == speed_color(0.0)
+    palette = [speed_color(k / (SPEED_LEVELS - 1)) for k in range(SPEED_LEVELS)]
+    level = np.array([palette.index(c) for c in colours])
+    order = np.argsort(v, kind="stable")
+    assert np.all(np.diff(level[order]) >= 0) and len(set(level)) > 20
+    top = float(re.search(r"data-top='([\d.e+-]+)'", views[0]).group(1))
+    assert top == pytest.approx(v.max(), rel=1e-5)
+    # equal aspect: the 0.6 x 0.3 rectangle is twice as wide as high, at the stated scale
+    scale = float(re.search(r"data-scale='([\d.e+-]+)'", views[0]).group(1))
+    ext = px.max(axis=0) - px.min(axis=0)
+    assert ext[0] == pytest.approx(WIDTH * scale, abs=0.2)
+    assert ext[1] == pytest.approx(HEIGHT * scale, abs=0.2)
+    assert ext[0] == pytest.approx(2 * ext[1], abs=0.3) and ext[0] > 300
+    # y grows upwards: the path starts on the bottom edge (largest pixel y), runs to +x first
+    assert px[0, 1] == pytest.approx(px[:, 1].max()) and px[5, 0] > px[0, 0]
+    assert "class='start'" in views[0] and "class='end'" in views[0]
+    # the per-axis lanes are still there, next to the groups
+    assert page.index("class='groups'") < page.index("class='axes'") < page.index("axis x")
+    assert "path speed [m/s]" in page and "GROUP_MOVING" in page
+
+
+def test_html_three_axis_group_has_xy_and_xz(tmp_path: Path) -> None:
+    trace = tmp_path / "t.csv"
+    write_trace(trace, groups={"g": ["x", "y"]})
+    data = read_trace(trace)
+    # add a z axis (z = x / 2) and make it the group's third member
+    cols = list(data.columns)
+    z = {f: data.data[:, cols.index(f"x.{f}")] / 2 for f in ("position", "velocity")}
+    extra = np.column_stack(
+        [z["position"], z["velocity"], 0 * z["position"], 0 * z["position"], 0 * z["position"] + 5]
+    )
+    cols += ["z.position", "z.velocity", "z.acceleration", "z.jerk", "z.state"]
+    tr = ScopeTrace(cols, np.hstack([data.data, extra]), data.events, {"g": ["x", "y", "z"]})
+    from motionplc.scope import write_plot
+
+    write_plot(tmp_path / "t.html", tr, "t")
+    views = path_views((tmp_path / "t.html").read_text())
+    assert len(views) == 1
+    assert re.findall(r"<g class='projection' data-axes='([\w,]+)'", views[0]) == ["x,y", "x,z"]
+    write_plot(tmp_path / "t.png", tr, "t")
+    assert png_size(tmp_path / "t.png") == (round(6.5 * 4 * 90), 11 * 90)
+
+
+def test_speed_from_member_velocities_without_a_speed_column(tmp_path: Path) -> None:
+    trace = tmp_path / "t.csv"
+    write_trace(trace, groups={"g": ["x", "y"]}, speed_column=False, state_column=False)
+    assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 0
+    page = (tmp_path / "t.html").read_text()
+    (view,) = path_views(page)
+    assert "norm of the member velocities" in view and "class='state'" not in page
+    data = read_trace(trace)
+    vx = data.data[:, data.columns.index("x.velocity")]
+    vy = data.data[:, data.columns.index("y.velocity")]
+    top = float(re.search(r"data-top='([\d.e+-]+)'", view).group(1))
+    assert top == pytest.approx(float(np.max(np.hypot(vx, vy)[:-1])), rel=1e-5)
+
+
+def test_traces_without_groups_plot_as_before(tmp_path: Path) -> None:
+    plain, grouped = tmp_path / "a.csv", tmp_path / "b.csv"
+    write_trace(plain)
+    write_trace(grouped, groups={"g": ["x", "y"]})
+    assert read_trace(plain).groups == {}
+    assert read_trace(grouped).groups == {"g": ["x", "y"]}
+    assert main(["plot", str(plain), "-o", str(tmp_path / "a.html")]) == 0
+    assert main(["plot", str(grouped), "-o", str(tmp_path / "b.html")]) == 0
+    a = (tmp_path / "a.html").read_text().replace(str(plain), "T")
+    b = (tmp_path / "b.html").read_text().replace(str(grouped), "T")
+    # the page of the earlier scope: head, one <h4> per axis with 5 value lanes and an FB lane
+    head, body = a.split("<h3>T</h3>\n")
+    assert head.count("<style>") == 1 and "path-view" not in a and "<div" not in a
+    assert re.findall(r"<h4>axis (\w+)</h4>", body) == ["x", "y"]
+    assert body.count("<polyline points=") == 10 and body.count("<svg width='900'") == 12
+    # with groups: the same axis lanes, unchanged, in the right-hand column
+    lanes = re.search(r"<div class='axes'>\n(.*)\n</div></div>\n$", b, flags=re.S)
+    assert lanes is not None and lanes.group(1) + "\n" == body
+
+
+# ---------------------------------------------------------------------------- sidecar
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"groups": {"g": ["x", "y"]', r"t\.groups\.json:1:\d+: not valid JSON"),
+        ('{"groups": {"g": "xy"}}', r"t\.groups\.json: groups\.g: expected a non-empty list"),
+        ('{"groups": {"g": ["x", 3]}}', r"t\.groups\.json: groups\.g\[1\]: not an axis name"),
+        ('{"groups": {"g": ["x", "q"]}}', r"t\.groups\.json: groups\.g: axis 'q' has no columns"),
+        ('{"group": {}}', r"t\.groups\.json: group: unknown key \(allowed: groups\)"),
+        ("[1, 2]", r"t\.groups\.json: expected an object"),
+    ],
+)
+def test_a_broken_sidecar_is_a_located_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, message: str
+) -> None:
+    trace = tmp_path / "t.csv"
+    write_trace(trace, n=50, groups={"g": ["x", "y"]})
+    groups_sidecar_path(trace).write_text(text)
+    assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 2
+    err = capsys.readouterr().err
+    assert re.search(message, err), err
+    assert err.startswith("motionplc: error: ") and "Traceback" not in err
+    assert not (tmp_path / "t.html").exists()
+
+
+def test_sidecar_round_trip_and_bad_groups(tmp_path: Path) -> None:
+    trace = tmp_path / "run.csv"
+    path = write_groups_sidecar(trace, {"g": ("x", "y", "z"), "h": ["a", "b"]})
+    assert path == tmp_path / "run.groups.json"
+    from motionplc.scope import read_groups_sidecar
+
+    assert read_groups_sidecar(trace) == {"g": ["x", "y", "z"], "h": ["a", "b"]}
+    assert read_groups_sidecar(tmp_path / "other.csv") == {}
+    with pytest.raises(MotionPlcError, match=r"groups\.g: an axis is listed twice"):
+        write_groups_sidecar(trace, {"g": ["x", "x"]})
+    with pytest.raises(MotionPlcError, match=r"groups\.g\.h: not a group name"):
+        write_groups_sidecar(trace, {"g.h": ["x"]})
+
+
+def test_groups_from_the_runtime() -> None:
+    trace = SimpleNamespace(columns=["cycle", "t"], array=lambda: np.zeros((0, 2)), events=[])
+    rt = SimpleNamespace(trace=trace, groups={"g": SimpleNamespace(axis_names=("x", "y"))})
+    assert trace_from_runtime(rt).groups == {"g": ["x", "y"]}
+    assert trace_from_runtime(SimpleNamespace(trace=trace)).groups == {}
+
+
+# ---------------------------------------------------------------------------- decimation
+def test_decimation_keeps_everything_below_the_bound() -> None:
+    p = np.random.default_rng(1).normal(size=(101, 2))
+    assert np.array_equal(decimate_path(p, np.ones(101), 100), np.arange(101))
+    with pytest.raises(ValueError, match="max_segments"):
+        decimate_path(p, np.ones(101), 3)
+    with pytest.raises(ValueError, match="speed"):
+        decimate_path(p, np.ones(100), 100)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    n_corners=st.integers(1, 12),
+    dims=st.integers(2, 3),
+    max_segments=st.integers(8, 400),
+    spacing=st.integers(20, 200),
+    seed=st.integers(0, 2**31),
+)
+def test_decimation_keeps_corners_and_speed_extremes(
+    n_corners: int, dims: int, max_segments: int, spacing: int, seed: int
+) -> None:
+    """A polyline with exact-stop corners (a dwell at each vertex), sampled densely: each corner
+    alone in its bucket is kept, and so is every corner when the edges span two buckets each;
+    the fastest and slowest samples are kept."""
+    rng = np.random.default_rng(seed)
+    vertices = rng.uniform(-1, 1, size=(n_corners + 2, dims))
+    pts, corners = [vertices[:1]], []
+    for a, b in zip(vertices[:-1], vertices[1:], strict=True):
+        pts.append(a + np.outer(np.linspace(0, 1, spacing + 1)[1:], b - a))
+        corners.append(sum(len(x) for x in pts) - 1)
+        pts.append(np.repeat(b[None, :], 3, axis=0))  # dwell at the corner
+    corners = corners[:-1]  # the last vertex is the end point
+    p = np.vstack(pts)
+    n = len(p)
+    speed = np.concatenate([[0.0], np.linalg.norm(np.diff(p, axis=0), axis=1)])
+    speed += rng.uniform(0, 1e-3, size=n)
+    keep = decimate_path(p, speed, max_segments)
+    assert keep[0] == 0 and keep[-1] == n - 1 and np.all(np.diff(keep) > 0)
+    assert len(keep) - 1 <= max_segments
+    kept = set(keep.tolist())
+    assert int(np.argmax(speed)) in kept and int(np.argmin(speed)) in kept
+    drawn = {tuple(x) for x in p[keep]}  # a corner is drawn when its point is a vertex
+    if n - 1 <= max_segments:
+        assert len(keep) == n
+        return
+    nb = max_segments // 4
+    bounds = np.round(np.linspace(0, n - 1, nb + 1)).astype(int)
+    bucket_of = np.searchsorted(bounds, corners, side="left")  # interior of (b[k-1], b[k])
+    for c, k in zip(corners, bucket_of, strict=True):
+        alone = np.count_nonzero(bucket_of == k) == 1
+        if alone or c == bounds[min(k, nb)]:
+            assert tuple(p[c]) in drawn, (c, bounds[k - 1 : k + 1])
+    if (n - 1) / nb * 2 <= spacing:  # every edge spans two buckets: no bucket has two corners
+        assert {tuple(p[c]) for c in corners} <= drawn
