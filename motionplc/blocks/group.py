@@ -61,7 +61,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from motionplc.blocks.axis import Axis, Handle, Status
+from motionplc.blocks.axis import Axis
 from motionplc.blocks.axis_state import Event as AxisEvent
 from motionplc.blocks.axis_state import next_state as next_axis_state
 from motionplc.blocks.enums import (
@@ -74,6 +74,7 @@ from motionplc.blocks.enums import (
     TransitionMode,
 )
 from motionplc.blocks.group_state import GroupEvent, allowed, group_error_for_state, next_state
+from motionplc.blocks.motion_queue import Handle, MotionQueue, Status, junction_velocity
 from motionplc.errors import PlanningError
 from motionplc.planning import Limits, Profile, State, plan, plan_velocity
 from motionplc.planning.paths.geometry import Arc, Line, _Circular
@@ -176,9 +177,10 @@ class AxesGroup:
         self.error_reason = ""
         self.fbs: list[Any] = []
         self._fb_counts: dict[str, int] = {}
-        self._inbox: list[_GJob] = []
-        self._jobs: deque[_GJob] = deque()  # jobs whose links are in the chain, path order
-        self._stops: list[Handle] = []
+        # the commands: the shared motion queue of axes and groups (inbox, the active job =
+        # the owner of the running piece, the queue = the jobs behind it in path order, the
+        # MC_GroupStop handles)
+        self.mq: MotionQueue[_GJob] = MotionQueue()
         self._stop_job: _GJob | None = None
         self.chain = Chain()
         self._tau = 0.0  # time on links[0]'s profile
@@ -362,18 +364,18 @@ class AxesGroup:
                 )
                 return h
         job = _GJob(cmd, h)
-        busy = bool(self._jobs) or bool(self._inbox) or self.moving
+        mq = self.mq
+        busy = not mq.idle() or self.moving
         immediate = cmd.mode is BufferMode.ABORTING or cmd.kind in ("stop", "halt", "interrupt")
         if busy and not immediate:
-            waiting = sum(1 for j in self._jobs if not j.started) + len(self._inbox)
-            if waiting >= self.cfg.queue_depth:
+            if mq.full(self.cfg.queue_depth):
                 h._finish(Status.ERROR, ErrorID.QUEUE_FULL)
                 return h
             job.waiting = True
         self.state = next_state(event, state)
-        self._inbox.append(job)
+        mq.admit(job)
         if cmd.kind == "stop":
-            self._stops.append(h)
+            mq.stops.append(h)
         return h
 
     def continue_(self) -> Handle:
@@ -389,7 +391,7 @@ class AxesGroup:
         links, jobs = self._interrupted, self._interrupt_jobs
         self._interrupted, self._interrupt_jobs = [], []
         self.chain.links = links
-        self._jobs = deque(jobs)
+        self.mq.queue = deque(jobs)
         self._running = False
         self._tau = 0.0
         self._replan_from(0, 0.0, rest=True)
@@ -408,10 +410,10 @@ class AxesGroup:
 
     def _step(self, dt: float) -> None:
         if self.state is G.GROUP_DISABLED:
-            self._inbox.clear()
+            self.mq.inbox.clear()
             return
         self._supervise()
-        if self._inbox:
+        if self.mq.inbox:
             self._process_inbox()
         if self.chain.links:
             self._advance(dt * self.override_time)
@@ -452,12 +454,12 @@ class AxesGroup:
         self.error_id = eid
         self.error_reason = reason
         self.state = next_state(GroupEvent.ERROR, self.state)
-        for job in self._inbox:
+        for job in self.mq.inbox:
             job.handle._finish(Status.ERROR, ErrorID.AXIS_ERROR_STOP, reason)
-        self._inbox.clear()
-        for h in self._stops:
+        self.mq.inbox.clear()
+        for h in self.mq.stops:
             h._finish(Status.ERROR, ErrorID.AXIS_ERROR_STOP, reason)
-        self._stops.clear()
+        self.mq.stops.clear()
         self._interrupted, self._interrupt_jobs = [], []
         self._path_stop(abort=True, status=Status.ERROR, eid=ErrorID.AXIS_ERROR_STOP, reason=reason)
         for ax in self.axes:
@@ -477,7 +479,7 @@ class AxesGroup:
         except Exception:  # noqa: BLE001 - last line of defence: hold still
             pass
         self.chain.links = []
-        self._jobs.clear()
+        self.mq.fail_all(ErrorID.INTERNAL_ERROR)
         self._running = False
         for ax in self.axes:
             ax.v = ax.a = ax.j = 0.0
@@ -493,21 +495,22 @@ class AxesGroup:
                 ax.state = next_axis_state(AxisEvent.GROUP_MOTION, ax.state)
             elif ax.state is S.SYNCHRONIZED_MOTION and not moving:
                 ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
-        if moving or self._inbox:
+        if moving or self.mq.inbox:
             return
         if st is G.GROUP_MOVING:
             self.state = next_state(GroupEvent.MOTION_DONE, st)
         elif st is G.GROUP_STOPPING:
-            for h in self._stops:
-                h._finish(Status.DONE) if h.status is Status.ACTIVE else None
-            if all(not h.hold for h in self._stops):
-                self._stops.clear()
+            stops = self.mq.stops
+            for h in stops:
+                if h.status is Status.ACTIVE:
+                    h._finish(Status.DONE)
+            if all(not h.hold for h in stops):
+                stops.clear()
                 self.state = next_state(GroupEvent.STOP_RELEASED, st)
 
     # -- inbox -----------------------------------------------------------------------------
     def _process_inbox(self) -> None:
-        inbox = self._inbox
-        self._inbox = []
+        inbox = self.mq.take_inbox()
         for job in inbox:
             if job.handle.terminal:
                 continue
@@ -763,24 +766,14 @@ class AxesGroup:
             prev.cap_out = 0.0
         for lk in links:
             chain.links.append(lk)
-        if job not in self._jobs:
-            self._jobs.append(job)
+        self.mq.queue.append(job)
         links[-1].cap_out = 0.0
         self._replan_from(dirty, 0.0, rest=not self._running)
 
     def _junction_velocity(self, prev: Link, job: _GJob) -> float:
-        v1 = prev.owner.cmd.velocity or _INF  # type: ignore[attr-defined]
+        v1 = (prev.owner.cmd.velocity or _INF) if prev.owner is not None else 0.0
         v2 = job.cmd.velocity or _INF
-        mode = job.cmd.mode
-        if mode is BufferMode.BLENDING_LOW:
-            v = min(v1, v2)
-        elif mode is BufferMode.BLENDING_PREVIOUS:
-            v = v1
-        elif mode is BufferMode.BLENDING_NEXT:
-            v = v2
-        else:
-            v = max(v1, v2)
-        return v * self.override
+        return junction_velocity(job.cmd.mode, v1, v2) * self.override
 
     def _join(self, prev: Link, links: list[Link], job: _GJob) -> int:
         """Join ``links`` (a new move) to ``prev`` (the chain's last link) under a blending
@@ -1079,13 +1072,17 @@ class AxesGroup:
         for lk in rest:
             if lk.owner is not None and lk.owner not in rest_jobs:
                 rest_jobs.append(lk.owner)
-        for job in self._jobs:  # queued jobs without links (none normally)
-            if job not in kept_jobs and job not in rest_jobs:
+        mq = self.mq
+        for job in mq.jobs():  # jobs without links left (none normally)
+            if job not in kept_jobs and job not in rest_jobs and job not in mq.inbox:
                 rest_jobs.append(job)
         if keep:
             self._interrupted = rest
             self._interrupt_jobs = rest_jobs
-            self._jobs = deque(j for j in kept_jobs if j not in rest_jobs)
+            stay = [j for j in kept_jobs if j not in rest_jobs]
+            if mq.active is not None and mq.active not in stay:
+                mq.active = None
+            mq.queue = deque(j for j in stay if j is not mq.active)
             for lk in kept:
                 if lk.owner in rest_jobs:
                     lk.last = False
@@ -1094,16 +1091,13 @@ class AxesGroup:
             job.handle._finish(status, eid, reason)
         for lk in kept:
             lk.owner = None  # the stop belongs to nobody (a Halt is tracked separately)
-        self._jobs = deque()
+        mq.active = None
+        mq.queue.clear()
 
     def _abort_all(self, status: Status, eid: ErrorID) -> None:
-        for job in list(self._jobs) + self._inbox + self._interrupt_jobs:
+        for job in self._interrupt_jobs:
             job.handle._finish(status, eid)
-        for h in self._stops:
-            h._finish(status, eid)
-        self._stops.clear()
-        self._inbox.clear()
-        self._jobs.clear()
+        self.mq.fail_all(eid, status)
         self.chain.links = []
         self._running = False
         self._tau = 0.0
@@ -1147,10 +1141,14 @@ class AxesGroup:
         if lk.profile is None and lk.sampled is None:
             lk.profile = _guard_plan(lk)
         job = lk.owner
-        if job is not None and not job.started:  # type: ignore[attr-defined]
-            job.started = True  # type: ignore[attr-defined]
-            if job.handle.status is Status.QUEUED:  # type: ignore[attr-defined]
-                job.handle.status = Status.ACTIVE  # type: ignore[attr-defined]
+        if job is not None and not job.started:
+            job.started = True
+            if job.handle.status is Status.QUEUED:
+                job.handle.status = Status.ACTIVE
+            mq = self.mq
+            if mq.queue and mq.queue[0] is job:
+                mq.queue.popleft()
+            mq.active = job
 
     def _finish_link(self, lk: Link) -> None:
         sampled = lk.sampled
@@ -1178,10 +1176,11 @@ class AxesGroup:
             job = lk.owner
             if job is not None:
                 job.handle._finish(Status.DONE)  # type: ignore[attr-defined]
-                if self._jobs and self._jobs[0] is job:
-                    self._jobs.popleft()
-                elif job in self._jobs:
-                    self._jobs.remove(job)  # type: ignore[arg-type]
+                mq = self.mq
+                if mq.active is job:
+                    mq.active = None
+                else:
+                    mq.remove(job)
 
     def _sample(self, lk: Link, tau: float) -> None:
         sampled = lk.sampled

@@ -69,7 +69,7 @@ class GroupBench:
     def run_until_idle(self, max_seconds: float = 30.0) -> None:
         g = self.g
         self.run(2)
-        ok = self.rt.run_until(lambda: not g.moving and not g._inbox, max_seconds=max_seconds)
+        ok = self.rt.run_until(lambda: not g.moving and not g.mq.inbox, max_seconds=max_seconds)
         assert ok, "the group did not come to rest"
         self.run(2)  # FB outputs follow one scan later
 
