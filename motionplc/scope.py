@@ -60,6 +60,10 @@ class ScopeTrace:
     groups: dict[str, list[str]] = field(default_factory=dict)
 
 
+def _reason(exc: Exception) -> str:
+    return str(getattr(exc, "strerror", None) or exc)
+
+
 # ---------------------------------------------------------------------------- groups sidecar
 def groups_sidecar_path(csv_path: str | Path) -> Path:
     """The group sidecar of a trace CSV: ``<trace stem>.groups.json`` in the same directory."""
@@ -158,30 +162,25 @@ def read_trace(path: Path) -> ScopeTrace:
     :class:`MotionPlcError` located at ``file:line`` for anything that is not a trace, and at the
     sidecar for a broken one or a group whose member axis has no columns in the trace.
     """
-    import numpy as np
-
     from motionplc.blocks import AxisState
     from motionplc.blocks.enums import GroupState
 
-    try:
-        with path.open(newline="") as fh:
-            rows = list(csv.reader(fh))
-    except OSError as exc:
-        raise MotionPlcError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    if not rows or rows[0][:2] != ["cycle", "t"]:
-        raise MotionPlcError(f"{path}:1: not a motionplc trace (expected columns cycle, t, ...)")
-    columns = rows[0]
     states = {s.name: float(s.value) for s in AxisState}
     states.update({s.name: float(s.value) for s in GroupState})
-    data = np.empty((len(rows) - 1, len(columns)))
-    for i, row in enumerate(rows[1:]):
-        if len(row) != len(columns):
-            raise MotionPlcError(f"{path}:{i + 2}: {len(row)} values for {len(columns)} columns")
-        for j, x in enumerate(row):
-            try:
-                data[i, j] = states[x] if x in states else float(x)
-            except ValueError:
-                raise MotionPlcError(f"{path}:{i + 2}: {columns[j]}: not a number: {x!r}") from None
+    try:
+        with path.open(newline="") as fh:
+            reader = csv.reader(fh)
+            columns = next(reader, [])
+            first = next(reader, None)
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
+    if columns[:2] != ["cycle", "t"]:
+        raise MotionPlcError(f"{path}:1: not a motionplc trace (expected columns cycle, t, ...)")
+    data = None
+    if first is not None and len(first) == len(columns):
+        data = _load_numbers(path, columns, first, states)
+    if data is None:  # slow and exact: every value checked, the first bad one located
+        data = _parse_rows(path, columns, states)
     events: list[Event] = []
     ev_path = path.with_suffix(".events.csv")
     if ev_path.is_file():
@@ -199,6 +198,49 @@ def read_trace(path: Path) -> ScopeTrace:
                     f"{path.name} (its axes: {', '.join(axes) or 'none'})"
                 )
     return ScopeTrace(columns, data, events, groups)
+
+
+def _load_numbers(
+    path: Path, columns: list[str], first: list[str], states: dict[str, float]
+) -> Any:
+    """The values of a well-formed trace at numpy speed; ``None`` on anything unusual."""
+    import warnings
+
+    import numpy as np
+
+    def state_or_number(x: str) -> float:
+        return states[x] if x in states else float(x)
+
+    conv = {j: state_or_number for j, x in enumerate(first) if x in states}
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            data = np.loadtxt(
+                path, delimiter=",", skiprows=1, comments=None, converters=conv, ndmin=2
+            )
+    except (ValueError, UserWarning, OSError):
+        return None
+    return data if data.shape[1] == len(columns) else None
+
+
+def _parse_rows(path: Path, columns: list[str], states: dict[str, float]) -> Any:
+    import numpy as np
+
+    try:
+        with path.open(newline="") as fh:
+            body = list(csv.reader(fh))[1:]
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
+    data = np.empty((len(body), len(columns)))
+    for i, row in enumerate(body):
+        if len(row) != len(columns):
+            raise MotionPlcError(f"{path}:{i + 2}: {len(row)} values for {len(columns)} columns")
+        for j, x in enumerate(row):
+            try:
+                data[i, j] = states[x] if x in states else float(x)
+            except ValueError:
+                raise MotionPlcError(f"{path}:{i + 2}: {columns[j]}: not a number: {x!r}") from None
+    return data
 
 
 # ---------------------------------------------------------------------------- decimation
@@ -586,7 +628,9 @@ def _group_column(sub: Any, view: _GroupView, share: Any, max_segments: int) -> 
         lc.set_array(values)
         a.add_collection(lc)
         if len(ends):
-            a.plot(*ends[0], "o", color="#2ca02c", ms=7, label="start", zorder=3)
+            a.plot(
+                *ends[0], "o", color="#2ca02c", ms=11, mfc="none", mew=2, label="start", zorder=3
+            )
             a.plot(*ends[-1], "s", color="#d62728", ms=7, label="end", zorder=3)
             a.legend(fontsize=7, loc="best")
         a.autoscale_view()
@@ -745,8 +789,8 @@ def _html_group(k: int, view: _GroupView, max_segments: int) -> str:
             )
         if len(kept):
             g.append(
-                f"<circle class='start' cx='{xs[0]:.1f}' cy='{ys[0]:.1f}' r='5' "
-                "fill='#2ca02c'><title>start</title></circle>"
+                f"<circle class='start' cx='{xs[0]:.1f}' cy='{ys[0]:.1f}' r='7' fill='none' "
+                "stroke='#2ca02c' stroke-width='2'><title>start</title></circle>"
             )
             g.append(
                 f"<rect class='end' x='{xs[-1] - 4:.1f}' y='{ys[-1] - 4:.1f}' width='8' "

@@ -352,3 +352,32 @@ def test_decimation_keeps_corners_and_speed_extremes(
             assert tuple(p[c]) in drawn, (c, bounds[k - 1 : k + 1])
     if (n - 1) / nb * 2 <= spacing:  # every edge spans two buckets: no bucket has two corners
         assert {tuple(p[c]) for c in corners} <= drawn
+
+
+# ---------------------------------------------------------------------------- reading
+def test_reading_is_exact_and_locates_bad_values(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from motionplc.blocks import AxisState
+    from motionplc.blocks.enums import GroupState
+    from motionplc.scope import _parse_rows
+
+    trace = tmp_path / "t.csv"
+    write_trace(trace, n=200, groups={"g": ["x", "y"]})
+    data = read_trace(trace)
+    states = {s.name: float(s.value) for s in (*AxisState, *GroupState)}
+    assert np.array_equal(data.data, _parse_rows(trace, data.columns, states))  # row by row
+    rows = list(csv.reader(trace.open()))
+    assert data.data[1, data.columns.index("g.state")] == GroupState.GROUP_MOVING
+    assert data.data[1, data.columns.index("x.position")] == float(rows[2][2])
+    j = data.columns.index("x.velocity")
+    for line, row, message in (
+        (58, [*rows[57][:j], "abc", *rows[57][j + 1 :]], r"t\.csv:58: x\.velocity: not a number"),
+        (10, rows[9][:5], rf"t\.csv:10: 5 values for {len(rows[0])} columns"),
+    ):
+        bad = [*rows[: line - 1], row, *rows[line:]]
+        with trace.open("w", newline="") as fh:
+            csv.writer(fh).writerows(bad)
+        assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 2
+        err = capsys.readouterr().err
+        assert re.search(message, err) and "Traceback" not in err, err
