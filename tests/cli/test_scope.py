@@ -381,3 +381,67 @@ def test_reading_is_exact_and_locates_bad_values(
         assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 2
         err = capsys.readouterr().err
         assert re.search(message, err) and "Traceback" not in err, err
+
+
+# ---------------------------------------------------------------------------- the runtime
+def test_a_runtime_group_round_trips_through_csv_and_sidecar(tmp_path: Path) -> None:
+    """A real group (x, y) blends a 0.3 x 0.2 rectangle: the plot from the runtime and from
+    the CSV + sidecar agree, the group state is written by name, the path view is to scale."""
+    from motionplc.blocks import MC_Power
+    from motionplc.blocks.enums import BufferMode, GroupState, TransitionMode
+    from motionplc.blocks.group_blocks import MC_GroupEnable, MC_MoveLinearAbsolute
+    from motionplc.runtime import Runtime
+    from motionplc.scope import write_plot
+
+    rt = Runtime(cycle=0.001)
+    for n in "xy":
+        rt.add_axis(n, v_max=1.0, a_max=4.0, j_max=40.0)
+    g = rt.add_group("g", ["x", "y"])
+    powers = [MC_Power(axis=rt.axes[n], enable=True) for n in "xy"]
+    enable = MC_GroupEnable(axes_group=g)
+    corners = [(0.3, 0.0), (0.3, 0.2), (0.0, 0.2), (0.0, 0.0)]
+    moves = [
+        MC_MoveLinearAbsolute(
+            axes_group=g,
+            execute=True,
+            position=p,
+            velocity=0.5,
+            buffer_mode=BufferMode.BLENDING_LOW if i else BufferMode.ABORTING,
+            transition_mode=TransitionMode.TM_MAX_CORNER_DEVIATION if i else TransitionMode.TM_NONE,
+            transition_parameter=0.01 if i else 0.0,
+        )
+        for i, p in enumerate(corners)
+    ]
+
+    def program(ctx: object) -> None:
+        for fb in powers:
+            fb()
+        enable(execute=all(fb.status for fb in powers))
+        if enable.done:
+            for m in moves:
+                m()
+
+    rt.add_task("main", program)
+    assert rt.run_until(lambda: moves[-1].done, max_seconds=10)
+    live = trace_from_runtime(rt)
+    assert live.groups == {"g": ["x", "y"]}
+    trace = tmp_path / "run.csv"
+    rt.trace.to_csv(trace, events_path=trace.with_suffix(".events.csv"))
+    write_groups_sidecar(trace, {n: list(gr.axis_names) for n, gr in rt.groups.items()})
+    read = read_trace(trace)
+    assert read.groups == live.groups and read.columns == live.columns
+    assert np.array_equal(read.data, live.data)
+    assert "GROUP_MOVING" in trace.read_text()
+    assert GroupState.GROUP_MOVING in read.data[:, read.columns.index("g.state")]
+    for name, tr in (("live", live), ("read", read)):
+        write_plot(tmp_path / f"{name}.html", tr, "run")
+    page = (tmp_path / "live.html").read_text()
+    assert page == (tmp_path / "read.html").read_text()
+    (view,) = path_views(page)
+    _, px = segments(view)
+    scale = float(re.search(r"data-scale='([\d.e+-]+)'", view).group(1))
+    ext = px.max(axis=0) - px.min(axis=0)
+    assert ext == pytest.approx([0.3 * scale, 0.2 * scale], abs=0.2)
+    pv = read.data[:, read.columns.index("g.path_velocity")]
+    top = float(re.search(r"data-top='([\d.e+-]+)'", view).group(1))
+    assert top == pytest.approx(pv[:-1].max(), rel=1e-5) and 0.4 < top <= 0.5 + 1e-9
