@@ -450,8 +450,14 @@ def build_parser() -> argparse.ArgumentParser:
     v.add_argument("config")
     v.add_argument("script", nargs="?")
     v.set_defaults(func=_cmd_validate)
-    pl = sub.add_parser("plot", help="plot a trace CSV: p/v/a/j and FB-state lanes per axis")
-    pl.add_argument("trace", help="trace CSV written by run --trace")
+    pl = sub.add_parser(
+        "plot",
+        help="plot a trace CSV: p/v/a/j and FB-state lanes per axis, and per axes group its "
+        "path in space coloured by path speed",
+    )
+    pl.add_argument(
+        "trace", help="trace CSV written by run --trace (groups from TRACE.groups.json if present)"
+    )
     pl.add_argument("-o", "--output", help="output .png or .html (default: TRACE.png)")
     pl.set_defaults(func=_cmd_plot)
     d = sub.add_parser("drives", help="serve the virtual drives of a configuration on their own")
