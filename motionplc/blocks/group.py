@@ -109,6 +109,7 @@ class GroupConfig:
     tolerance: float = 1e-4  # [m] corner deviation of G64 without P / TMMaxCornerDeviation 0
     v_share: float = 0.7  # share of the acceleration / jerk budget the curvature may use
     blend_share: float = 0.95  # the same on corner blends (passed near their top speed)
+    blend_parts: int = 8  # a line-line blend is planned as this many parts (own speed caps)
     task: str | None = None
 
 
@@ -624,7 +625,8 @@ class AxesGroup:
         jm: list[float],
         seg: Any = None,
     ) -> Link:
-        share = self.cfg.blend_share if isinstance(pc, BlendPiece) else self.cfg.v_share
+        base = pc._base if isinstance(pc, SubPiece) else pc  # noqa: SLF001
+        share = self.cfg.blend_share if isinstance(base, BlendPiece) else self.cfg.v_share
         V, A, J = path_caps(pc, vm, am, jm, vp, min(ap, dp), jp, share)
         Aa = A if ap == _INF else min(A, ap / (max(pc.b1) or 1.0))
         Ad = A if dp == _INF else min(A, dp / (max(pc.b1) or 1.0))
@@ -752,6 +754,31 @@ class AxesGroup:
 
     # -- connecting a move to the chain ----------------------------------------------------
     def _connect(self, job: _GJob, links: list[Link]) -> None:
+        """Append a move's links (blending with the chain's end) and re-plan; all or nothing:
+        if planning fails the chain is restored as it was (the group keeps running what it
+        had) and the error propagates to the command."""
+        saved = self._snapshot()
+        try:
+            self._connect_unchecked(job, links)
+        except Exception:
+            self._restore(saved)
+            raise
+
+    def _snapshot(self) -> tuple[list[Link], list[tuple[Any, ...]], Any]:
+        links = list(self.chain.links)
+        fields = [tuple(getattr(lk, f) for f in _LINK_STATE) for lk in links]
+        return links, fields, (self.mq.active, list(self.mq.queue))
+
+    def _restore(self, saved: tuple[list[Link], list[tuple[Any, ...]], Any]) -> None:
+        links, fields, (active, queue) = saved
+        for lk, vals in zip(links, fields, strict=True):
+            for f, v in zip(_LINK_STATE, vals, strict=True):
+                setattr(lk, f, v)
+        self.chain.links = links
+        self.mq.active = active
+        self.mq.queue = deque(queue)
+
+    def _connect_unchecked(self, job: _GJob, links: list[Link]) -> None:
         chain = self.chain
         prev = chain.links[-1] if chain.links else None
         cmd = job.cmd
@@ -803,7 +830,8 @@ class AxesGroup:
             return idx
         # room: half of each move, and on the running piece only what lies ahead of the
         # point where it could still stop (with a margin)
-        room_a = min(0.5 * prev.full_length, pa.U)
+        # (a move consumed by two blends keeps a sliver: pieces never vanish)
+        room_a = min(0.5 * prev.full_length, pa.U * (1.0 - 1e-3))
         if idx == 0 and self._running:
             room_a = min(room_a, 0.9 * (pa.U - self._stop_point(prev)))
         room = min(room_a, 0.5 * pb.length)
@@ -813,18 +841,22 @@ class AxesGroup:
         if not d > 1e-12 * (1.0 + pa.length):
             return idx
         vm, am, jm = self._limits()
+        parts: list[Piece]
         if isinstance(seg_a, Line) and isinstance(seg_b, Line):
-            bp: Piece = BlendPiece(pa.end, ta, tb, d)
+            parts = BlendPiece(pa.end, ta, tb, d).split(self.cfg.blend_parts)
         else:
             from motionplc.planning.paths.blend import CornerBlend
 
-            bp = CurvePiece(CornerBlend(seg_a, seg_b, d))
+            parts = [CurvePiece(CornerBlend(seg_a, seg_b, d))]
         ca, cb = prev.caps, first.caps
-        blink = self._link(
-            bp, job, vj, min(ca[1], cb[1]), min(ca[2], cb[2]), min(ca[3], cb[3]), vm, am, jm
-        )
-        blink.cap_out = _INF
-        blink.full_length = 0.0
+        blinks = []
+        for part in parts:
+            blink = self._link(
+                part, job, vj, min(ca[1], cb[1]), min(ca[2], cb[2]), min(ca[3], cb[3]), vm, am, jm
+            )
+            blink.cap_out = _INF
+            blink.full_length = 0.0
+            blinks.append(blink)
         # trim the neighbours (their parameter keeps its origin at their start)
         self._replace_piece(prev, _trim_end(prev, pa.U - d), vm, am, jm)
         if prev.seg is not None:
@@ -835,7 +867,7 @@ class AxesGroup:
         prev.cap_out = _INF
         if idx == 0 and self._running:
             prev.stale = True  # its running profile ends at the old end point
-        links.insert(0, blink)
+        links[0:0] = blinks
         return idx
 
     def _replace_piece(self, lk: Link, pc: Piece, vm, am, jm) -> None:  # noqa: ANN001
@@ -1229,6 +1261,23 @@ class AxesGroup:
                 else:
                     fb._dirty = False
 
+
+_LINK_STATE = (
+    "piece",
+    "V",
+    "A_acc",
+    "A_dec",
+    "J",
+    "cap_out",
+    "w_back",
+    "w_out",
+    "w_in",
+    "profile",
+    "last",
+    "seg",
+    "stale",
+    "stopping",
+)
 
 _DUMMY = LinePiece((0.0,), (1.0,), 1.0)  # the piece of a link whose motion is sampled otherwise
 

@@ -125,9 +125,10 @@ class Link:
     def plan_rest(self) -> Profile:
         """The profile between the junction speeds, from the piece start."""
         pc = self.piece
+        # (w / g is V at most; the division may round a few ulp above it)
         return plan(
-            State(0.0, self.w_in / pc.g0, 0.0),
-            State(pc.U, self.w_out / pc.g1, 0.0),
+            State(0.0, min(self.w_in / pc.g0, self.V), 0.0),
+            State(pc.U, min(self.w_out / pc.g1, self.V), 0.0),
             self.limits(),
         )
 

@@ -238,7 +238,7 @@ class BlendPiece(Piece):
     polynomials plus half a sample step times the next order's maximum (a true upper bound).
     """
 
-    __slots__ = ("_c", "_ta", "_tb", "_d", "_scale", "deflection")
+    __slots__ = ("_c", "_ta", "_tb", "_d", "_scale", "_absd", "deflection")
 
     def __init__(
         self, corner: Sequence[float], ta: Sequence[float], tb: Sequence[float], d: float
@@ -254,13 +254,9 @@ class BlendPiece(Piece):
         inv = 1.0 / (2.0 * d)
         self._scale = tuple(d * inv**k for k in range(5))  # order k: d (2d)^-k
         ta_a, tb_a = np.asarray(self._ta), np.asarray(self._tb)
-        comb = np.abs(_SA[1:, :, None] * ta_a + _SB[1:, :, None] * tb_a).max(axis=1)  # (4, dim)
-        half = 0.5 / (_BLEND_SAMPLES - 1)  # half a sample step in sigma
-        m = 1.0 + _BOUND_MARGIN
-        b = [comb[k] + half * comb[k + 1] * 1.01 for k in range(3)]  # orders 1..3 in sigma
-        self.b1 = tuple(float(x) * self._scale[1] * m for x in b[0])
-        self.b2 = tuple(float(x) * self._scale[2] * m for x in b[1])
-        self.b3 = tuple(float(x) * self._scale[3] * m for x in b[2])
+        absd = np.abs(_SA[1:, :, None] * ta_a + _SB[1:, :, None] * tb_a)  # (4, samples, dim)
+        self._absd = absd
+        self.b1, self.b2, self.b3 = self._bounds(0, _BLEND_SAMPLES - 1)
         self._finish()
         # arc length: Gauss-Legendre on |p'| (a smooth integrand)
         sg = 0.5 * (_GL_X + 1.0)
@@ -268,6 +264,29 @@ class BlendPiece(Piece):
         vb = np.polyval(_FB[1], sg)
         speed = np.linalg.norm(va[:, None] * ta_a + vb[:, None] * tb_a, axis=1) * self._scale[1]
         self.length = float(d * (_GL_W @ speed))
+
+    def _bounds(self, i0: int, i1: int) -> tuple[Vec, Vec, Vec]:
+        """Bounds of the first three derivatives over the samples ``i0..i1`` (sigma =
+        i / (samples - 1)), plus half a sample step times the next order's maximum there."""
+        comb = self._absd[:, i0 : i1 + 1, :].max(axis=1)  # (4, dim), orders 1..4 in sigma
+        half = 0.5 / (_BLEND_SAMPLES - 1)
+        m = 1.0 + _BOUND_MARGIN
+        sc = self._scale
+        return tuple(
+            tuple(float(x) * sc[k + 1] * m for x in comb[k] + half * comb[k + 1] * 1.01)
+            for k in range(3)
+        )  # type: ignore[return-value]
+
+    def split(self, n: int) -> list[Piece]:
+        """The blend as ``n`` consecutive parts (``n`` divides 512), each with the bounds of
+        its own part: the speed caps rise where the curvature and its change are small."""
+        step = (_BLEND_SAMPLES - 1) // n
+        out: list[Piece] = []
+        for i in range(n):
+            i0, i1 = i * step, (i + 1) * step
+            u0, u1 = self.U * i0 / (_BLEND_SAMPLES - 1), self.U * i1 / (_BLEND_SAMPLES - 1)
+            out.append(SubPiece(self, u0, u1 if i < n - 1 else self.U, self._bounds(i0, i1)))
+        return out
 
     @property
     def distance(self) -> float:
@@ -309,7 +328,11 @@ class SubPiece(Piece):
 
     __slots__ = ("_base", "_u0")
 
-    def __init__(self, base: Piece, u0: float, u1: float) -> None:
+    def __init__(
+        self, base: Piece, u0: float, u1: float, bounds: tuple[Vec, Vec, Vec] | None = None
+    ) -> None:
+        if bounds is None:
+            bounds = (base.b1, base.b2, base.b3)
         if isinstance(base, SubPiece):  # flatten
             u0, u1 = u0 + base._u0, u1 + base._u0
             base = base._base
@@ -317,7 +340,7 @@ class SubPiece(Piece):
         self._u0 = float(u0)
         self.dim = base.dim
         self.U = float(u1) - float(u0)
-        self.b1, self.b2, self.b3 = base.b1, base.b2, base.b3
+        self.b1, self.b2, self.b3 = bounds
         self._finish()
         if u1 >= base.U:
             self.end = base.end
