@@ -1,10 +1,24 @@
-"""The axis (AXIS_REF): state machine, command queue and motion kernel.
+"""The axis (AXIS_REF): drive image, power, reset and errors, state machine glue, command
+submission, the kernel step, 1-D moves and blending junctions.
 
 FBs submit commands (:meth:`Axis.submit`) and follow them through a :class:`Handle`. The axis
 is the single writer of the set values: every kernel step (:meth:`Axis.step`) resolves the
 queue (Aborting / Buffered / Blending*), samples the active profile and advances the state
 machine. Handle changes made by the kernel are seen by the FBs at their next call, one cycle
 later, which makes FB outputs independent of the call order of FB instances.
+
+The kernel's parts, each in its own module of ``motionplc.blocks``:
+
+* ``axis_config``: :class:`AxisConfig` and the input envelope (``SUPPORTED_DURATION``, ...).
+* ``axis_job``: :class:`Command` (an FB's request) and ``AxisJob`` (its profile chain).
+* ``motion_queue``: ``MotionQueue`` (inbox, active job, queue, stops, pending updates),
+  :class:`Handle`, :class:`Status`, ``junction_velocity``, ``ReplanBudget`` (axes and groups).
+* ``override``: ``TimeScale``, the MC_SetOverride factor ramp and the chain rule.
+* ``homing``: the MC_Home procedure. ``sw_limits``: braking distances, stops at a limit.
+* ``planner_guard``: every planner call of the kernels, counted (:func:`planner_calls`).
+* ``axis_state``: the PLCopen state diagram (tables).
+
+Every name importable from this module before the split still is (``__all__``).
 
 Rules pinned here (the spec leaves them open):
 
@@ -35,14 +49,23 @@ from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from motionplc._fastinit import slot_setters
+from motionplc.blocks.axis_config import (
+    AXIS_LIMIT_MAX,
+    AXIS_LIMIT_MIN,
+    OVERRIDE_MIN,
+    POSITION_MAX,
+    SUPPORTED_DURATION,
+    VELOCITY_RATIO_MIN,
+    AxisConfig,
+)
+from motionplc.blocks.axis_job import EVENTS, AxisJob, Command, sign
 from motionplc.blocks.axis_state import Event, allowed, next_state
 from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
+from motionplc.blocks.homing import finish_home, home_check, home_direction, prepare_home
 from motionplc.blocks.motion_queue import (
     Handle,
     MotionQueue,
@@ -50,65 +73,51 @@ from motionplc.blocks.motion_queue import (
     Status,
     junction_velocity,
 )
+from motionplc.blocks.override import TimeScale, ramp_limits
+from motionplc.blocks.planner_guard import guarded as _guarded
+from motionplc.blocks.planner_guard import planner_calls
+from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
-from motionplc.planning.limits import STATE_MAX
-from motionplc.planning.sync import MAX_SYNC_DURATION
 
 if TYPE_CHECKING:
     from collections import deque
 
     from motionplc.runtime.trace import Trace
 
-_planner_calls = 0  # planner calls made by the motion kernels (all axes), see planner_calls()
-
-
-def planner_calls() -> int:
-    """Number of profiles planned so far by all axes (the runtime budgets planning ahead)."""
-    return _planner_calls
-
-
-def _guarded(fn: Callable[..., Profile], *args: object) -> Profile:
-    """Call a planner for the kernel: every failure is a PlanningError (the kernel's handlers
-    turn it into an FB or axis error; nothing escapes the cycle)."""
-    global _planner_calls
-    _planner_calls += 1
-    try:
-        return fn(*args)
-    except PlanningError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
-        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
-
 
 def _plan(start: State, target: State, limits: Limits) -> Profile:
-    """``plan`` for the kernel (see :func:`_guarded`)."""
+    """``plan`` for the kernel (counted and guarded: :func:`~.planner_guard.guarded`)."""
     return _guarded(plan, start, target, limits)
 
 
 def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
-    """``plan_velocity`` for the kernel (see :func:`_guarded`)."""
+    """``plan_velocity`` for the kernel (counted and guarded)."""
     return _guarded(plan_velocity, start, v_target, limits)
 
 
 _KEY = struct.Struct("<11d")
 _MEMO_SIZE = 64
 
+# the names importable from here before the kernel was split into modules (re-exported)
+__all__ = [
+    "AXIS_LIMIT_MAX",
+    "AXIS_LIMIT_MIN",
+    "OVERRIDE_MIN",
+    "POSITION_MAX",
+    "SUPPORTED_DURATION",
+    "VELOCITY_RATIO_MIN",
+    "Axis",
+    "AxisConfig",
+    "Command",
+    "Handle",
+    "ReplanBudget",
+    "Status",
+    "planner_calls",
+]
+
 _INF = math.inf
 S = AxisState
-
-# The input envelope of an axis and its FBs (README "Input ranges"). Everything is checked
-# before planning; inside it every profile the kernel plans stays within the planner's
-# envelope (finite limits in [1e-15, 1e15], states within 1e12; measured in
-# tests/blocks/test_degenerate_inputs.py).
-SUPPORTED_DURATION = MAX_SYNC_DURATION  # [s] 1e4: a velocity change over the axis' whole
-# speed range at the lowest Acceleration/Deceleration/Jerk input, and a move at its Velocity
-# input over its distance, last at most about this long
-AXIS_LIMIT_MIN = 1e-6  # configured v_max, a_max, j_max (and |v_min|, |a_min|) in
-AXIS_LIMIT_MAX = 1e9  # [AXIS_LIMIT_MIN, AXIS_LIMIT_MAX] (j_max may also be inf)
-VELOCITY_RATIO_MIN = 1e-6  # the Velocity input of a move is at least this x the axis' limit
-OVERRIDE_MIN = 1e-3  # MC_SetOverride factors in [OVERRIDE_MIN, 1] (VelFactor also 0)
-POSITION_MAX = STATE_MAX  # |positions, distances, software limits, home positions| <= 1e12
 
 _new = object.__new__
 try:
@@ -130,276 +139,9 @@ except TypeError:  # DriveCommand changed: the normal constructor (slower, same 
     _drive_command = DriveCommand  # type: ignore[assignment]
 
 
-@dataclass(frozen=True, slots=True)
-class AxisConfig:
-    """Static configuration of one axis (SI units)."""
-
-    name: str
-    v_max: float
-    a_max: float
-    j_max: float = _INF
-    modulo: float | None = None  # period of a rotary axis, positions in [0, modulo)
-    queue_depth: int = 8  # buffered commands waiting behind the active one
-    following_error_limit: float | None = None
-    sw_limit_pos: float | None = None
-    sw_limit_neg: float | None = None
-    home_switch: float | None = None  # virtual reference switch, in drive coordinates
-    home_velocity: float | None = None  # search velocity (default 10 % of the direction limit)
-    blend_after_continuous: str = "previous"  # or "error"
-    v_min: float | None = None  # most negative velocity (< 0); None: -v_max (symmetric)
-    a_min: float | None = None  # most negative acceleration (< 0); None: -a_max (symmetric)
-
-    @property
-    def v_neg(self) -> float:
-        """Speed limit in the negative direction: ``-v_min`` (``v_max`` if symmetric)."""
-        return self.v_max if self.v_min is None else -self.v_min
-
-    @property
-    def a_neg(self) -> float:
-        """Limit of a negative acceleration: ``-a_min`` (``a_max`` if symmetric)."""
-        return self.a_max if self.a_min is None else -self.a_min
-
-    @property
-    def v_top(self) -> float:
-        """The larger speed limit of the two directions."""
-        return max(self.v_max, self.v_neg)
-
-    @property
-    def a_top(self) -> float:
-        """The larger acceleration limit of the two signs."""
-        return max(self.a_max, self.a_neg)
-
-    def velocity_range(self) -> tuple[float, float]:
-        """Allowed Velocity input of a discrete move: [VELOCITY_RATIO_MIN * v_top, v_top]
-        (and the move must not last longer than SUPPORTED_DURATION at it)."""
-        top = self.v_top
-        return (top * VELOCITY_RATIO_MIN, top)
-
-    def acceleration_range(self) -> tuple[float, float]:
-        """Allowed non-zero Acceleration / Deceleration input (moves, MoveVelocity, Halt,
-        Stop): [(v_max + |v_min|) / SUPPORTED_DURATION, a_top] (the lower bound never above
-        the upper): a velocity change over the whole speed range lasts at most 1e4 s."""
-        top = self.a_top
-        return (min((self.v_max + self.v_neg) / SUPPORTED_DURATION, top), top)
-
-    def jerk_range(self) -> tuple[float, float]:
-        """Allowed non-zero Jerk input: [max(a_top / T, 4 (v_max + |v_min|) / T^2), j_max]
-        with T = SUPPORTED_DURATION (the acceleration builds up, and a jerk-only velocity change
-        over the whole speed range ends, within about T); finite also when j_max is inf."""
-        t = SUPPORTED_DURATION
-        floor = max(self.a_top / t, 4.0 * (self.v_max + self.v_neg) / (t * t))
-        return (min(floor, self.j_max), self.j_max)
-
-    def __post_init__(self) -> None:
-        lo_lim, hi_lim = AXIS_LIMIT_MIN, AXIS_LIMIT_MAX
-
-        def num(x: Any) -> bool:
-            return isinstance(x, (int, float)) and not isinstance(x, bool)
-
-        def pos(name: str, x: Any, inf_ok: bool = False) -> None:
-            ok = num(x) and x > 0
-            if not ok or (not inf_ok and not math.isfinite(x)) or math.isnan(x):
-                rng = "(0, inf]" if inf_ok else "(0, inf)"
-                raise ValueError(f"axis {self.name!r}: {name} must be in {rng}, got {x!r}")
-
-        def limit(name: str, x: Any, inf_ok: bool = False) -> None:
-            if not (num(x) and (lo_lim <= x <= hi_lim or (inf_ok and x == _INF))):
-                rng = f"[{lo_lim:g}, {hi_lim:g}]" + (" or inf" if inf_ok else "")
-                raise ValueError(f"axis {self.name!r}: {name} must be in {rng}, got {x!r}")
-
-        def position(name: str, x: Any) -> None:
-            if x is not None and not (num(x) and -POSITION_MAX <= x <= POSITION_MAX):
-                raise ValueError(
-                    f"axis {self.name!r}: {name} must be in "
-                    f"[{-POSITION_MAX:g}, {POSITION_MAX:g}], got {x!r}"
-                )
-
-        limit("v_max", self.v_max)
-        limit("a_max", self.a_max)
-        limit("j_max", self.j_max, inf_ok=True)
-        for name in ("v_min", "a_min"):
-            x = getattr(self, name)
-            if x is not None:
-                if not (num(x) and -hi_lim <= x <= -lo_lim):
-                    raise ValueError(
-                        f"axis {self.name!r}: {name} must be in [{-hi_lim:g}, {-lo_lim:g}], "
-                        f"got {x!r}"
-                    )
-        for name in ("sw_limit_pos", "sw_limit_neg", "home_switch"):
-            position(name, getattr(self, name))
-        if self.modulo is not None:
-            pos("modulo", self.modulo)
-        if self.following_error_limit is not None:
-            pos("following_error_limit", self.following_error_limit)
-        if self.home_velocity is not None:
-            pos("home_velocity", self.home_velocity)
-        if not isinstance(self.queue_depth, int) or self.queue_depth < 0:
-            raise ValueError(
-                f"axis {self.name!r}: queue_depth must be an int >= 0, got {self.queue_depth!r}"
-            )
-        if self.blend_after_continuous not in ("previous", "error"):
-            raise ValueError(
-                f"axis {self.name!r}: blend_after_continuous must be 'previous' or 'error'"
-            )
-        lo, hi = self.sw_limit_neg, self.sw_limit_pos
-        if lo is not None and hi is not None and not lo < hi:
-            raise ValueError(f"axis {self.name!r}: sw_limit_neg must be < sw_limit_pos")
-
-
-@dataclass(frozen=True, slots=True)
-class Command:
-    """A motion request as latched by an FB (validated before submission)."""
-
-    # "absolute" | "relative" | "additive" | "velocity" | "halt" | "stop" | "home" | "setpos"
-    kind: str
-    mode: BufferMode = BufferMode.ABORTING
-    position: float = 0.0  # absolute target, distance, home/set position
-    velocity: float = 0.0  # magnitude for moves, signed for MoveVelocity
-    acceleration: float = 0.0  # 0 = axis default
-    deceleration: float = 0.0
-    jerk: float = 0.0
-    direction: Direction = Direction.POSITIVE
-    relative: bool = False  # MC_SetPosition
-
-    @property
-    def is_move(self) -> bool:
-        """Discrete move with a target position."""
-        return self.kind in ("absolute", "relative", "additive")
-
-
-_EVENTS = {
-    "absolute": Event.DISCRETE,
-    "relative": Event.DISCRETE,
-    "additive": Event.DISCRETE,
-    "halt": Event.DISCRETE,
-    "velocity": Event.CONTINUOUS,
-    "home": Event.HOME,
-    "stop": Event.STOP,
-}
-_NO_OVERRIDE = frozenset({"halt", "stop", "home", "estop"})
-
-
-class _Job:
-    """A command being executed or waiting in the queue (mutable, axis-internal)."""
-
-    __slots__ = (
-        "cmd",
-        "handle",
-        "kind",
-        "target",
-        "chain",
-        "offsets",
-        "duration",
-        "tau",
-        "shift",
-        "home_phase",
-        "no_override",
-        "waiting",
-        "single",
-        "base",
-        "dir",
-        "rest_target",
-    )
-
-    def __init__(self, cmd: Command, handle: Handle) -> None:
-        self.cmd = cmd
-        self.handle = handle
-        self.kind = cmd.kind
-        self.target: float | None = None
-        self.chain: list[Profile] = []
-        self.offsets: list[float] = []
-        self.duration = 0.0
-        self.tau = 0.0
-        self.shift = 0.0
-        self.home_phase = 0
-        self.no_override = cmd.kind in _NO_OVERRIDE
-        self.waiting = False  # queued behind other motion at submission
-        self.single: Profile | None = None  # the profile of a one-profile chain
-        self.base: float | None = None  # position a discrete move's target was resolved from
-        self.dir = 0.0  # direction of the motion while running (+1 / -1, 0 = none)
-        self.rest_target: float | None = None  # the chain ends at rest here (_prepare_move)
-
-    def set_chain(self, chain: list[Profile]) -> None:
-        self.chain = chain
-        self.single = chain[0] if len(chain) == 1 else None
-        offs = []
-        t = 0.0
-        for prof in chain:
-            offs.append(t)
-            t += prof.duration
-        self.offsets = offs
-        self.duration = t
-        self.tau = 0.0
-        self.shift = 0.0
-        self.rest_target = None
-
-    def sample(self, tau: float) -> tuple[float, float, float, float]:
-        chain = self.chain
-        if tau >= self.duration:
-            e = chain[-1].end
-            # continuous motion keeps its end velocity (MoveVelocity after InVelocity)
-            return (e.p + e.v * (tau - self.duration) + self.shift, e.v, 0.0, 0.0)
-        if len(chain) == 1:
-            p, v, a, j = chain[0].at(tau)
-            return (p + self.shift, v, a, j)
-        i = len(chain) - 1
-        offs = self.offsets
-        while i > 0 and offs[i] > tau:
-            i -= 1
-        s = chain[i].at(tau - offs[i])
-        return (s.p + self.shift, s.v, s.a, s.j)
-
-    def end_state(self) -> State:
-        e = self.chain[-1].end
-        t = self.rest_target
-        if (
-            t is not None
-            and self.shift == 0.0
-            and abs(e.p - t) <= 1e-12 * (1.0 + abs(t))
-            and abs(e.v) <= 1e-12
-            and abs(e.a) <= 1e-12
-        ):
-            # a move planned to rest at its target ends there exactly (the profile's end is
-            # integrated, a few ulp off)
-            return State(t, 0.0, 0.0)
-        return State(e.p + self.shift, e.v, e.a)
-
-
-def _is_stop(job: _Job) -> bool:
+def _is_stop(job: AxisJob) -> bool:
     """An MC_Stop job (kept Busy when other motion is aborted)."""
     return job.kind == "stop"
-
-
-def _sign(x: float) -> float:
-    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
-
-
-def _stop_distance(v: float, a: float, j: float) -> float:
-    """Shortest distance to stop from speed ``v`` >= 0 at zero acceleration, braking with at
-    most ``a`` and jerk ``j`` (either may be inf): the brake's acceleration is a symmetric
-    trapezoid (triangle if ``a`` is not reached), so the distance is v * duration / 2."""
-    if v <= 0.0:
-        return 0.0
-    if j == _INF:
-        return 0.0 if a == _INF else v * v / (2.0 * a)
-    if a == _INF or v * j < a * a:
-        return v * math.sqrt(v / j)
-    return 0.5 * v * (v / a + a / j)
-
-
-def _stop_speed(room: float, a: float, j: float) -> float:
-    """Highest speed from which :func:`_stop_distance` is at most ``room`` (its inverse)."""
-    if room <= 0.0:
-        return 0.0
-    if j == _INF:
-        return _INF if a == _INF else math.sqrt(2.0 * a * room)
-    if a != _INF:
-        # with the acceleration plateau: v^2 + (a^2 / j) v - 2 a room = 0
-        b = a * a / j
-        v = 0.5 * (math.sqrt(b * b + 8.0 * a * room) - b)
-        if v * j >= a * a:
-            return v
-    return (room * room * j) ** (1.0 / 3.0)  # a jerk-only brake: room = v sqrt(v / j)
 
 
 def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
@@ -466,7 +208,7 @@ class Axis:
         self.axis_error_reason = ""
         self._why = ""  # why the last command was refused (the FB's error_text)
         # command queue
-        self.mq: MotionQueue[_Job] = MotionQueue()  # inbox, active job, queue, stops, updates
+        self.mq: MotionQueue[AxisJob] = MotionQueue()  # inbox, active job, queue, stops, updates
         self.last_target: float | None = None
         # profiles planned ahead (exact planner inputs -> the immutable profile planned from
         # them): a queued move's start profile is planned in a quiet cycle before the hand-over
@@ -474,15 +216,11 @@ class Axis:
         self._ahead = False  # the queue or the active chain changed: look again (plan_ahead)
         # blending re-plan of the running move, due since a successor was queued (the job
         # it is for); served within the runtime's per-cycle budget (None: no budget)
-        self._junction_due: _Job | None = None
+        self._junction_due: AxisJob | None = None
         self.replan_budget: ReplanBudget | None = None
         # override: factor f(t) along a ramp profile
         self.override = (1.0, 1.0, 1.0)
-        self._f = 1.0
-        self._fd = 0.0
-        self._fdd = 0.0
-        self._f_prof: Profile | None = None
-        self._f_t = 0.0
+        self.ts = TimeScale()
         # image for read FBs (refreshed in the input phase)
         self.img_state = S.DISABLED
         self.img_p = 0.0
@@ -499,16 +237,16 @@ class Axis:
 
     # -- the command queue (public attributes kept for FBs, runtime, tests) -------------------
     @property
-    def active(self) -> _Job | None:
+    def active(self) -> AxisJob | None:
         """The job controlling the axis (None: none)."""
         return self.mq.active
 
     @active.setter
-    def active(self, job: _Job | None) -> None:
+    def active(self, job: AxisJob | None) -> None:
         self.mq.active = job
 
     @property
-    def queue(self) -> deque[_Job]:
+    def queue(self) -> deque[AxisJob]:
         """The jobs waiting behind the active one, in order."""
         return self.mq.queue
 
@@ -710,57 +448,41 @@ class Axis:
             return
         cfg = self.cfg
         # f' * v must stay within the tighter acceleration side at the faster velocity side
-        vm = max(cfg.v_max, cfg.v_neg)
-        fa = min(cfg.a_max, cfg.a_neg) / vm
-        fj = cfg.j_max / vm
-        lim = Limits(v_max=_INF, a_max=fa, j_max=fj)
-        fd = self._fd if fj != _INF else 0.0
-        self._f_prof = _plan_velocity(State(0.0, self._f, fd), vel, lim)
-        self._f_t = 0.0
+        fa, fj = ramp_limits(max(cfg.v_max, cfg.v_neg), min(cfg.a_max, cfg.a_neg), cfg.j_max)
+        self.ts.set_factor(vel, fa, fj)
 
-    def _advance_override(self, dt: float) -> float:
-        """Advance the factor ramp; returns the trajectory time increment for ``dt``."""
-        prof = self._f_prof
-        f0 = self._f
-        if prof is None:
-            return dt * f0
-        self._f_t += dt
-        s = prof.at(self._f_t)
-        self._f, self._fd, self._fdd = s.v, s.a, s.j
-        if self._f_t >= prof.duration:
-            self._f = self.override[0]
-            self._fd = self._fdd = 0.0
-            self._f_prof = None
-        return 0.5 * (f0 + self._f) * dt
+    @property
+    def _f(self) -> float:
+        """The override factor now (read by runtime/invariants.py)."""
+        return self.ts.f
+
+    @property
+    def _f_prof(self) -> Profile | None:
+        """The running override ramp (None: constant factor; read by runtime/invariants.py)."""
+        return self.ts.prof
 
     def _tau_state(self) -> State:
         """The set state in the (override-scaled) trajectory time of a new scalable job."""
-        f = self._f
-        if f == 1.0 and self._fd == 0.0:
-            return State(self.p, self.v, self.a)
-        if f < 1e-9:
-            return State(self.p, 0.0, 0.0)
-        vt = self.v / f
-        return State(self.p, vt, (self.a - self._fd * vt) / (f * f))
+        return self.ts.to_trajectory(self.p, self.v, self.a)
 
     # -- submission (program phase) --------------------------------------------------------
     def submit(self, cmd: Command) -> Handle:
         """Accept or reject a command; the kernel executes it in this cycle's step."""
         h = Handle(cmd.kind)
         if cmd.kind == "setpos":
-            job = _Job(cmd, h)
+            job = AxisJob(cmd, h)
             if cmd.mode is BufferMode.ABORTING or (self.mq.active is None and not self.mq.queue):
                 self._shift_to(cmd)  # MC_SetPosition mcImmediately: no motion, no state change
                 h._finish(Status.DONE)
             else:
                 self.mq.queue.append(job)
             return h
-        event = _EVENTS[cmd.kind]
+        event = EVENTS[cmd.kind]
         state = self.state
         if not allowed(event, state):
             h._finish(Status.ERROR, ErrorID.for_state(state))
             return h
-        job = _Job(cmd, h)
+        job = AxisJob(cmd, h)
         mq = self.mq
         idle = mq.idle()
         immediate = cmd.mode is BufferMode.ABORTING or cmd.kind == "stop" or idle
@@ -820,7 +542,7 @@ class Axis:
             mq.stops.append(h)
         return h
 
-    def _resolve(self, job: _Job, base: float) -> ErrorID:
+    def _resolve(self, job: AxisJob, base: float) -> ErrorID:
         """Target of a discrete move from its base position; checks the software limits."""
         cmd = job.cmd
         if cmd.kind == "absolute":
@@ -884,10 +606,10 @@ class Axis:
             return None
         return limit
 
-    def _velocity_blocked(self, job: _Job) -> bool:
+    def _velocity_blocked(self, job: AxisJob) -> bool:
         """A velocity command heading out of a software limit the axis stands at or beyond;
         if so, ``_why`` says why (Error MOVE_BEYOND_SW_LIMIT)."""
-        s = _sign(job.cmd.velocity)
+        s = sign(job.cmd.velocity)
         limit = self._at_limit(s)
         if limit is None:
             return False
@@ -934,7 +656,8 @@ class Axis:
             if self._junction_due is not None:
                 self._serve_junction()
             # the override factor ramps in real time, also while no scalable job runs
-            ftau = self._advance_override(dt) if self._f_prof is not None else dt * self._f
+            ts = self.ts
+            ftau = ts.advance(dt) if ts.prof is not None else dt * ts.f
             state = self.state
             if state is S.DISABLED:
                 self._resync()
@@ -1004,34 +727,6 @@ class Axis:
                 self.axis_error_reason = reason
 
     # -- software limits ---------------------------------------------------------------------
-    def _reach(self, v: float, a: float, s: float) -> float:
-        """How far the axis still travels in direction ``s`` (+1 / -1) from set velocity ``v``
-        and acceleration ``a`` if it brakes now as hard as its own limits allow (0 if it does
-        not move that way). Exact for s*a >= 0; for s*a < 0 (braking already) an upper bound
-        unless ``exact`` profiles are planned by the caller."""
-        cfg = self.cfg
-        vs, as_ = s * v, s * a
-        brake = cfg.a_neg if s > 0.0 else cfg.a_max
-        jerk = cfg.j_max
-        if jerk == _INF:
-            return vs * vs / (2.0 * brake) if vs > 0.0 else 0.0
-        if as_ > 0.0:
-            # jerk -J brings the acceleration to 0 (exactly the start of the optimal brake)
-            t1 = as_ / jerk
-            v1 = vs + 0.5 * as_ * t1
-            if v1 <= 0.0:
-                return 0.0
-            d1 = vs * t1 + as_ * as_ * as_ / (3.0 * jerk * jerk)
-            return max(0.0, d1 + _stop_distance(v1, brake, jerk))
-        return _stop_distance(vs, brake, jerk) if vs > 0.0 else 0.0
-
-    def _exact_reach(self, v: float, a: float, s: float) -> float:
-        """:meth:`_reach` from the time-optimal brake to rest (its farthest position)."""
-        cfg = self.cfg
-        lim = Limits(v_max=_INF, a_max=cfg.a_max, j_max=cfg.j_max, v_min=-_INF, a_min=-cfg.a_neg)
-        (pmin, pmax), _, _ = _plan_velocity(State(0.0, v, a), 0.0, lim).extrema()
-        return max(0.0, pmax if s > 0.0 else -pmin)
-
     def _sw_guard(self, p0: float, v0: float, a0: float, dt: float) -> None:
         """Keep the motion inside the software limits: if braking from the new set state could
         no longer stop at a limit, the axis instead brakes from the previous set state (which
@@ -1042,46 +737,19 @@ class Axis:
         job = self.mq.active
         if job is not None and job.kind == "swstop":
             return
-        p, v, a = self.p, self.v, self.a
-        for s, limit in ((1.0, self._sw_pos), (-1.0, self._sw_neg)):
-            if limit is None or not (s * v > 0.0 or s * a > 0.0):
-                continue
-            bound = max(s * limit, s * p0)  # beyond the limit already: not further out
-            tol = 1e-12 * (1.0 + abs(limit))
-            if s * p + self._reach(v, a, s) <= bound + tol:
-                continue
-            if s * a < 0.0 and s * p + self._exact_reach(v, a, s) <= bound + tol:
-                continue
-            self._limit_stop(s, limit, p0, v0, a0, dt)
-            return
+        hit = crossed_limit(self.cfg, p0, self.p, self.v, self.a)
+        if hit is not None:
+            self._limit_stop(hit[0], hit[1], p0, v0, a0, dt)
 
     def _limit_stop(
         self, s: float, limit: float, p0: float, v0: float, a0: float, dt: float
     ) -> None:
+        """The step went too far towards ``limit``: back to the previous set state and brake
+        from there to rest at the limit (:func:`~.sw_limits.limit_stop_profile`), else stop as
+        fast as possible; ErrorStop SW_LIMIT, the running command ends with Error SW_LIMIT."""
         cfg = self.cfg
         reason = f"software limit {limit:.9g} reached (set position {p0:.9g}, velocity {v0:.6g})"
-        prof: Profile | None = None
-        if s * p0 <= s * limit:
-            jerk = cfg.j_max
-            cap = max(s * v0, 0.0)
-            if jerk != _INF and s * a0 > 0.0:
-                cap += 0.5 * a0 * a0 / jerk
-            cap = min(max(cap, 1e-12), cfg.v_max if s > 0.0 else cfg.v_neg)
-            lim = Limits(
-                v_max=cap if s > 0.0 else cfg.v_max,
-                a_max=cfg.a_max,
-                j_max=jerk,
-                v_min=-cap if s < 0.0 else -cfg.v_neg,
-                a_min=-cfg.a_neg,
-            )
-            try:
-                prof = _plan(State(p0, v0, a0), State(limit, 0.0, 0.0), lim)
-                (pmin, pmax), _, _ = prof.extrema()
-                far = pmax if s > 0.0 else -pmin
-                if far > s * limit + 1e-10 * (1.0 + abs(limit)):
-                    prof = None  # cannot stop at the limit any more
-            except PlanningError:
-                prof = None
+        prof = limit_stop_profile(cfg, s, limit, p0, v0, a0)
         act = self.mq.active
         if act is not None:
             act.handle._finish(Status.ERROR, ErrorID.SW_LIMIT, reason)
@@ -1096,7 +764,7 @@ class Axis:
             self.raise_axis_error("SW_LIMIT", reason)
         else:
             self._fail_all(ErrorID.AXIS_ERROR_STOP)
-        job = _Job(Command(kind="halt"), Handle("swstop"))
+        job = AxisJob(Command(kind="halt"), Handle("swstop"))
         job.kind = "swstop"
         job.no_override = True
         job.set_chain([prof])
@@ -1170,7 +838,7 @@ class Axis:
     def _abort_motion(self) -> None:
         self.mq.abort_motion(keep=_is_stop)
 
-    def _start(self, job: _Job, immediate: bool) -> bool:
+    def _start(self, job: AxisJob, immediate: bool) -> bool:
         """Plan ``job`` from the current set state; abort the old motion only on success."""
         kind = job.kind
         try:
@@ -1179,7 +847,7 @@ class Axis:
             elif kind == "velocity":
                 self._prepare_velocity(job, self._tau_state())
             elif kind == "home":
-                ok = self._prepare_home(job)
+                ok = prepare_home(self, job)
                 if not ok:
                     return True
             else:
@@ -1200,16 +868,16 @@ class Axis:
         job.dir = self._direction_of(job, self.p)
         return True
 
-    def _prepare_ramp(self, job: _Job, v_target: float, dec: float, jerk: float) -> None:
+    def _prepare_ramp(self, job: AxisJob, v_target: float, dec: float, jerk: float) -> None:
         lim = self._axis_limits(dec, dec, jerk)
         job.set_chain([_plan_velocity(State(self.p, self.v, self.a), v_target, lim)])
 
-    def _start_job_ramp(self, job: _Job, dec: float, jerk: float) -> None:
+    def _start_job_ramp(self, job: AxisJob, dec: float, jerk: float) -> None:
         self._prepare_ramp(job, 0.0, dec, jerk)
         self.mq.active = job
 
     def _start_ramp(self, kind: str, v_target: float, dec: float, jerk: float) -> None:
-        job = _Job(Command(kind="halt"), Handle(kind))
+        job = AxisJob(Command(kind="halt"), Handle(kind))
         job.kind = kind
         job.no_override = True
         try:
@@ -1277,7 +945,7 @@ class Axis:
             (cmd.jerk or self.cfg.j_max) * jf,
         )
 
-    def _prepare_velocity(self, job: _Job, start: State) -> None:
+    def _prepare_velocity(self, job: AxisJob, start: State) -> None:
         acc, dec, jerk = self._dyn(job.cmd)
         v0 = start.v
         # raising |v| uses Acceleration, lowering it Deceleration (judged at the start); each
@@ -1296,7 +964,7 @@ class Axis:
         job.set_chain([_plan_velocity(start, job.cmd.velocity, lim)])
 
     # -- discrete moves and blending -------------------------------------------------------
-    def _successor_junction(self, job: _Job) -> tuple[float, _Job | None]:
+    def _successor_junction(self, job: AxisJob) -> tuple[float, AxisJob | None]:
         """Requested junction speed |v| between ``job`` and a blending successor."""
         if not self.mq.queue:
             return 0.0, None
@@ -1336,7 +1004,7 @@ class Axis:
         runtime in a cycle without other planning; True if a profile was planned).
 
         At the hand-over the successor is planned from the active move's end state (exactly
-        :meth:`_Job.end_state`) to rest, unless a blending successor is queued behind it by
+        :meth:`AxisJob.end_state`) to rest, unless a blending successor is queued behind it by
         then. That profile is computed here already and kept in :attr:`_memo`, keyed by the
         exact planner inputs: the hand-over takes it only if its inputs are bit-identical, so
         the trace cannot change (any later change, e.g. an override or ContinuousUpdate,
@@ -1352,9 +1020,7 @@ class Axis:
             or self.mq.pending
             or not act.cmd.is_move
             or act.handle.terminal
-            or self._f != 1.0
-            or self._fd != 0.0
-            or self._f_prof is not None
+            or not self.ts.identity
         ):
             return False
         nxt = queue[0]
@@ -1362,22 +1028,22 @@ class Axis:
         if not nxt.cmd.is_move or target is None or not act.chain:
             return False
         start = act.end_state()  # the set state at the hand-over (_finish_job, _tau_state)
-        v_end = _sign(target - start.p) * 0.0  # _prepare_move without a successor: vj = 0
-        n0 = _planner_calls
+        v_end = sign(target - start.p) * 0.0  # _prepare_move without a successor: vj = 0
+        n0 = planner_calls()
         try:  # the same call as _move_chain's
             acc, dec, jerk = self._dyn(nxt.cmd)
-            s = _sign(target - start.p) or _sign(v_end) or 1.0
+            s = sign(target - start.p) or sign(v_end) or 1.0
             v = min(nxt.cmd.velocity, self._v_side(s))
             if abs(v_end) <= v:
                 lim = self._limits(v, acc, dec, jerk, s)
                 self._plan_memo(start, State(target, v_end, 0.0), lim)
         except Exception:  # only an optimisation: the hand-over plans (and reports) it again
             pass
-        return _planner_calls != n0
+        return planner_calls() != n0
 
     def _move_chain(self, cmd: Command, start: State, target: float, v_end: float) -> list[Profile]:
         acc, dec, jerk = self._dyn(cmd)
-        s = _sign(target - start.p) or _sign(v_end) or 1.0
+        s = sign(target - start.p) or sign(v_end) or 1.0
         v = min(cmd.velocity, self._v_side(s))
         if abs(v_end) <= v:
             lim = self._limits(v, acc, dec, jerk, s)
@@ -1393,7 +1059,9 @@ class Axis:
                 return [first, _plan_velocity(State(e.p, e.v, e.a), v_end, lim_hi)]
         return [_plan(start, State(target, v_end, 0.0), lim_hi)]
 
-    def _junction_chain(self, job: _Job, start: State, s: float, vj: float) -> list[Profile] | None:
+    def _junction_chain(
+        self, job: AxisJob, start: State, s: float, vj: float
+    ) -> list[Profile] | None:
         """The chain of ``job`` to junction speed ``vj`` if it has no reversal or overshoot,
         else None. (The successor's side is settled before: :meth:`_prepare_move` caps the
         junction speed at the successor's stopping speed.)"""
@@ -1407,7 +1075,7 @@ class Axis:
             v0 = prof.end.v
         return chain
 
-    def _prepare_move(self, job: _Job, start: State, keep_rest: bool = False) -> None:
+    def _prepare_move(self, job: AxisJob, start: State, keep_rest: bool = False) -> None:
         """Plan ``job`` from ``start`` to its target, through the junction speed to a blending
         successor (the highest reachable one without reversal or overshoot).
 
@@ -1421,7 +1089,7 @@ class Axis:
         v_req, nxt = self._successor_junction(job)
         vj = 0.0
         chain: list[Profile] | None = None
-        s = _sign(target - start.p)
+        s = sign(target - start.p)
         if s != 0.0:
             v_req = min(v_req, self._v_side(s))  # the junction within the direction's limit
         if nxt is not None and v_req > 0.0 and s != 0.0:
@@ -1431,9 +1099,9 @@ class Axis:
                 if nxt.target is None:
                     self._resolve(nxt, target)
                 p2 = nxt.target
-                s2 = _sign(p2 - target) if p2 is not None else 0.0
+                s2 = sign(p2 - target) if p2 is not None else 0.0
             elif nxt.kind == "velocity":
-                s2 = _sign(nxt.cmd.velocity)
+                s2 = sign(nxt.cmd.velocity)
             if s2 == s and p2 is not None:
                 # the successor must stop within its distance: cap the junction speed there
                 # at once (closed form) instead of searching for it
@@ -1441,9 +1109,9 @@ class Axis:
                 lim2 = self._limits(nxt.cmd.velocity, acc, dec, jerk, s)
                 brake = -lim2.a_min if s > 0.0 else lim2.a_max
                 room = s * (p2 - target)
-                cap = _stop_speed(room, brake, lim2.j_max)
+                cap = stop_speed(room, brake, lim2.j_max)
                 tol = 1e-12 * (1.0 + abs(p2))
-                while cap > 0.0 and _stop_distance(cap, brake, lim2.j_max) > room + tol:
+                while cap > 0.0 and stop_distance(cap, brake, lim2.j_max) > room + tol:
                     cap = math.nextafter(cap, 0.0) * (1.0 - 1e-15)
                 v_req = min(v_req, cap)
             if s2 == s and v_req > 0.0:
@@ -1463,14 +1131,7 @@ class Axis:
                             break
                     vj = lo
         if chain is None:  # no junction speed (or only 0 reachable): plan to rest
-            if (
-                keep_rest
-                and job.rest_target == target
-                and job.shift == 0.0
-                and self._f == 1.0
-                and self._fd == 0.0
-                and self._f_prof is None
-            ):
+            if keep_rest and job.rest_target == target and job.shift == 0.0 and self.ts.identity:
                 return
             chain = self._move_chain(job.cmd, start, target, s * vj)
         job.set_chain(chain)
@@ -1486,37 +1147,10 @@ class Axis:
         except PlanningError as exc:
             self.axis_error_reason = f"planner (blending ignored): {exc}"
 
-    # -- homing ----------------------------------------------------------------------------
-    def _prepare_home(self, job: _Job) -> bool:
-        sw = self.cfg.home_switch
-        if sw is None:  # set-position homing: no motion
-            self._abort_motion()
-            self._shift_to(Command(kind="setpos", position=job.cmd.position))
-            self.homed = True
-            job.handle._finish(Status.DONE)
-            self.state = next_state(Event.HOME_DONE, self.state)  # T7
-            return False
-        drive_p = self.p - self.offset
-        s = _sign(sw - drive_p) or 1.0
-        vh = self.cfg.home_velocity or 0.1 * self._v_side(s)
-        lim = self._axis_limits(0.0, 0.0, 0.0)
-        job.set_chain([_plan_velocity(State(self.p, self.v, self.a), s * vh, lim)])
-        job.home_phase = 1
-        job.target = s  # search direction
-        return True
-
-    def _home_check(self, job: _Job) -> None:
-        sw = self.cfg.home_switch
-        assert sw is not None
-        s = job.target or 1.0
-        if job.home_phase == 1 and s * (self.act_p - self.offset - sw) >= 0.0:
-            job.home_phase = 2  # switch reached: stop (the position is set at standstill)
-            lim = self._axis_limits(0.0, 0.0, 0.0)
-            job.set_chain([_plan_velocity(State(self.p, self.v, self.a), 0.0, lim)])
-
     # -- stepping --------------------------------------------------------------------------
-    def _advance(self, job: _Job, dt: float, ftau: float) -> None:
-        scaled = not job.no_override and (self._f_prof is not None or self._f != 1.0)
+    def _advance(self, job: AxisJob, dt: float, ftau: float) -> None:
+        ts = self.ts
+        scaled = not job.no_override and (ts.prof is not None or ts.f != 1.0)
         inc = ftau if scaled else dt
         tau = job.tau = job.tau + inc
         if job.kind == "velocity" and self.mq.queue and tau - inc > job.duration:
@@ -1553,16 +1187,13 @@ class Axis:
             job.tau = excess
         p, v, a, j = job.sample(job.tau)
         if scaled:
-            f, fd, fdd = self._f, self._fd, self._fdd
-            self.p, self.v = p, f * v
-            self.a = f * f * a + fd * v
-            self.j = f * f * f * j + 3.0 * f * fd * a + fdd * v
+            self.p, self.v, self.a, self.j = ts.to_real(p, v, a, j)
         else:
             self.p, self.v, self.a, self.j = p, v, a, j
         if job.kind == "home":
-            self._home_check(job)
+            home_check(self, job)
 
-    def _finish_job(self, job: _Job) -> _Job | None:
+    def _finish_job(self, job: AxisJob) -> AxisJob | None:
         """``job`` reached its end: report, then activate the next queued job (if any)."""
         h = job.handle
         kind = job.kind
@@ -1578,14 +1209,7 @@ class Axis:
         elif kind in ("estop", "swstop"):
             return None
         elif kind == "home":
-            sw = self.cfg.home_switch
-            assert sw is not None
-            # the switch is at job.cmd.position: shift so that this holds at standstill
-            self._shift_to(
-                Command(kind="setpos", position=job.cmd.position + (self.p - self.offset - sw))
-            )
-            self.homed = True
-            h._finish(Status.DONE)
+            finish_home(self, job)
         else:
             h._finish(Status.DONE)
         nxt = self._activate_queued()
@@ -1597,7 +1221,7 @@ class Axis:
             self.state = next_state(Event.DISCRETE_DONE, self.state)  # T9
         return None
 
-    def _activate_queued(self) -> _Job | None:
+    def _activate_queued(self) -> AxisJob | None:
         """Start the first startable queued job from the current set state (None: none)."""
         mq = self.mq
         while (nxt := mq.pop_next()) is not None:
@@ -1605,7 +1229,7 @@ class Axis:
                 self._shift_to(nxt.cmd)
                 nxt.handle._finish(Status.DONE)
                 continue
-            event = _EVENTS[nxt.kind]
+            event = EVENTS[nxt.kind]
             if not allowed(event, self.state):
                 nxt.handle._finish(Status.ERROR, ErrorID.for_state(self.state))
                 continue
@@ -1628,22 +1252,17 @@ class Axis:
         return None
 
     # -- feed enables (MC_Power.EnablePositive / EnableNegative) -----------------------------
-    def _direction_of(self, job: _Job, base: float | None) -> float:
+    def _direction_of(self, job: AxisJob, base: float | None) -> float:
         """Direction (+1 / -1, 0 = none or not known yet) in which ``job`` moves from ``base``."""
         kind = job.kind
         if kind == "velocity":
-            return _sign(job.cmd.velocity)
+            return sign(job.cmd.velocity)
         if kind in ("absolute", "relative", "additive"):
             if job.target is None or base is None:
                 return 0.0
-            return _sign(job.target - base)
+            return sign(job.target - base)
         if kind == "home":
-            if job.home_phase == 1:  # searching: job.target holds the search direction
-                return _sign(job.target or 0.0)
-            sw = self.cfg.home_switch
-            if sw is None or base is None or job.home_phase:
-                return 0.0
-            return _sign(sw - (base - self.offset)) or 1.0
+            return home_direction(self, job, base)
         return 0.0  # halt, stop and the internal ramps only brake
 
     def _dir_enabled(self, d: float) -> bool:
