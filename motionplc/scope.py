@@ -844,8 +844,10 @@ def _html_group(k: int, view: _GroupView, max_segments: int) -> str:
         rows = [("state", None), *((fb, items) for fb, items in view.fbs.items())]
         svg = [f"<svg class='group-lanes' width='{w}' height='{18 * (len(rows) + 1)}'>"]
 
+        label_w = min(7 * max(len(label) for label, _ in rows), 180)  # FB names fit
+
         def x_of(tt: float) -> float:
-            return lpad + 60 + (tt - t0) / (t1 - t0) * (w - 2 * lpad - 60)
+            return label_w + 8 + (tt - t0) / (t1 - t0) * (w - label_w - 8 - lpad)
 
         for r, (label, items) in enumerate(rows):
             y = 18 * r + 4
