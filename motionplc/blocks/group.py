@@ -59,6 +59,7 @@ import math
 from collections import deque
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis import Axis
@@ -109,7 +110,7 @@ class GroupConfig:
     tolerance: float = 1e-4  # [m] corner deviation of G64 without P / TMMaxCornerDeviation 0
     v_share: float = 0.7  # share of the acceleration / jerk budget the curvature may use
     blend_share: float = 0.95  # the same on corner blends (passed near their top speed)
-    blend_parts: int = 8  # a line-line blend is planned as this many parts (own speed caps)
+    blend_parts: int = 1  # a line-line blend is planned as this many parts (own speed caps)
     task: str | None = None
 
 
@@ -563,6 +564,25 @@ class AxesGroup:
         if kind in ("linear", "circular"):
             self._check_limits(target, "position")
             segs = self._segments(cmd, base, target)
+            if segs == [None]:  # a line: the closed-form piece, no numpy geometry
+                segs = []
+                pc = LinePiece.between(base, target)
+                lk = self._link(
+                    pc,
+                    job,
+                    (cmd.velocity or _INF) * self.override,
+                    cmd.acceleration or _INF,
+                    cmd.deceleration or _INF,
+                    cmd.jerk or _INF,
+                    vm,
+                    am,
+                    jm,
+                )
+                lk.last = True
+                job.end = target
+                job.links = [lk]
+                self._connect(job, [lk])
+                return
             if not segs:  # zero-length move: done at once
                 job.end = target
                 job.handle.status = Status.ACTIVE
@@ -654,7 +674,7 @@ class AxesGroup:
             if cmd.kind == "linear":
                 return []
         if cmd.kind == "linear":
-            return [Line(base, target)]
+            return [None]  # a line (built as a LinePiece by the caller)
         aux = tuple(float(x) for x in cmd.aux_point)
         n = len(base)
         try:
@@ -766,7 +786,8 @@ class AxesGroup:
 
     def _snapshot(self) -> tuple[list[Link], list[tuple[Any, ...]], Any]:
         links = list(self.chain.links)
-        fields = [tuple(getattr(lk, f) for f in _LINK_STATE) for lk in links]
+        get = _LINK_GET
+        fields = [get(lk) for lk in links]
         return links, fields, (self.mq.active, list(self.mq.queue))
 
     def _restore(self, saved: tuple[list[Link], list[tuple[Any, ...]], Any]) -> None:
@@ -825,8 +846,14 @@ class AxesGroup:
         prev.cap_out = 0.0  # an exact corner unless a blend is made below
         if tm is TransitionMode.TM_NONE or theta > MAX_DEFLECTION:
             return idx
+        lines = isinstance(pa, LinePiece) and isinstance(pb, LinePiece)
         seg_a, seg_b = prev.seg, first.seg
-        if seg_a is None or seg_b is None or prev.stopping:
+        if not lines:
+            if seg_a is None and isinstance(pa, LinePiece):
+                seg_a = Line(pa.start, pa.end)
+            if seg_b is None and isinstance(pb, LinePiece):
+                seg_b = Line(pb.start, pb.end)
+        if (not lines and (seg_a is None or seg_b is None)) or prev.stopping:
             return idx
         # room: half of each move, and on the running piece only what lies ahead of the
         # point where it could still stop (with a margin)
@@ -842,7 +869,7 @@ class AxesGroup:
             return idx
         vm, am, jm = self._limits()
         parts: list[Piece]
-        if isinstance(seg_a, Line) and isinstance(seg_b, Line):
+        if lines:
             parts = BlendPiece(pa.end, ta, tb, d).split(self.cfg.blend_parts)
         else:
             from motionplc.planning.paths.blend import CornerBlend
@@ -890,7 +917,9 @@ class AxesGroup:
         room: float,
     ) -> float:
         """Corner distance d for the transition mode (capped at ``room``)."""
-        lines = isinstance(seg_a, Line) and isinstance(seg_b, Line)
+        lines = (seg_a is None or isinstance(seg_a, Line)) and (
+            seg_b is None or isinstance(seg_b, Line)
+        )
         if tm is TransitionMode.TM_CORNER_DISTANCE:
             return min(param, room)
         if tm is TransitionMode.TM_MAX_CORNER_DEVIATION:
@@ -925,8 +954,8 @@ class AxesGroup:
             return
         if rest or not self._running:
             low = chain.backward(dirty, 0)
-            for k in chain.forward(0, w_start, None if dirty == 0 else low):
-                self._plan_link(links[k])
+            chain.forward(0, w_start, None if dirty == 0 else low)
+            self._plan_near()
             return
         low = chain.backward(dirty, 0)
         lk0 = links[0]
@@ -935,8 +964,16 @@ class AxesGroup:
             lk0.w_out = self._replan_running(lk0, want)
             lk0.stale = False
             low = 1
-        for k in chain.forward(1, lk0.w_out, max(low, 1)):
-            self._plan_link(links[k])
+        chain.forward(1, lk0.w_out, max(low, 1))
+        self._plan_near()
+
+    def _plan_near(self) -> None:
+        """Profiles are planned one piece ahead: the running (or next) piece and the one after
+        it; the others when the piece before them starts (their speeds may still change with
+        every move queued behind them)."""
+        for lk in self.chain.links[:2]:
+            if lk.profile is None and lk.sampled is None:
+                lk.profile = _guard_plan(lk)
 
     def _plan_link(self, lk: Link) -> None:
         if lk.sampled is not None:
@@ -1081,8 +1118,8 @@ class AxesGroup:
         keep_links[-1].cap_out = 0.0
         self._cut(links[m + 1 :], keep_links, keep, status, eid, reason)
         chain.backward(0, 1)
-        for k in chain.forward(1, lk0.w_out, None):
-            self._plan_link(chain.links[k])
+        chain.forward(1, lk0.w_out, None)
+        self._plan_near()
 
     def _cut(
         self,
@@ -1170,8 +1207,7 @@ class AxesGroup:
         self._sample(lk, self._tau)
 
     def _activate(self, lk: Link) -> None:
-        if lk.profile is None and lk.sampled is None:
-            lk.profile = _guard_plan(lk)
+        self._plan_near()  # this piece (planned ahead already) and the next one
         job = lk.owner
         if job is not None and not job.started:
             job.started = True
@@ -1278,6 +1314,8 @@ _LINK_STATE = (
     "stale",
     "stopping",
 )
+
+_LINK_GET = attrgetter(*_LINK_STATE)
 
 _DUMMY = LinePiece((0.0,), (1.0,), 1.0)  # the piece of a link whose motion is sampled otherwise
 

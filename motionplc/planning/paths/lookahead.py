@@ -190,7 +190,7 @@ class Chain:
         k = start
         while k < n:
             lk = links[k]
-            if low is not None and k < low and w == lk.w_in and lk.profile is not None:
+            if low is not None and k < low and w == lk.w_in:
                 k = low  # unchanged up to the changed region
                 w = links[k - 1].w_out if k > start else w_in
                 continue
@@ -200,7 +200,7 @@ class Chain:
                 pc = lk.piece
                 x = max_speed_change(w / pc.g0, pc.U * _SAFETY, lk.A_acc, lk.J)
                 w_out = min(lk.w_back, (w / pc.g0 + x) * pc.g1)
-            if w_out != lk.w_out or w != lk.w_in or (lk.profile is None and lk.sampled is None):
+            if w_out != lk.w_out or w != lk.w_in:
                 lk.w_in = w
                 lk.w_out = w_out
                 lk.profile = None

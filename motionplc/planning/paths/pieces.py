@@ -48,7 +48,7 @@ __all__ = [
 
 Vec = tuple[float, ...]
 
-_BLEND_SAMPLES = 513  # dense samples of a blend's derivative polynomials (bounds)
+_BLEND_SAMPLES = 257  # dense samples of a blend's derivative polynomials (bounds)
 _BOUND_MARGIN = 1e-6  # relative margin on sampled bounds (the polynomials are smooth)
 
 
@@ -278,8 +278,10 @@ class BlendPiece(Piece):
         )  # type: ignore[return-value]
 
     def split(self, n: int) -> list[Piece]:
-        """The blend as ``n`` consecutive parts (``n`` divides 512), each with the bounds of
+        """The blend as ``n`` consecutive parts (``n`` divides 256), each with the bounds of
         its own part: the speed caps rise where the curvature and its change are small."""
+        if n == 1:
+            return [self]
         step = (_BLEND_SAMPLES - 1) // n
         out: list[Piece] = []
         for i in range(n):
