@@ -86,6 +86,7 @@ if TYPE_CHECKING:
     from motionplc.runtime.trace import Trace
 
 
+# the kernel's planner calls look ``plan`` / ``plan_velocity`` up here (tests patch them here)
 def _plan(start: State, target: State, limits: Limits) -> Profile:
     """``plan`` for the kernel (counted and guarded: :func:`~.planner_guard.guarded`)."""
     return _guarded(plan, start, target, limits)
