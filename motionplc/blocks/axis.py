@@ -175,6 +175,7 @@ class Axis:
         )
         self.drive = drive
         self.task_name: str | None = None
+        self.group: Any = None  # the axes group (AxesGroup) this axis belongs to, if any
         self.fbs: list[Any] = []
         self._fb_counts: dict[str, int] = {}
         self.state = S.DISABLED
@@ -470,6 +471,15 @@ class Axis:
     def submit(self, cmd: Command) -> Handle:
         """Accept or reject a command; the kernel executes it in this cycle's step."""
         h = Handle(cmd.kind)
+        group = self.group
+        if group is not None and group.enabled:  # a member of an enabled axes group
+            h._finish(
+                Status.ERROR,
+                ErrorID.AXIS_IN_GROUP,
+                f"axis {self.name!r} belongs to the enabled group {group.name!r} "
+                "(disable the group first)",
+            )
+            return h
         if cmd.kind == "setpos":
             job = AxisJob(cmd, h)
             if cmd.mode is BufferMode.ABORTING or (self.mq.active is None and not self.mq.queue):

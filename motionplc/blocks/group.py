@@ -273,6 +273,11 @@ class AxesGroup:
         return vm, am, jm
 
     @property
+    def enabled(self) -> bool:
+        """Not GroupDisabled: the members take no single-axis motion commands."""
+        return self.state is not G.GROUP_DISABLED
+
+    @property
     def moving(self) -> bool:
         return bool(self.chain.links) or self._running
 

@@ -327,3 +327,25 @@ def test_bad_inputs_are_fb_errors_naming_the_input() -> None:
     m4 = b.add(MC_MoveLinearAbsolute(execute=True, position=(0.1, 0.1, 0.0), velocity=math.nan))
     b.run(1)
     assert m4.error and m4.error_id is ErrorID.INVALID_VELOCITY
+
+
+def test_members_of_an_enabled_group_refuse_single_axis_commands() -> None:
+    from motionplc.blocks import MC_MoveAbsolute
+    from motionplc.blocks.group_blocks import MC_GroupDisable
+
+    b = GroupBench().enabled()
+    x = b.rt.axes["x"]
+    mv = MC_MoveAbsolute(axis=x, execute=True, position=0.1, velocity=0.5)
+    b.fbs.append(mv)
+    b.run(2)
+    assert mv.error and mv.error_id is ErrorID.AXIS_IN_GROUP and "group" in mv.error_text
+    dis = b.add(MC_GroupDisable(execute=True))
+    b.run(2)
+    assert dis.done and b.g.state is GroupState.GROUP_DISABLED
+    mv.execute = False
+    b.run(1)
+    mv.execute = True
+    b.run(2)
+    assert mv.busy or mv.done
+    b.run(2000)
+    assert mv.done and x.p == 0.1
