@@ -349,3 +349,35 @@ def test_members_of_an_enabled_group_refuse_single_axis_commands() -> None:
     assert mv.busy or mv.done
     b.run(2000)
     assert mv.done and x.p == 0.1
+
+
+@pytest.mark.parametrize(
+    ("tm", "par"),
+    [(TM.TM_CORNER_DISTANCE, 0.004), (TM.TM_CONSTANT_VELOCITY, 0.1), (TM.TM_START_VELOCITY, 0.1)],
+)
+def test_transition_modes_size_the_blend(tm: TransitionMode, par: float) -> None:
+    b = GroupBench().enabled()
+    pts = RECT[:2]
+    _chain(b, pts, tm=tm, par=par)
+    b.run_until_idle()
+    b.check_limits()
+    pos, pv = b.positions(), b.col("g.path_velocity")
+    dev = np.linalg.norm(pos - np.array(pts[0]), axis=1).min()
+    i = int(np.argmin(np.linalg.norm(pos - np.array(pts[0]), axis=1)))
+    if tm is TM.TM_CORNER_DISTANCE:
+        # a 90 degree line-line blend of corner distance d deviates d sin(45 deg) / 2
+        assert dev == pytest.approx(par * math.sin(math.pi / 4) / 2, rel=1e-3)
+    else:
+        # the blend is made large enough to be passed at the requested speed
+        assert pv[i] >= 0.9 * par
+    assert tuple(pos[-1]) == pts[-1]
+
+
+def test_queue_full_is_an_fb_error_and_the_queue_runs_on() -> None:
+    b = GroupBench(queue_depth=2).enabled()
+    fbs = _chain(b, RECT)
+    b.run(2)
+    assert fbs[3].error and fbs[3].error_id is ErrorID.QUEUE_FULL
+    b.run_until_idle()
+    assert all(fb.done for fb in fbs[:3])
+    assert tuple(b.positions()[-1]) == RECT[2]
