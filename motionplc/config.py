@@ -16,7 +16,16 @@ drive binding) and axis groups::
         limits: {v_max: 0.5, a_max: 2.0, j_max: 20.0}
         drive: {bus: can0, node_id: 1, counts_per_unit: 1.0e6}
     groups:
-      xy: [x, y]
+      xy: [x, y]                   # an axes group: its member axes (X, Y, Z in this order)
+      # or with options (GroupConfig): xyz: {axes: [x, y, z], queue_depth: 64, tolerance: 1.0e-4}
+
+Every group becomes an axes group of the runtime (PLCopen Part 4, ``Runtime.add_group``) when the
+machine is built, in GroupDisabled. Its members: distinct known axes, none in another group,
+none modulo, all in one task. Options: ``queue_depth`` (moves waiting behind the running one,
+the look-ahead window; 1..10000, default 64), ``tolerance`` (the corner deviation of G64
+without P and of TM_MAX_CORNER_DEVIATION with parameter 0 [m]; > 0 and <= 1, default 1e-4),
+``v_share`` / ``blend_share`` (share of the axes' acceleration and jerk budget the curvature
+of paths / corner blends may use; 0.01..0.99, defaults 0.7 / 0.95).
 
 :func:`load_config` reads a file with ``yaml.SafeLoader`` (plus a resolver for floats such as
 ``1e-6``, which YAML 1.1 reads as strings) while recording the line of every node, checks
@@ -47,12 +56,14 @@ from motionplc.errors import ConfigError
 
 if TYPE_CHECKING:
     from motionplc.blocks.axis import Axis
+    from motionplc.blocks.group import AxesGroup
     from motionplc.runtime import CycleContext, Runtime
 
 __all__ = [
     "AxisSpec",
     "BusSpec",
     "Config",
+    "GroupSpec",
     "DriveSpec",
     "HomingSpec",
     "LimitsSpec",
@@ -448,6 +459,27 @@ class AxisSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class GroupSpec:
+    """An axes group: its member axes (in group order: X, Y, Z) and its GroupConfig options."""
+
+    name: str
+    axes: tuple[str, ...]
+    queue_depth: int = 64
+    tolerance: float = 1e-4
+    v_share: float = 0.7
+    blend_share: float = 0.95
+
+    def options(self) -> dict[str, Any]:
+        """The keyword options of ``Runtime.add_group`` (GroupConfig fields)."""
+        return {
+            "queue_depth": self.queue_depth,
+            "tolerance": self.tolerance,
+            "v_share": self.v_share,
+            "blend_share": self.blend_share,
+        }
+
+
+@dataclass(frozen=True, slots=True)
 class Config:
     """A validated machine configuration."""
 
@@ -455,7 +487,7 @@ class Config:
     runtime: RuntimeSpec
     buses: tuple[BusSpec, ...]
     axes: tuple[AxisSpec, ...]
-    groups: tuple[tuple[str, tuple[str, ...]], ...] = ()
+    groups: tuple[GroupSpec, ...] = ()
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -463,9 +495,13 @@ class Config:
     def bus(self, name: str) -> BusSpec:
         return next(b for b in self.buses if b.name == name)
 
+    def group(self, name: str) -> GroupSpec:
+        return next(g for g in self.groups if g.name == name)
+
     @property
     def group_map(self) -> dict[str, tuple[str, ...]]:
-        return dict(self.groups)
+        """Group name -> member axis names (in group order)."""
+        return {g.name: g.axes for g in self.groups}
 
 
 # ------------------------------------------------------------------------ parsing
@@ -855,39 +891,127 @@ def parse_config(data: Any, file: str | Path) -> Config:
                     )
                 else:
                     bus_task.setdefault(d.bus, (ax.task, ax.name))
-    groups: list[tuple[str, tuple[str, ...]]] = []
+    groups: list[GroupSpec] = []
     if top.get("groups") is not None:
         gm = c.mapping(top["groups"], top.line_of("groups"), "groups", None)
-        for name, members in (gm or {}).items():
-            gp = join("groups", name)
+        specs = {ax.name: ax for ax in axes}
+        owner: dict[str, str] = {}
+        for name, body in (gm or {}).items():
             if not c.name(gm, name, "groups"):
                 continue
-            if name in lines:
-                c.error(gm.key_lines[name], gp, "a group cannot have the name of an axis")
-                continue
-            if not isinstance(members, YamlList) or not members:
-                c.error(gm.line_of(name), gp, f"got {_tname(members)}", "a list of axis names")
-                continue
-            ok = True
-            for i, member in enumerate(members):
-                if member not in lines:
-                    ok = False
-                    c.error(
-                        members.line_of(i),
-                        join(gp, i),
-                        f"unknown axis {member!r}"
-                        if isinstance(member, str)
-                        else f"got {_tname(member)}",
-                        ", ".join(lines) or "no axis is defined",
-                    )
-                elif members.index(member) != i:
-                    ok = False
-                    c.error(members.line_of(i), join(gp, i), f"axis {member!r} is listed twice")
-            if ok:
-                groups.append((name, tuple(members)))
+            g = _parse_group(c, gm, name, body, lines, specs, owner)
+            if g is not None:
+                groups.append(g)
     c.raise_if_any()
     assert runtime is not None
     return Config(str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups))
+
+
+_GROUP = {
+    "axes": True,
+    "queue_depth": False,
+    "tolerance": False,
+    "v_share": False,
+    "blend_share": False,
+}
+
+
+def _parse_group(
+    c: Checker,
+    gm: YamlMap,
+    name: str,
+    body: Any,
+    lines: dict[str, int],
+    specs: dict[str, AxisSpec],
+    owner: dict[str, str],
+) -> GroupSpec | None:
+    """One entry of ``groups:``: a list of axis names, or ``{axes: [...], options}``.
+
+    ``lines``: the axes defined (name -> line); ``specs``: the valid ones; ``owner``: axis ->
+    the group that already has it (updated)."""
+    gp = join("groups", name)
+    if name in lines:
+        c.error(gm.key_lines[name], gp, "a group cannot have the name of an axis")
+        return None
+    opts: dict[str, Any] = {}
+    if isinstance(body, YamlMap):
+        m = c.mapping(body, gm.line_of(name), gp, _GROUP)
+        if m is None or "axes" not in m:
+            return None
+        members, mline, mp = m["axes"], m.line_of("axes"), join(gp, "axes")
+        qd = c.integer(m, "queue_depth", gp, None, lo=1, hi=10_000)
+        tol = c.number(m, "tolerance", gp, None, gt=0.0, le=1.0)
+        vs = c.number(m, "v_share", gp, None, ge=0.01, le=0.99)
+        bs = c.number(m, "blend_share", gp, None, ge=0.01, le=0.99)
+        for key, val in (
+            ("queue_depth", qd),
+            ("tolerance", tol),
+            ("v_share", vs),
+            ("blend_share", bs),
+        ):
+            if val is not None:
+                opts[key] = val
+    else:
+        members, mline, mp = body, gm.line_of(name), gp
+    if not isinstance(members, YamlList) or not members:
+        c.error(
+            mline,
+            mp,
+            f"got {_tname(members)}",
+            "a list of axis names, or a mapping {axes: [...], queue_depth, tolerance, "
+            "v_share, blend_share}",
+        )
+        return None
+    ok = True
+    for i, member in enumerate(members):
+        ip = join(mp, i)
+        il = members.line_of(i)
+        if member not in lines:
+            ok = False
+            c.error(
+                il,
+                ip,
+                f"unknown axis {member!r}" if isinstance(member, str) else f"got {_tname(member)}",
+                ", ".join(lines) or "no axis is defined",
+            )
+        elif members.index(member) != i:
+            ok = False
+            c.error(il, ip, f"axis {member!r} is listed twice")
+        elif member in owner:
+            ok = False
+            c.error(
+                il,
+                ip,
+                f"axis {member!r} is already in group {owner[member]!r}",
+                "each axis in at most one group",
+            )
+        elif member in specs and specs[member].modulo is not None:
+            ok = False
+            c.error(
+                il,
+                ip,
+                f"axis {member!r} is a modulo axis (modulo: {_fmt(specs[member].modulo)})",
+                "linear axes (paths need them)",
+            )
+    if not ok:
+        return None
+    tasks = {specs[a].task for a in members if a in specs}
+    if len(tasks) > 1:
+        first = specs[members[0]].task if members[0] in specs else ""
+        for i, member in enumerate(members):
+            if member in specs and specs[member].task != first:
+                c.error(
+                    members.line_of(i),
+                    join(mp, i),
+                    f"axis {member!r} runs in task {specs[member].task!r}, axis "
+                    f"{members[0]!r} in {first!r} (a group steps in one task)",
+                    "member axes of one task",
+                )
+                break
+        return None
+    for member in members:
+        owner[member] = name
+    return GroupSpec(name, tuple(members), **opts)
 
 
 def load_config(path: str | Path) -> Config:
@@ -918,7 +1042,8 @@ class Machine:
         self.config = config
         self.runtime = runtime
         self.axes: dict[str, Axis] = {}
-        self.groups: dict[str, tuple[str, ...]] = config.group_map
+        self.groups: dict[str, tuple[str, ...]] = config.group_map  # name -> member names
+        self.axes_groups: dict[str, AxesGroup] = {}  # name -> the runtime's group
         self.bodies: dict[str, _TaskBody] = {}
         self.peers: dict[str, Any] = {}  # bus name -> simulated drives (VirtualCanBus, server)
         self._closers: list[Callable[[], None]] = []
@@ -1011,6 +1136,8 @@ def build(
             machine.axes[ax.name] = rt.add_axis(
                 ax.name, lim.v_max, lim.a_max, lim.j_max, drive=drive, task=ax.task, **options
             )
+        for g in config.groups:
+            machine.axes_groups[g.name] = rt.add_group(g.name, g.axes, **g.options())
     except BaseException:
         machine.close()
         raise
