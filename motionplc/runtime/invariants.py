@@ -46,6 +46,7 @@ class InvariantChecker:
     def __init__(self) -> None:
         self._fb_prev: dict[int, tuple[bool, bool, bool, bool, bool]] = {}
         self._ax_prev: dict[str, tuple[Any, ...]] = {}
+        self._periods: dict[str, float] = {}  # axis -> period of its task
         self.cycles_checked = 0
 
     def __call__(self, rt: Runtime, cycle: int) -> None:
@@ -105,6 +106,13 @@ class InvariantChecker:
             _fail(cycle, name, "B", "busy rose without a rising edge of execute")
 
     # -- C -----------------------------------------------------------------------------------
+    def _period(self, rt: Runtime, ax: Any) -> float:
+        period = self._periods.get(ax.name)
+        if period is None:
+            period = next((t.period for t in rt.tasks if t.name == ax.task_name), rt.cycle)
+            self._periods[ax.name] = period
+        return period
+
     def _check_axis(self, rt: Runtime, ax: Any, cycle: int) -> None:
         cfg = ax.cfg
         state = ax.state
@@ -133,6 +141,9 @@ class InvariantChecker:
         if S.DISABLED in (state, pstate) or poff != ax.offset:
             return  # power off / coordinate shift: no continuity requirement
         dt = rt.cycle * (cycle - pcycle)  # ticks may have been skipped after an overrun
+        # the set values change once per cycle of the axis' task (its period may be several
+        # base ticks): the change since the last check spans up to one task period
+        dt = max(dt, self._period(rt, ax))
         k = 1.0 if no_override and pno else 4.0
         amax = k * max(cfg.a_max, a_neg)
         dp_max = max(abs(pv), abs(ax.v)) * dt + amax * dt * dt + 1e-9 * (1 + abs(ax.p))
