@@ -1,9 +1,14 @@
 """The ``motionplc`` command line.
 
-``motionplc run CONFIG [SEQUENCE|PROGRAM]``, ``validate``, ``plot``, ``drives``, ``plan``. Exit
-codes: 0 success, 1 the run failed (an expectation, an FB or axis error, a timeout), 2 invalid
-input (configuration, sequence or program errors: one line each, ``FILE:LINE: key.path:
-problem (allowed: ...)``).
+``motionplc run CONFIG [SEQUENCE|PROGRAM|GCODE] [--group NAME]``, ``validate``, ``plot``,
+``drives``, ``plan``. Exit codes: 0 success, 1 the run failed (an expectation, an FB or axis
+error, a timeout), 2 invalid input (configuration, sequence, program or G-code errors: one line
+each, ``FILE:LINE: key.path: problem (allowed: ...)`` or ``FILE:LINE: WORD: ...``).
+
+A G-code program (``.ngc``, ``.nc``, ``.gcode``, ``.tap``) runs on the configured axes group
+(the only one, or ``--group NAME``) through :class:`motionplc.gcode_runner.GcodeRunner`; every
+move it cannot run is reported before the first cycle. ``--trace`` also writes the groups
+sidecar (``TRACE.groups.json``) that ``motionplc plot`` reads.
 
 A failed run prints one ``FAILED:`` line per failure on stderr; an FB that failed because its
 axis went to ErrorStop names the axis' error, code and reason (``... failed with
@@ -141,8 +146,14 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 
 
 # ---------------------------------------------------------------------------- run / validate
-def _load_script(path: str, config: Any) -> Any:
-    """Validate a sequence or load a program before anything is built."""
+def _load_script(path: str, config: Any, group: str | None = None) -> Any:
+    """Validate a sequence, load a program or parse a G-code file before anything is built."""
+    from motionplc.gcode_runner import is_gcode, load_gcode_job
+
+    if is_gcode(path):
+        return load_gcode_job(path, config, group)
+    if group is not None:
+        raise MotionPlcError(f"{path}: --group: only for G-code programs (.ngc, .nc, ...)")
     if Path(path).suffix == ".py":
         from motionplc.program import load_program
 
@@ -162,8 +173,18 @@ def _cmd_validate(args: argparse.Namespace) -> int:
         f"{len(cfg.buses)} buses, tasks: {tasks}"
     )
     if args.script:
-        script = _load_script(args.script, cfg)
-        if hasattr(script, "steps"):
+        script = _load_script(args.script, cfg, args.group)
+        if hasattr(script, "program") and hasattr(script, "group"):  # a G-code job
+            from motionplc.gcode_runner import group_moves
+
+            spec = cfg.group(script.group)
+            limits = [(cfg.axis(a).sw_limit_min, cfg.axis(a).sw_limit_max) for a in spec.axes]
+            moves = group_moves(script.program, [0.0] * len(spec.axes), limits)
+            print(
+                f"{args.script}: ok - {len(script.program)} motion lines, {len(moves)} group "
+                f"moves from the origin on group {script.group!r} ({', '.join(spec.axes)})"
+            )
+        elif hasattr(script, "steps"):
             print(
                 f"{args.script}: ok - {len(script.steps)} steps, {len(script.blocks)} blocks, "
                 f"task {script.task}"
@@ -197,6 +218,15 @@ def _summary(machine: Any, runner: Any) -> list[str]:
             f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} {ax.position:>14.9g} "
             f"{ax.actual_position:>14.9g} {max_fe:>12.3g}"
         )
+    groups = getattr(machine, "axes_groups", {})
+    if groups:
+        lines.append("")
+        lines.append(f"{'group':<10} {'axes':<20} {'moves done':>10} {'final state':<20}")
+        for name, g in groups.items():
+            lines.append(
+                f"{name:<10} {','.join(g.axis_names):<20} {done.get(name, 0):>10} "
+                f"{g.state.name:<20}"
+            )
     lines.append("")
     lines.append(
         f"{'task':<10} {'cycles':>10} {'exec mean':>10} {'exec max':>10} "
@@ -217,7 +247,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from motionplc.sequence import axis_error_text
 
     cfg = load_config(args.config)
-    script = _load_script(args.script, cfg) if args.script else None
+    if args.group is not None and not args.script:
+        print("motionplc: error: --group needs a G-code program", file=sys.stderr)
+        return 2
+    script = _load_script(args.script, cfg, args.group) if args.script else None
     if args.seconds is not None and not args.seconds > 0:
         print("motionplc: error: --seconds must be > 0", file=sys.stderr)
         return 2
@@ -226,7 +259,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     try:
         runner = None
         if script is not None:
-            if hasattr(script, "steps"):
+            if hasattr(script, "program") and hasattr(script, "group"):  # a G-code job
+                from motionplc.gcode_runner import GcodeRunner
+
+                runner = GcodeRunner(script, machine)  # unrunnable moves: GcodeError here
+                task = script.task
+            elif hasattr(script, "steps"):
                 from motionplc.sequence import SequenceRunner
 
                 runner = SequenceRunner(script, machine)
@@ -288,6 +326,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
             path.parent.mkdir(parents=True, exist_ok=True)
             events = path.with_suffix(".events.csv")
             rt.trace.to_csv(path, events_path=events)
+            if rt.groups:
+                from motionplc import scope
+
+                sidecar = scope.write_groups_sidecar(
+                    path, {n: list(g.axis_names) for n, g in rt.groups.items()}
+                )
+                also = f", {events} and {sidecar}"
+            else:
+                also = f" and {events}"
             tr = rt.trace
             kept = ""
             if tr.dropped_rows or tr.dropped_events:
@@ -296,7 +343,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     f"{tr.dropped_events} FB edges dropped by the trace bound of "
                     f"{tr.rows_capacity} rows / {tr.max_bytes / 2**20:g} MiB"
                 )
-            print(f"wrote {path} ({len(tr)} rows{kept}) and {events}")
+            print(f"wrote {path} ({len(tr)} rows{kept}){also}")
         if args.plot:
             from motionplc import scope
 
@@ -313,7 +360,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             for f in failures:
                 print(f"FAILED: {f}", file=sys.stderr)
             return 1
-        if runner is not None:
+        if runner is not None and hasattr(runner, "report"):
+            print(f"ok: {runner.report()}")
+        elif runner is not None:
             print(f"ok: {args.script} finished at t = {t_end:.3f} s, all expectations met")
         else:
             print(f"ok: ran {rt.time:g} s")
@@ -431,9 +480,19 @@ def build_parser() -> argparse.ArgumentParser:
         epilog="exit codes: 0 ok, 1 run failed, 2 invalid configuration/sequence/program",
     )
     sub = parser.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a configuration with a sequence or a Python program")
+    r = sub.add_parser(
+        "run", help="run a configuration with a sequence, a Python program or a G-code program"
+    )
     r.add_argument("config", help="machine configuration (YAML)")
-    r.add_argument("script", nargs="?", help="sequence (.yaml) or Python program (.py)")
+    r.add_argument(
+        "script",
+        nargs="?",
+        help="sequence (.yaml), Python program (.py) or G-code program (.ngc, .nc, .gcode, .tap)",
+    )
+    r.add_argument(
+        "--group",
+        help="the axes group a G-code program runs on (default: the only configured group)",
+    )
     r.add_argument("--realtime", action="store_true", help="wall-clock time instead of simulated")
     r.add_argument(
         "--seconds",
@@ -449,6 +508,7 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("validate", help="check a configuration (and a sequence or program)")
     v.add_argument("config")
     v.add_argument("script", nargs="?")
+    v.add_argument("--group", help="the axes group of a G-code program")
     v.set_defaults(func=_cmd_validate)
     pl = sub.add_parser(
         "plot",
