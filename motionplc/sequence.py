@@ -30,13 +30,30 @@ pins (snake_case PLCopen names); enums by member name (``buffer_mode: BUFFERED``
 target}`` moves the axes of a group so that they start and arrive together (each axis' own
 time-optimal move, time-scaled to the slowest one; the axes must be at rest).
 
+Axes groups (``groups:`` of the configuration; PLCopen Part 4): a group FB takes ``group``
+instead of ``axis``: ``{block: m1, type: MC_MoveLinearAbsolute, group: xyz, position: {x: 0.1,
+y: 0.2, z: 0.0}, velocity: 0.5, buffer_mode: BLENDING_LOW, transition_mode:
+TM_MAX_CORNER_DEVIATION, transition_parameter: 0.001}``. Points (``position``, ``distance``,
+``end_point``, ``aux_point``) are a mapping by member axis (every member exactly once) or a list
+in member order; ``aux_point`` may be a number (the radius, CircMode RADIUS); ``points`` (the
+passing points of MC_MovePassingPoints / MC_MoveBSpline) is a list of points. Enum inputs by
+name (``circ_mode: CENTER``, ``path_choice: CLOCKWISE``). Types: MC_GroupEnable / Disable /
+Reset / Stop / Halt / Interrupt / Continue / SetOverride / ReadStatus / ReadError /
+ReadActualPosition / ReadActualVelocity, MC_MoveLinear* / MC_MoveCircular* / MC_MoveDirect*,
+MC_MovePassingPoints, MC_MoveBSpline (the group's members are fixed by the configuration:
+MC_AddAxisToGroup and its kin are not offered). The members must be powered (MC_Power) before
+MC_GroupEnable. ``{block: st, execute: false}`` lets an Execute FB's input fall (e.g. to end an
+MC_GroupStop's hold) without issuing a command.
+
 Conditions (``until``; several keys must all hold): ``done`` (a block, a list of blocks, or
 ``done`` alone = every block issued in the step), ``time`` (seconds in the step), ``position:
-{x: {min: a, max: b}}``, ``state: {x: STANDSTILL}``. A step without ``until`` waits for its
-blocks (``done``). ``timeout`` of a step fails the run when the condition is not met in time.
-``expect: {x.position: 1.0, x.state: STANDSTILL, mx.done: true, within: 1.0e-6}`` is checked
-when the step's condition holds; a mismatch fails the run with a clear message, as does an FB
-error or an axis going to ErrorStop.
+{x: {min: a, max: b}}``, ``state: {x: STANDSTILL, xyz: GROUP_STANDBY}``. A step without
+``until`` waits for its blocks (``done``). ``timeout`` of a step fails the run when the
+condition is not met in time.
+``expect: {x.position: 1.0, x.state: STANDSTILL, xyz.state: GROUP_STANDBY, mx.done: true,
+within: 1.0e-6}`` is checked when the step's condition holds (groups: ``state``,
+``path_velocity``); a mismatch fails the run with a clear message, as does an FB error, an axis
+going to ErrorStop or a group going to GroupErrorStop.
 """
 
 from __future__ import annotations
@@ -56,6 +73,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "AXIS_FIELDS",
+    "GROUP_FIELDS",
     "Call",
     "Condition",
     "Expectation",
@@ -67,7 +85,12 @@ __all__ = [
 ]
 
 AXIS_FIELDS = ("position", "actual_position", "velocity", "following_error", "state")
+GROUP_FIELDS = ("state", "path_velocity")
 SYNC_MOVE = "SyncMoveAbsolute"
+# group FBs not offered in sequences: the members are fixed by the configuration
+_GROUP_ADMIN = ("MC_AddAxisToGroup", "MC_RemoveAxisFromGroup", "MC_UngroupAllAxes")
+# group FB inputs that are points (one value per member)
+_POINT_PINS = ("position", "distance", "end_point", "aux_point")
 _TOP = {"task": False, "timeout": False, "steps": True}
 _STEP = {
     "name": False,
@@ -87,8 +110,22 @@ def _fb_types() -> dict[str, type]:
     return {n: getattr(blocks, n) for n in blocks.__all__ if n.startswith("MC_")}
 
 
+def _group_fb_types() -> dict[str, type]:
+    from motionplc.blocks import group_blocks
+
+    return {
+        n: getattr(group_blocks, n)
+        for n in group_blocks.__all__
+        if n.startswith("MC_") and n not in _GROUP_ADMIN
+    }
+
+
 def _is_enable_fb(cls: type) -> bool:
     return "enable" in cls.INPUTS  # type: ignore[attr-defined]
+
+
+def _is_number(x: Any) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool)
 
 
 # ------------------------------------------------------------------------ dataclasses
@@ -133,12 +170,13 @@ class Step:
 @dataclass(frozen=True, slots=True)
 class BlockDecl:
     """An FB instance of the sequence: ``type`` (an MC_* name or SyncMoveAbsolute), its axis
-    (or group)."""
+    (or group: ``group`` is True for the Part 4 group FBs)."""
 
     name: str
     type: str
     axis: str
     line: int
+    group: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -156,6 +194,7 @@ class _Parser:
         self.c = c
         self.config = config
         self.types = _fb_types()
+        self.group_types = _group_fb_types()
         self.blocks: dict[str, BlockDecl] = {}
         self.anon = 0
         self.axes = [a.name for a in config.axes]
@@ -244,7 +283,7 @@ class _Parser:
             return None
         decl = self.blocks.get(bname) if isinstance(bname, str) else None
         fb_type = m.get("type")
-        type_names = [*self.types, SYNC_MOVE]
+        type_names = [*self.types, *self.group_types, SYNC_MOVE]
         if decl is None:
             if fb_type is None:
                 c.error(
@@ -262,9 +301,10 @@ class _Parser:
                     ", ".join(type_names),
                 )
                 return None
-            target_key = "group" if fb_type == SYNC_MOVE else "axis"
+            on_group = fb_type == SYNC_MOVE or fb_type in self.group_types
+            target_key = "group" if on_group else "axis"
             target = m.get(target_key)
-            options = list(self.groups) if fb_type == SYNC_MOVE else self.axes
+            options = list(self.groups) if on_group else self.axes
             if target not in options:
                 problem = "missing" if target is None else f"unknown {target_key} {target!r}"
                 c.error(
@@ -277,7 +317,7 @@ class _Parser:
             if bname is None:
                 self.anon += 1
                 bname = f"{fb_type}_{self.anon}"
-            decl = BlockDecl(bname, fb_type, target, m.line)
+            decl = BlockDecl(bname, fb_type, target, m.line, fb_type in self.group_types)
             self.blocks[bname] = decl
         else:
             if fb_type is not None and fb_type != decl.type:
@@ -287,7 +327,7 @@ class _Parser:
                     f"block {bname!r} is a {decl.type} (line {decl.line})",
                     decl.type,
                 )
-            key = "group" if decl.type == SYNC_MOVE else "axis"
+            key = "group" if decl.type == SYNC_MOVE or decl.group else "axis"
             if key in m and m[key] != decl.axis:
                 c.error(
                     m.line_of(key),
@@ -317,11 +357,34 @@ class _Parser:
                     if v is not None:
                         out[a] = v
             return (("position", tuple(out.items())),)
-        cls = self.types[decl.type]
-        pins = [p for p in cls.INPUTS if p not in ("axis", "execute")]  # type: ignore[attr-defined]
-        c.keys(m, path, {k: False for k in ["block", "type", "axis", *pins]})
+        cls = self.group_types[decl.type] if decl.group else self.types[decl.type]
+        ref = "axes_group" if decl.group else "axis"
+        pins = [p for p in cls.INPUTS if p not in (ref, "execute")]  # type: ignore[attr-defined]
+        has_execute = "execute" in cls.INPUTS  # type: ignore[attr-defined]
+        target = "group" if decl.group else "axis"
+        keys = ["block", "type", target, *(["execute"] if has_execute else []), *pins]
+        c.keys(m, path, {k: False for k in keys})
         proto = cls()
         out_inputs: list[tuple[str, Any]] = []
+        if has_execute and "execute" in m:
+            if m["execute"] is not False:
+                c.error(
+                    m.line_of("execute"),
+                    join(path, "execute"),
+                    f"got {_tname(m['execute'])}",
+                    "false (lets Execute fall; a call without it issues the command)",
+                )
+            else:
+                extra = [k for k in m if k not in ("block", "type", target, "execute")]
+                if extra:
+                    c.error(
+                        m.key_lines[extra[0]],
+                        join(path, extra[0]),
+                        "inputs are latched at Execute's rising edge, not with execute: false",
+                        f"block, type, {target}, execute",
+                    )
+                out_inputs.append(("execute", False))
+        members = self.groups.get(decl.axis, ()) if decl.group else ()
         for pin in pins:
             if pin not in m:
                 continue
@@ -329,7 +392,20 @@ class _Parser:
             val = m[pin]
             line = m.line_of(pin)
             p = join(path, pin)
-            if isinstance(default, bool):
+            if decl.group and pin in _POINT_PINS:
+                if pin == "aux_point" and _is_number(val):
+                    val = (float(val),)  # the radius (CircMode RADIUS)
+                else:
+                    pt = self.point(val, line, p, members)
+                    if pt is None:
+                        continue
+                    val = pt
+            elif decl.group and pin == "points":
+                pts = self.points(val, line, p, members)
+                if pts is None:
+                    continue
+                val = pts
+            elif isinstance(default, bool):
                 if not isinstance(val, bool):
                     c.error(line, p, f"got {_tname(val)}", "true, false")
                     continue
@@ -347,6 +423,61 @@ class _Parser:
                 val = num
             out_inputs.append((pin, val))
         return tuple(out_inputs)
+
+    def point(
+        self, val: Any, line: int, path: str, members: tuple[str, ...]
+    ) -> tuple[float, ...] | None:
+        """A group point: ``{axis: value}`` with every member once, or a list in member
+        order; None (and an error) otherwise."""
+        c = self.c
+        allowed = (
+            "{" + ", ".join(f"{a}: ..." for a in members) + "} (every member once) or a list "
+            f"of {len(members)} numbers in member order"
+        )
+        if isinstance(val, YamlMap):
+            pm = c.mapping(val, line, path, {a: True for a in members})
+            if pm is None or any(a not in pm for a in members) or any(k not in members for k in pm):
+                return None
+            out = []
+            for a in members:
+                v = c.number(pm, a, path, None, ge=-1e12, le=1e12)
+                if v is None:
+                    return None
+                out.append(v)
+            return tuple(out)
+        if isinstance(val, YamlList):
+            if len(val) != len(members):
+                c.error(line, path, f"got a list of {len(val)} values", allowed)
+                return None
+            out = []
+            for i, x in enumerate(val):
+                if not _is_number(x) or not abs(float(x)) <= 1e12:
+                    c.error(
+                        val.line_of(i),
+                        join(path, i),
+                        f"got {_tname(x)}",
+                        "a number >= -1e+12 and <= 1e+12",
+                    )
+                    return None
+                out.append(float(x))
+            return tuple(out)
+        c.error(line, path, f"got {_tname(val)}", allowed)
+        return None
+
+    def points(
+        self, val: Any, line: int, path: str, members: tuple[str, ...]
+    ) -> tuple[tuple[float, ...], ...] | None:
+        """A non-empty list of group points."""
+        if not isinstance(val, YamlList) or not val:
+            self.c.error(line, path, f"got {_tname(val)}", "a non-empty list of points")
+            return None
+        out = []
+        for i, item in enumerate(val):
+            pt = self.point(item, val.line_of(i), join(path, i), members)
+            if pt is None:
+                return None
+            out.append(pt)
+        return tuple(out)
 
     def condition(self, m: YamlMap, path: str, has_calls: bool) -> Condition:
         c = self.c
@@ -405,14 +536,20 @@ class _Parser:
                     )
         states = []
         if "state" in cm:
-            from motionplc.blocks import AxisState
+            from motionplc.blocks.enums import AxisState, GroupState
 
             sp = join(up, "state")
-            sm2 = c.mapping(cm["state"], cm.line_of("state"), sp, {a: False for a in self.axes})
+            sm2 = c.mapping(
+                cm["state"],
+                cm.line_of("state"),
+                sp,
+                {a: False for a in [*self.axes, *self.groups]},
+            )
             names = tuple(s.name for s in AxisState)
+            gnames = tuple(s.name for s in GroupState)
             for a in sm2 or {}:
-                if a in self.axes:
-                    st = c.choice(sm2, a, sp, names, None)
+                if a in self.axes or a in self.groups:
+                    st = c.choice(sm2, a, sp, names if a in self.axes else gnames, None)
                     if st is not None:
                         states.append((a, st))
         return Condition(done, t, tuple(positions), tuple(states))
@@ -426,7 +563,10 @@ class _Parser:
         within = c.number(em, "within", ep, 1e-6, ge=0.0)
         within = 1e-6 if within is None else within
         out = []
-        allowed_axes = ", ".join(f"{a}.{f}" for a in self.axes for f in AXIS_FIELDS)
+        allowed_axes = ", ".join(
+            [f"{a}.{f}" for a in self.axes for f in AXIS_FIELDS]
+            + [f"{g}.{f}" for g in self.groups for f in GROUP_FIELDS]
+        )
         for key, val in em.items():
             if key == "within":
                 continue
@@ -446,6 +586,25 @@ class _Parser:
                     from motionplc.blocks import AxisState
 
                     names = tuple(s.name for s in AxisState)
+                    if val not in names:
+                        c.error(line, kp, f"got {_tname(val)}", ", ".join(names))
+                        continue
+                elif isinstance(val, bool) or not isinstance(val, (int, float)):
+                    c.error(line, kp, f"got {_tname(val)}", "a number")
+                    continue
+            elif obj in self.groups:
+                if attr not in GROUP_FIELDS:
+                    c.error(
+                        em.key_lines[key],
+                        kp,
+                        f"unknown group field {attr!r}",
+                        ", ".join(GROUP_FIELDS),
+                    )
+                    continue
+                if attr == "state":
+                    from motionplc.blocks.enums import GroupState
+
+                    names = tuple(s.name for s in GroupState)
                     if val not in names:
                         c.error(line, kp, f"got {_tname(val)}", ", ".join(names))
                         continue
@@ -641,7 +800,7 @@ class SequenceRunner:
     def __init__(self, sequence: Sequence, machine: Machine) -> None:
         self.sequence = sequence
         self.machine = machine
-        self.types = _fb_types()
+        self.types = {**_fb_types(), **_group_fb_types()}
         self.blocks: dict[str, _Block | _SyncBlock] = {}
         self._scan_order: list[_Block] = []
         for decl in sequence.blocks:
@@ -662,8 +821,11 @@ class SequenceRunner:
 
     def _make(self, decl: BlockDecl) -> _Block:
         cls = self.types[decl.type]
-        ax = self.machine.axes[decl.axis]
-        fb = cls(name=f"{decl.axis}.{decl.name}", axis=ax)
+        if decl.group:
+            group = self.machine.axes_groups[decl.axis]
+            fb = cls(name=f"{decl.axis}.{decl.name}", axes_group=group)
+        else:
+            fb = cls(name=f"{decl.axis}.{decl.name}", axis=self.machine.axes[decl.axis])
         blk = _Block(decl, fb, _is_enable_fb(cls))
         self._scan_order.append(blk)
         return blk
@@ -724,12 +886,20 @@ class SequenceRunner:
                 eid = fb.error_id
                 text = f": {fb.error_text}" if fb.error_text else ""
                 # an FB that failed because its axis stopped names the axis' own error
-                ax = self.machine.axes[blk.decl.axis]
                 cause = ""
-                if eid is ErrorID.AXIS_ERROR_STOP and ax.axis_error is not ErrorID.OK:
-                    cause = f": axis {blk.decl.axis!r}: {axis_error_text(ax)}"
+                if blk.decl.group:
+                    group = self.machine.axes_groups[blk.decl.axis]
+                    bad = [a for a in group.axes if a.axis_error is not ErrorID.OK]
+                    if eid is ErrorID.AXIS_ERROR_STOP and bad:
+                        cause = f": axis {bad[0].name!r}: {axis_error_text(bad[0])}"
+                    where = f"group {blk.decl.axis!r}"
+                else:
+                    ax = self.machine.axes[blk.decl.axis]
+                    if eid is ErrorID.AXIS_ERROR_STOP and ax.axis_error is not ErrorID.OK:
+                        cause = f": axis {blk.decl.axis!r}: {axis_error_text(ax)}"
+                    where = f"axis {blk.decl.axis!r}"
                 self._fail(
-                    f"block {blk.decl.name!r} ({blk.decl.type} on axis {blk.decl.axis!r}, "
+                    f"block {blk.decl.name!r} ({blk.decl.type} on {where}, "
                     f"line {blk.decl.line}) failed with {eid.name} (0x{int(eid):04X}){text} "
                     f"at t = {self.t:.3f} s in {self._where(self.root)}{cause}"
                 )
@@ -739,6 +909,16 @@ class SequenceRunner:
                 self._fail(
                     f"axis {name!r} went to ERROR_STOP at t = {self.t:.3f} s "
                     f"({axis_error_text(ax)}) in {self._where(self.root)}"
+                )
+                return
+        from motionplc.blocks.enums import GroupState
+
+        for name, g in self.machine.axes_groups.items():
+            if g.state is GroupState.GROUP_ERROR_STOP:
+                self._fail(
+                    f"group {name!r} went to GROUP_ERROR_STOP at t = {self.t:.3f} s "
+                    f"({g.error_id.name} (0x{int(g.error_id):04X}): {g.error_reason}) in "
+                    f"{self._where(self.root)}"
                 )
                 return
 
@@ -755,6 +935,10 @@ class SequenceRunner:
             inputs = dict(call.inputs)
             if isinstance(blk, _SyncBlock):
                 blk.issue(dict(inputs.get("position", ())))
+            elif inputs.get("execute") is False:
+                blk.pending["execute"] = False  # Execute falls: no command, nothing to wait for
+                blk.low_first = False
+                continue
             else:
                 _issue(blk, inputs)
             cur.issued.append(call.block)
@@ -798,9 +982,15 @@ class SequenceRunner:
             if not lo <= axes[a].position <= hi:
                 return False
         for a, state in u.states:
-            if axes[a].state.name != state:
+            if self._state(a) != state:
                 return False
         return True
+
+    def _state(self, name: str) -> str:
+        """State name of an axis or a group."""
+        if name in self.machine.axes:
+            return self.machine.axes[name].state.name
+        return self.machine.axes_groups[name].state.name
 
     def _describe(self, cur: _Cursor, st: Step) -> str:
         u = st.until
@@ -814,7 +1004,7 @@ class SequenceRunner:
             if not lo <= p <= hi:
                 parts.append(f"{a}.position = {p:.6g} not in [{lo:g}, {hi:g}]")
         for a, state in u.states:
-            s = self.machine.axes[a].state.name
+            s = self._state(a)
             if s != state:
                 parts.append(f"{a}.state = {s}, waiting for {state}")
         return "; ".join(parts) or "time"
@@ -832,6 +1022,9 @@ class SequenceRunner:
             if attr == "velocity":
                 return ax.v
             return ax.following_error
+        if obj in self.machine.axes_groups and obj not in self.blocks:
+            g = self.machine.axes_groups[obj]
+            return g.state.name if attr == "state" else g.path_velocity
         blk = self.blocks[obj]
         fb = blk.fb if isinstance(blk, _Block) else None
         if fb is None:
