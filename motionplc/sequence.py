@@ -284,13 +284,20 @@ class _Parser:
         decl = self.blocks.get(bname) if isinstance(bname, str) else None
         fb_type = m.get("type")
         type_names = [*self.types, *self.group_types, SYNC_MOVE]
+        # the types to suggest: those of the call's target (axis or group), else all
+        if "group" in m and "axis" not in m:
+            shown = [*self.group_types, SYNC_MOVE]
+        elif "axis" in m and "group" not in m:
+            shown = [*self.types, SYNC_MOVE]
+        else:
+            shown = type_names
         if decl is None:
             if fb_type is None:
                 c.error(
                     m.line,
                     join(path, "type"),
                     "missing (first use of the block)",
-                    ", ".join(type_names),
+                    ", ".join(shown),
                 )
                 return None
             if fb_type not in type_names:
@@ -298,7 +305,7 @@ class _Parser:
                     m.line_of("type"),
                     join(path, "type"),
                     f"got {_tname(fb_type)}",
-                    ", ".join(type_names),
+                    ", ".join(shown),
                 )
                 return None
             on_group = fb_type == SYNC_MOVE or fb_type in self.group_types
@@ -362,8 +369,16 @@ class _Parser:
         pins = [p for p in cls.INPUTS if p not in (ref, "execute")]  # type: ignore[attr-defined]
         has_execute = "execute" in cls.INPUTS  # type: ignore[attr-defined]
         target = "group" if decl.group else "axis"
-        keys = ["block", "type", target, *(["execute"] if has_execute else []), *pins]
-        c.keys(m, path, {k: False for k in keys})
+        keys = ["block", "type", target, *pins]
+        checked = m
+        if has_execute and "execute" in m:  # accepted, documented, not listed among the inputs
+            checked = YamlMap()
+            checked.line = m.line
+            for k in m:
+                if k != "execute":
+                    checked[k] = m[k]
+                    checked.key_lines[k] = m.key_lines[k]
+        c.keys(checked, path, {k: False for k in keys})
         proto = cls()
         out_inputs: list[tuple[str, Any]] = []
         if has_execute and "execute" in m:
