@@ -414,6 +414,9 @@ class Axis:
             return
         if self.mq.active is not None:  # ErrorStop ramp still running: wait for standstill
             return
+        group = self.group
+        if group is not None and group.moving:  # its group still brakes it along the path
+            return
         self.axis_error = ErrorID.OK
         self.axis_error_reason = ""
         if self.power_request and self.drive_enabled:

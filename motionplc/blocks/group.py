@@ -190,6 +190,7 @@ class AxesGroup:
         self._interrupted: list[Link] = []  # the rest of an interrupted path
         self._interrupt_jobs: list[_GJob] = []
         self.override = 1.0
+        self._off = False  # a member is Disabled (switched off): it is not written
         self.path_velocity = 0.0
         self.path_s = 0.0  # distance travelled along paths since the start
         for ax in axes:
@@ -274,8 +275,9 @@ class AxesGroup:
 
     @property
     def enabled(self) -> bool:
-        """Not GroupDisabled: the members take no single-axis motion commands."""
-        return self.state is not G.GROUP_DISABLED
+        """Not GroupDisabled, or still braking after MC_GroupDisable: the members take no
+        single-axis motion commands."""
+        return self.state is not G.GROUP_DISABLED or self.moving
 
     @property
     def moving(self) -> bool:
@@ -315,11 +317,27 @@ class AxesGroup:
     def disable(self) -> Handle:
         """MC_GroupDisable: aborts group motion (members keep their set position)."""
         h = Handle("group_disable")
-        self._abort_all(Status.ABORTED, ErrorID.OK)
-        for ax in self.axes:
-            ax.v = ax.a = ax.j = 0.0
-            if ax.state is S.SYNCHRONIZED_MOTION:
-                ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
+        if self.moving:
+            # the motion is aborted with a controlled stop along the path (no velocity jump of
+            # the powered members); the group is GroupDisabled at once and brakes to rest
+            for job in self.mq.inbox:
+                job.handle._finish(Status.ABORTED)
+            self.mq.inbox.clear()
+            for j in self._interrupt_jobs:
+                j.handle._finish(Status.ABORTED)
+            self._interrupted, self._interrupt_jobs = [], []
+            self._path_stop(abort=True, status=Status.ABORTED)
+            for st in self.mq.stops:
+                st._finish(Status.ABORTED)
+            self.mq.stops.clear()
+            if self._stop_job is not None:
+                self._stop_job.handle._finish(Status.ABORTED)
+                self._stop_job = None
+        else:
+            self._abort_all(Status.ABORTED, ErrorID.OK)
+            for ax in self.axes:
+                if ax.state is S.SYNCHRONIZED_MOTION:
+                    ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
         self.state = next_state(GroupEvent.DISABLE, self.state)
         self.error_id = ErrorID.OK
         self.error_reason = ""
@@ -418,6 +436,10 @@ class AxesGroup:
     def _step(self, dt: float) -> None:
         if self.state is G.GROUP_DISABLED:
             self.mq.inbox.clear()
+            if self.chain.links:  # the stop of MC_GroupDisable
+                self._advance(dt)
+                if not self.chain.links:
+                    self._settle_members(False)
             return
         self._supervise()
         if self.mq.inbox:
@@ -434,6 +456,7 @@ class AxesGroup:
 
     def _supervise(self) -> None:
         """A member axis in ErrorStop (or switched off) stops the group along the path."""
+        self._off = any(ax.state is S.DISABLED for ax in self.axes)
         if self.state is G.GROUP_ERROR_STOP:
             for ax in self.axes:
                 self._take_over(ax)
@@ -493,15 +516,19 @@ class AxesGroup:
         self.state = G.GROUP_ERROR_STOP
         self.error_reason = self.error_reason or reason
 
+    def _settle_members(self, moving: bool) -> None:
+        """Members in SynchronizedMotion exactly while the group moves them."""
+        for ax in self.axes:
+            if ax.state is S.STANDSTILL and moving:
+                ax.state = next_axis_state(AxisEvent.GROUP_MOTION, ax.state)
+            elif ax.state is S.SYNCHRONIZED_MOTION and not self.chain.links:
+                ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
+
     def _settle(self) -> None:
         """State changes at the end of the group's step."""
         st = self.state
         moving = bool(self.chain.links)
-        for ax in self.axes:
-            if ax.state is S.STANDSTILL and moving and st is not G.GROUP_ERROR_STOP:
-                ax.state = next_axis_state(AxisEvent.GROUP_MOTION, ax.state)
-            elif ax.state is S.SYNCHRONIZED_MOTION and not moving:
-                ax.state = next_axis_state(AxisEvent.GROUP_DONE, ax.state)
+        self._settle_members(moving and st is not G.GROUP_ERROR_STOP)
         if moving or self.mq.inbox:
             return
         if st is G.GROUP_MOVING:
@@ -535,8 +562,12 @@ class AxesGroup:
                 job.handle.status = Status.ACTIVE
                 self._stop_job = job
                 continue
-            if job.cmd.mode is BufferMode.ABORTING and self.moving:
+            if self._interrupted or self._interrupt_jobs:
+                # a new move discards the interrupted path (MC_GroupContinue has nothing left)
+                for j in self._interrupt_jobs:
+                    j.handle._finish(Status.ABORTED)
                 self._interrupted, self._interrupt_jobs = [], []
+            if job.cmd.mode is BufferMode.ABORTING and self.moving:
                 self._path_stop(abort=True, status=Status.ABORTED)
             try:
                 self._append(job)
@@ -588,8 +619,13 @@ class AxesGroup:
                 job.links = [lk]
                 self._connect(job, [lk])
                 return
-            if not segs:  # zero-length move: done at once
+            if not segs:  # zero-length move: done at once, or when the group gets there
                 job.end = target
+                links = self.chain.links
+                if links and cmd.mode is not BufferMode.ABORTING:
+                    last = links[-1]
+                    last.followers = [*(last.followers or ()), job]
+                    return
                 job.handle.status = Status.ACTIVE
                 job.handle._finish(Status.DONE)
                 return
@@ -653,8 +689,8 @@ class AxesGroup:
         base = pc._base if isinstance(pc, SubPiece) else pc  # noqa: SLF001
         share = self.cfg.blend_share if isinstance(base, BlendPiece) else self.cfg.v_share
         V, A, J = path_caps(pc, vm, am, jm, vp, min(ap, dp), jp, share)
-        Aa = A if ap == _INF else min(A, ap / (max(pc.b1) or 1.0))
-        Ad = A if dp == _INF else min(A, dp / (max(pc.b1) or 1.0))
+        Aa = A if ap == _INF else min(A, ap / pc.gmax)
+        Ad = A if dp == _INF else min(A, dp / pc.gmax)
         A_acc, A_dec = max(A, Aa), max(A, Ad)
         A_acc = min(A_acc, Aa) if ap != _INF else A_acc
         A_dec = min(A_dec, Ad) if dp != _INF else A_dec
@@ -1069,7 +1105,7 @@ class AxesGroup:
             self._cut(links[1:], [lk0], keep, status, eid, reason)
             return
         st = self._state_on(lk0)
-        a_dec = lk0.A_dec if not dec else min(lk0.A_dec, dec / (max(lk0.piece.b1) or 1.0))
+        a_dec = lk0.A_dec if not dec else min(lk0.A_dec, dec / lk0.piece.gmax)
         lim = Limits(v_max=_INF, a_max=lk0.A_acc, j_max=lk0.J, v_min=-_INF, a_min=-a_dec)
         prof = plan_velocity(st, 0.0, lim)
         U = lk0.piece.U
@@ -1201,7 +1237,8 @@ class AxesGroup:
                 self._tau = 0.0
                 self.path_velocity = 0.0
                 for ax in self.axes:
-                    ax.v = ax.a = ax.j = 0.0
+                    if ax.state is not S.DISABLED:
+                        ax.v = ax.a = ax.j = 0.0
                 if self._stop_job is not None:
                     self._stop_job.handle._finish(Status.DONE)
                     self._stop_job = None
@@ -1242,6 +1279,8 @@ class AxesGroup:
             vel = tuple(x * e.v for x in d1)
         self.path_s += lk.piece.length if sampled is None else 0.0
         for ax, p, v in zip(self.axes, end, vel, strict=True):
+            if ax.state is S.DISABLED:
+                continue
             ax.p = p
             ax.v = v
             ax.a = ax.j = 0.0
@@ -1254,28 +1293,21 @@ class AxesGroup:
                     mq.active = None
                 else:
                     mq.remove(job)
+        for job in lk.followers or ():  # zero-length moves queued behind this piece
+            job.handle.status = Status.ACTIVE
+            job.handle._finish(Status.DONE)
 
     def _sample(self, lk: Link, tau: float) -> None:
         sampled = lk.sampled
         axes = self.axes
         if sampled is not None:
-            if sampled.kind == "direct":
-                sp = 0.0
-                for ax, prof in zip(axes, sampled.traj.profiles, strict=True):
-                    s = prof.at(tau)
+            sp = 0.0
+            for ax, prof in zip(axes, sampled.traj.profiles, strict=True):
+                s = prof.at(tau)
+                sp += s.v * s.v
+                if ax.state is not S.DISABLED:  # a member switched off is not moved
                     ax.p, ax.v, ax.a, ax.j = s.p, s.v, s.a, s.j
-                    sp += s.v * s.v
-                self.path_velocity = math.sqrt(sp)
-            else:
-                s = sampled.traj.at(tau)
-                sp = 0.0
-                for i, ax in enumerate(axes):
-                    ax.p = float(s.p[i])
-                    ax.v = float(s.v[i])
-                    ax.a = float(s.a[i])
-                    ax.j = float(s.j[i])
-                    sp += ax.v * ax.v
-                self.path_velocity = math.sqrt(sp)
+            self.path_velocity = math.sqrt(sp)
             return
         prof = lk.profile
         assert prof is not None
@@ -1283,13 +1315,16 @@ class AxesGroup:
         P, D1, D2, D3 = lk.piece.at(u)
         du2 = du * du
         sp = 0.0
+        off = self._off
         for ax, p, d1, d2, d3 in zip(axes, P, D1, D2, D3, strict=True):
-            ax.p = p
             v = d1 * du
+            sp += v * v
+            if off and ax.state is S.DISABLED:
+                continue  # a member switched off is not moved (it follows its actual position)
+            ax.p = p
             ax.v = v
             ax.a = d1 * ddu + d2 * du2
             ax.j = d1 * dddu + 3.0 * d2 * du * ddu + d3 * du2 * du
-            sp += v * v
         self.path_velocity = math.sqrt(sp)
 
     # -- diagnostics -----------------------------------------------------------------------

@@ -117,6 +117,7 @@ class Link:
     full_length: float = 0.0  # the programmed length of the move's segment
     stopping: bool = False  # the piece brakes to rest (a path stop)
     stale: bool = False  # the piece changed under its running profile
+    followers: Any = None  # the owner's commands that end with this piece (zero-length moves)
 
     def limits(self) -> Limits:
         """The planner limits of the piece (parameter units)."""

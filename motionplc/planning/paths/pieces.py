@@ -60,7 +60,7 @@ class Piece:
     start and at the end: path speed = ``g du`` there), ``start``, ``end`` (points).
     """
 
-    __slots__ = ("dim", "U", "length", "b1", "b2", "b3", "g0", "g1", "start", "end")
+    __slots__ = ("dim", "U", "length", "b1", "b2", "b3", "g0", "g1", "gmax", "start", "end")
 
     dim: int
     U: float
@@ -70,6 +70,7 @@ class Piece:
     b3: Vec
     g0: float
     g1: float
+    gmax: float  # an upper bound of |p'| over the piece (path speed = |p'| du)
     start: Vec
     end: Vec
 
@@ -127,6 +128,7 @@ class LinePiece(Piece):
         self._zero = (0.0,) * self.dim
         self.b1 = tuple(abs(x) for x in self._d)
         self.b2 = self.b3 = self._zero
+        self.gmax = 1.0
         self._finish()
 
     @classmethod
@@ -178,6 +180,7 @@ class CircularPiece(Piece):
         self.b1 = tuple(r * k * wi + abs(c * k * ni) for wi, ni in zip(w, self._n, strict=True))
         self.b2 = tuple(r * k * k * wi for wi in w)
         self.b3 = tuple(r * k**3 * wi for wi in w)
+        self.gmax = 1.0  # arc length
         self._finish()
         if self._exact_end is not None:
             self.end = self._exact_end
@@ -257,6 +260,10 @@ class BlendPiece(Piece):
         absd = np.abs(_SA[1:, :, None] * ta_a + _SB[1:, :, None] * tb_a)  # (4, samples, dim)
         self._absd = absd
         self.b1, self.b2, self.b3 = self._bounds(0, _BLEND_SAMPLES - 1)
+        speed = np.linalg.norm(_SA[1][:, None] * ta_a + _SB[1][:, None] * tb_a, axis=1)
+        half = 0.5 / (_BLEND_SAMPLES - 1)
+        acc = np.linalg.norm(absd[1], axis=1).max()  # bounds |d^2 p / d sigma^2|
+        self.gmax = float(speed.max() + half * acc * 1.01) * self._scale[1] * (1.0 + _BOUND_MARGIN)
         self._finish()
         # arc length: Gauss-Legendre on |p'| (a smooth integrand)
         sg = 0.5 * (_GL_X + 1.0)
@@ -343,6 +350,7 @@ class SubPiece(Piece):
         self.dim = base.dim
         self.U = float(u1) - float(u0)
         self.b1, self.b2, self.b3 = bounds
+        self.gmax = base.gmax
         self._finish()
         if u1 >= base.U:
             self.end = base.end
@@ -387,6 +395,8 @@ class CurvePiece(Piece):
         self.b1 = tuple(float(x) * m for x in b[0] + 0.5 * step * b[1] * 1.01)
         self.b2 = tuple(float(x) * m for x in b[1] + 0.5 * step * b[2] * 1.01)
         self.b3 = tuple(float(x) * m for x in b[2] + 0.5 * d3 * 1.01)
+        sp = np.linalg.norm(ders[1], axis=1).max()
+        self.gmax = float(sp + 0.5 * step * np.linalg.norm(b[1]) * 1.01) * m
         self._finish()
         speed = np.linalg.norm(ders[1], axis=1)
         self.length = (
@@ -430,7 +440,8 @@ def path_caps(
 ) -> tuple[float, float, float]:
     """Constant caps ``(V, A, J)`` of ``du, |ddu|, |dddu|`` on ``piece`` that keep every axis
     within its limits (the inequalities of the module docstring), and within the programmed
-    path speed, acceleration and jerk (``v_prog`` etc.; converted with the largest ``|p'|``).
+    path speed, acceleration and jerk (``v_prog`` etc.; converted with the bound of ``|p'|``,
+    1 on the arc-length pieces).
 
     ``V`` is the highest speed at which the curvature terms use at most ``v_share`` of every
     axis' acceleration and jerk budget (``B2 V^2 <= v_share a``, ``B3 V^3 <= v_share j``): at
@@ -440,7 +451,7 @@ def path_caps(
     ``3 B2 V A``; ``J`` the rest. On straight pieces (``B2 = B3 = 0``) the whole budgets go to
     ``A`` and ``J``. All caps are > 0 (a PlanningError if a limit leaves no motion).
     """
-    gmax = max(piece.b1) or 1.0
+    gmax = piece.gmax
     V = v_prog / gmax if v_prog != math.inf else math.inf
     for b1, b2, b3, v, a, j in zip(piece.b1, piece.b2, piece.b3, v_max, a_max, j_max, strict=True):
         if b1 > 0.0:
