@@ -233,7 +233,8 @@ def group_moves(
     split arcs join tangentially), each move's last call ends exactly at the resolved end
     point, no move is skipped except zero-length ones (listed in ``skipped``). Raises one
     :class:`~motionplc.gcode.GcodeError` listing every move that cannot be expressed or run
-    (``FILE:LINE: WORD: ...``), or the resolver's first geometric error.
+    (``FILE:LINE: WORD: ...``) up to the resolver's first geometric error (listed last: the
+    moves after it have no defined start).
     """
     dim = len(program.axes)
     names = program.axes
@@ -241,7 +242,17 @@ def group_moves(
     out: list[GroupMove] = []
     errors: list[str] = []
     prev: GcodeMove | None = None
-    for index, mv in enumerate(program.moves(start, skipped=skipped)):
+    resolved = program.moves(start, skipped=skipped)
+    index = -1
+    while True:
+        try:
+            mv = next(resolved)
+        except StopIteration:
+            break
+        except GcodeError as exc:  # a geometric error: the moves after it have no start
+            errors.extend(exc.errors)
+            break
+        index += 1
         word = _WORD[mv.kind]
         where = f"{program.path}:{mv.line}: {word}"
         mode, tm, tp = _transition(prev)
@@ -571,8 +582,7 @@ class GcodeRunner:
                 return
             self.start = pos
             self.lines_total = len({m.index for m in self.moves})
-        self.phase = "run"
-        self._run()
+        self.phase = "run"  # the moves start in this cycle (__call__ goes on to _run)
 
     def _slot(self, kind: str) -> _Slot:
         free = self._free[kind]
