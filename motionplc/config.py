@@ -957,7 +957,7 @@ def _parse_group(
         c.error(
             mline,
             mp,
-            f"got {_tname(members)}",
+            "got an empty list" if isinstance(members, list) else f"got {_tname(members)}",
             "a list of axis names, or a mapping {axes: [...], queue_depth, tolerance, "
             "v_share, blend_share}",
         )
