@@ -3,12 +3,14 @@ axis ``w`` (not a member, for MC_AddAxisToGroup), an MC_Reset per axis, and a cy
 checks, every cycle, the group state against its members' states (independently of the
 kernel's own bookkeeping):
 
-* GroupMoving only while the group moves its members; GroupStandby and GroupDisabled only at
-  rest (``AxesGroup.moving``: a path piece is running or queued);
-* a member of an enabled group (not GroupDisabled) is in Standstill or SynchronizedMotion, or in
-  ErrorStop / Disabled (its own fault, its power switched off) -- never in a single-axis motion
-  state; SynchronizedMotion exactly while the group moves (members that are not faulted);
-* no member of a GroupDisabled group is in SynchronizedMotion;
+* GroupMoving only while the group moves its members, GroupStandby only at rest
+  (``AxesGroup.moving``: a path piece is running or queued); GroupDisabled at rest, or braking
+  along the path after MC_GroupDisable;
+* a member of a group that is enabled or still braking is in Standstill or
+  SynchronizedMotion, or in ErrorStop / Disabled (its own fault, its power switched off) --
+  never in a single-axis motion state; SynchronizedMotion exactly while the group moves
+  (members that are not faulted);
+* no member of a GroupDisabled group at rest is in SynchronizedMotion;
 * every member's set velocity, acceleration and jerk within its limits (the runtime's
   invariants check v and a, and the acceleration step per cycle, not the jerk value).
 """
@@ -43,7 +45,7 @@ def check_group_consistency(rt: Runtime, cycle: int) -> None:
         st, moving = g.state, g.moving
         if st is G.GROUP_MOVING and not moving:
             raise GroupStateError(f"cycle {cycle}: {g.name} in GroupMoving at rest")
-        if st in (G.GROUP_STANDBY, G.GROUP_DISABLED) and moving:
+        if st is G.GROUP_STANDBY and moving:
             raise GroupStateError(f"cycle {cycle}: {g.name} in {st.name} while moving")
         for ax in g.axes:
             s = ax.state
@@ -56,7 +58,7 @@ def check_group_consistency(rt: Runtime, cycle: int) -> None:
             ):
                 if abs(x) > hi * (1.0 + 1e-9) + 1e-12:
                     raise GroupStateError(f"{who}: |{what}| = {abs(x)!r} > {hi}")
-            if st is G.GROUP_DISABLED:
+            if st is G.GROUP_DISABLED and not moving:
                 if s is S.SYNCHRONIZED_MOTION:
                     raise GroupStateError(f"{who} in SynchronizedMotion")
                 continue
@@ -105,6 +107,10 @@ class StateBench(GroupBench):
         assert r.done, (name, r.error_id, r.error_text)
         r.execute = False
         self.run(1)
+
+    def edges(self, fb: Any, output: str) -> list[tuple[int, bool]]:
+        """(cycle, value) of every change of ``fb.output`` in the trace."""
+        return self.rt.trace.edges(fb.name, output)
 
     def states(self) -> dict[str, AxisState]:
         return {n: ax.state for n, ax in self.rt.axes.items()}
