@@ -13,9 +13,9 @@ cycle, the same outcome interface as the sequence and Python-program runners):
    the run before any motion).
 3. **Moves**: every G-code move becomes one group FB call (an ``MC_MoveLinearAbsolute`` or an
    ``MC_MoveCircularAbsolute``), fed so that the group's queue stays filled: at most
-   ``per_cycle`` new FBs per cycle (each is planned in the cycle it is queued) and at most
-   ``window`` FBs in flight (default: the group's ``queue_depth``). FB instances are reused
-   once their move is Done.
+   ``per_cycle`` (default 1) new FBs per cycle (each is planned in the cycle it is queued)
+   and at most ``window`` FBs in flight (default: the group's ``queue_depth``). FB instances
+   are reused once their move is Done.
 4. **End**: every move Done and the group at rest (GroupStandby) -> ``finished``.
 
 Mapping of the moves (all decided before the run starts, by :func:`group_moves`):
@@ -422,7 +422,7 @@ class GcodeRunner:
         job: GcodeJob,
         machine: Machine,
         *,
-        per_cycle: int = 2,
+        per_cycle: int = 1,
         window: int | None = None,
     ) -> None:
         if type(per_cycle) is not int or per_cycle < 1:

@@ -359,17 +359,24 @@ def test_corner_deviation_within_p_at_every_corner(positions) -> None:  # noqa: 
         angle = math.degrees(math.acos(max(-1.0, min(1.0, float(np.dot(ta, tb))))))
         assert d <= P_TOL + slack, (a.line, angle, d)
         if angle > 179.0:
+            # an exact stop: the group reaches the corner at rest (a sample within one cycle
+            # of a jerk-limited start from it: j T^3 / 6 = 5e-8 m)
             kinds.append("stop")
-            assert d <= 1e-9, (a.line, d)
-        elif angle < 1e-6 and a.kind == b.kind:
+            assert d <= 1e-7, (a.line, d)
+        elif angle < 1e-4 and a.kind == b.kind:
             kinds.append("smooth")  # the two half circles: passed at speed on the circle
             assert d <= slack
+        elif angle < 1e-4:  # (tangents from the mm program: ~1e-6 degrees apart)
+            # a tangent line-arc junction (curvature jump): blended, the blend limited by
+            # half the arc here (the kernel gives 0.085 mm when the moves are queued ahead)
+            kinds.append("tangent")
+            assert d >= 0.5 * P_TOL, (a.line, d)
         else:
-            kinds.append("blend")
-            assert d >= 0.99 * P_TOL, (a.line, angle, d)
+            kinds.append("corner")
+            assert d >= 0.99 * P_TOL, (a.line, angle, d)  # the whole tolerance used
     # 8 corners of 90 degrees and 7 tangent line-arc junctions blended, the reversal where the
     # full circle meets the half circles stopped, the two half circles joined smoothly
-    assert (kinds.count("blend"), kinds.count("stop"), kinds.count("smooth")) == (15, 1, 1)
+    assert [kinds.count(k) for k in ("corner", "tangent", "stop", "smooth")] == [8, 7, 1, 1]
 
 
 def _distance_to_move(points: np.ndarray, path) -> np.ndarray:  # noqa: ANN001
@@ -392,13 +399,8 @@ def _distance_to_move(points: np.ndarray, path) -> np.ndarray:  # noqa: ANN001
     return np.where(on, np.hypot(np.hypot(qx, qy) - r, off), ends)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="kernel: at a tangent line-arc junction (curvature jump) the TMMaxCornerDeviation "
-    "blend keeps the programmed junction point within P but cuts into the arc by ~1.16 P "
-    "(0.1156 mm for P = 0.1 mm, R = 20 mm); LinuxCNC's G64 P bounds the path deviation",
-)
 def test_path_stays_within_p_of_the_programmed_path(positions) -> None:  # noqa: ANN001
+    """G64 P as LinuxCNC means it: the path within P of the programmed lines and arcs."""
     pos, _ = positions
     rows = pos[::5]  # every 5th sample (10 ms): 5,000 points
     best = np.full(len(rows), math.inf)
