@@ -209,8 +209,8 @@ class AxesGroup:
         return f"AxesGroup({self.name!r}, {self.state.name}, axes={list(self.axis_names)})"
 
     def add_axis(self, axis: Axis, index: int | None = None) -> ErrorID:
-        """MC_AddAxisToGroup (GroupDisabled only)."""
-        if not allowed(GroupEvent.ADMIN, self.state):
+        """MC_AddAxisToGroup (GroupDisabled only, at rest)."""
+        if not allowed(GroupEvent.ADMIN, self.state) or self.moving:
             return group_error_for_state(self.state)
         if not isinstance(axis, Axis) or axis in self.axes:
             return ErrorID.INVALID_GROUP_AXIS
@@ -227,8 +227,8 @@ class AxesGroup:
         return ErrorID.OK
 
     def remove_axis(self, axis: Axis) -> ErrorID:
-        """MC_RemoveAxisFromGroup (GroupDisabled only)."""
-        if not allowed(GroupEvent.ADMIN, self.state):
+        """MC_RemoveAxisFromGroup (GroupDisabled only, at rest)."""
+        if not allowed(GroupEvent.ADMIN, self.state) or self.moving:
             return group_error_for_state(self.state)
         if axis not in self.axes:
             return ErrorID.INVALID_GROUP_AXIS
@@ -237,8 +237,8 @@ class AxesGroup:
         return ErrorID.OK
 
     def ungroup(self) -> ErrorID:
-        """MC_UngroupAllAxes (GroupDisabled only)."""
-        if not allowed(GroupEvent.ADMIN, self.state):
+        """MC_UngroupAllAxes (GroupDisabled only, at rest)."""
+        if not allowed(GroupEvent.ADMIN, self.state) or self.moving:
             return group_error_for_state(self.state)
         for ax in self.axes:
             ax.group = None  # type: ignore[attr-defined]
@@ -305,6 +305,13 @@ class AxesGroup:
             return h
         if not allowed(GroupEvent.ENABLE, self.state):
             h._finish(Status.ERROR, group_error_for_state(self.state))
+            return h
+        if self.moving:
+            h._finish(
+                Status.ERROR,
+                ErrorID.GROUP_AXIS_NOT_READY,
+                "the group still brakes after MC_GroupDisable",
+            )
             return h
         why = self._members_ready()
         if why:
@@ -437,6 +444,7 @@ class AxesGroup:
         if self.state is G.GROUP_DISABLED:
             self.mq.inbox.clear()
             if self.chain.links:  # the stop of MC_GroupDisable
+                self._off = any(ax.state is S.DISABLED for ax in self.axes)
                 self._advance(dt)
                 if not self.chain.links:
                     self._settle_members(False)
@@ -490,7 +498,7 @@ class AxesGroup:
         for h in self.mq.stops:
             h._finish(Status.ERROR, ErrorID.AXIS_ERROR_STOP, reason)
         self.mq.stops.clear()
-        self._interrupted, self._interrupt_jobs = [], []
+        self._drop_interrupted(Status.ERROR, ErrorID.AXIS_ERROR_STOP, reason)
         self._path_stop(abort=True, status=Status.ERROR, eid=ErrorID.AXIS_ERROR_STOP, reason=reason)
         for ax in self.axes:
             self._take_over(ax)
@@ -515,6 +523,14 @@ class AxesGroup:
             ax.v = ax.a = ax.j = 0.0
         self.state = G.GROUP_ERROR_STOP
         self.error_reason = self.error_reason or reason
+
+    def _drop_interrupted(
+        self, status: Status, eid: ErrorID = ErrorID.OK, reason: str = ""
+    ) -> None:
+        """Forget an interrupted path; its commands end with ``status``."""
+        for j in self._interrupt_jobs:
+            j.handle._finish(status, eid, reason)
+        self._interrupted, self._interrupt_jobs = [], []
 
     def _settle_members(self, moving: bool) -> None:
         """Members in SynchronizedMotion exactly while the group moves them."""
@@ -550,7 +566,7 @@ class AxesGroup:
                 continue
             kind = job.cmd.kind
             if kind == "stop":
-                self._interrupted, self._interrupt_jobs = [], []
+                self._drop_interrupted(Status.ABORTED)
                 self._path_stop(abort=True, status=Status.ABORTED, dec=job.cmd.deceleration)
                 job.handle.status = Status.ACTIVE
                 continue
@@ -913,9 +929,11 @@ class AxesGroup:
         if lines:
             parts = BlendPiece(pa.end, ta, tb, d).split(self.cfg.blend_parts)
         else:
-            from motionplc.planning.paths.blend import CornerBlend
-
-            parts = [CurvePiece(CornerBlend(seg_a, seg_b, d))]
+            blend = self._bounded_blend(seg_a, seg_b, d, tm, cmd.transition_parameter)
+            if blend is None:
+                return idx
+            d = blend.distance
+            parts = [CurvePiece(blend)]
         ca, cb = prev.caps, first.caps
         blinks = []
         for part in parts:
@@ -937,6 +955,46 @@ class AxesGroup:
             prev.stale = True  # its running profile ends at the old end point
         links[0:0] = blinks
         return idx
+
+    def _bounded_blend(self, seg_a: Any, seg_b: Any, d: float, tm: TransitionMode, par: float):  # noqa: ANN202
+        """The corner blend of two segments (one of them curved) with corner distance at most
+        ``d``; under TMMaxCornerDeviation also its distance to the programmed *path* (not only
+        to the corner point: at a tangent line-arc junction the blend cuts into the arc) is at
+        most the tolerance (bisection on ``d``, the path sampled densely). None: no blend."""
+        import numpy as np
+
+        from motionplc.planning.paths.blend import CornerBlend
+
+        if tm is not TransitionMode.TM_MAX_CORNER_DEVIATION:
+            return CornerBlend(seg_a, seg_b, d)
+        tol = par or self.cfg.tolerance
+        la, lb = seg_a.u_end, seg_b.u_end
+
+        def deviation(dd: float) -> tuple[float, Any]:
+            cb = CornerBlend(seg_a, seg_b, dd)
+            q = cb.evaluate(np.linspace(0.0, cb.u_end, 129))
+            pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 1025))
+            pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 1025))
+            ref = np.concatenate([pa, pb])
+            dist = np.sqrt(((q[:, None, :] - ref[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
+            # the reference is sampled: a chord error of at most (spacing / 2)^2 / (2 R) is
+            # ignored; the samples bound the distance from above
+            return float(dist.max()), cb
+
+        dev, cb = deviation(d)
+        if dev <= tol:
+            return cb
+        lo, hi, best = 0.0, d, None
+        for _ in range(20):
+            mid = 0.5 * (lo + hi)
+            dev, c = deviation(mid)
+            if dev <= tol:
+                lo, best = mid, c
+                if dev >= 0.98 * tol:
+                    break
+            else:
+                hi = mid
+        return best
 
     def _replace_piece(self, lk: Link, pc: Piece, vm, am, jm) -> None:  # noqa: ANN001
         vp, ap, dp, jp = lk.caps

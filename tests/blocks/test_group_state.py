@@ -588,14 +588,6 @@ def test_a_new_move_after_an_interrupt_discards_the_interrupted_path() -> None:
     assert cont.error or cont.done
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="defect: MC_GroupStop or a member error after MC_GroupInterrupt drops the "
-    "interrupted path without ending its commands (group.py _process_inbox, the 'stop' "
-    "branch, and raise_group_error: 'self._interrupted, self._interrupt_jobs = [], []'; "
-    "disable() ends them through _abort_all): the interrupted move's FB stays Busy and "
-    "Active for ever",
-)
 @pytest.mark.parametrize("how", ["stop", "member_error"])
 def test_stop_or_error_after_an_interrupt_ends_the_interrupted_move(how: str) -> None:
     b, move = enter("moving")
@@ -740,13 +732,6 @@ def test_members_refuse_single_axis_commands_until_the_disable_brake_ends() -> N
     assert x.p == 0.0 and x.state is S.STANDSTILL
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: MC_GroupEnable is accepted while the group still brakes after "
-    "MC_GroupDisable (group.py enable: ENABLE is allowed in GroupDisabled and "
-    "_members_ready accepts SynchronizedMotion): GroupStandby while the members move",
-)
 def test_enable_during_the_disable_brake_is_refused_or_waits() -> None:
     b, move = enter("moving")
     b.add(MC_GroupDisable(execute=True))
@@ -757,16 +742,6 @@ def test_enable_during_the_disable_brake_is_refused_or_waits() -> None:
     assert en.error or (en.done and b.g.state is SB)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: MC_AddAxisToGroup / MC_RemoveAxisFromGroup / MC_UngroupAllAxes are "
-    "accepted while the group still brakes after MC_GroupDisable (ADMIN is allowed in "
-    "GroupDisabled; group.py add_axis/remove_axis/ungroup do not check self.moving): the "
-    "path of the brake no longer matches the members, the kernel fails and the members' "
-    "velocity jumps to 0 (runtime invariant C); a removed axis is left in "
-    "SynchronizedMotion",
-)
 @pytest.mark.parametrize("command", ADMIN)
 def test_membership_changes_during_the_disable_brake_are_refused(command: str) -> None:
     b, move = enter("moving")
@@ -782,14 +757,6 @@ def test_membership_changes_during_the_disable_brake_are_refused(command: str) -
     assert b.g.axes == axes0
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: a member switched off while the group brakes after MC_GroupDisable is "
-    "still written (group.py _step: the GroupDisabled branch advances the path without "
-    "_supervise, so the _off flag that makes _sample skip Disabled members is stale): a "
-    "Disabled axis with a non-zero set velocity (runtime invariant C)",
-)
 def test_member_power_off_during_the_disable_brake() -> None:
     b, move = enter("moving")
     b.add(MC_GroupDisable(execute=True))
