@@ -972,9 +972,9 @@ class AxesGroup:
 
         def deviation(dd: float) -> tuple[float, Any]:
             cb = CornerBlend(seg_a, seg_b, dd)
-            q = cb.evaluate(np.linspace(0.0, cb.u_end, 129))
-            pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 1025))
-            pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 1025))
+            q = cb.evaluate(np.linspace(0.0, cb.u_end, 65))
+            pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 513))
+            pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 513))
             ref = np.concatenate([pa, pb])
             dist = np.sqrt(((q[:, None, :] - ref[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
             # the reference is sampled: a chord error of at most (spacing / 2)^2 / (2 R) is
@@ -985,12 +985,12 @@ class AxesGroup:
         if dev <= tol:
             return cb
         lo, hi, best = 0.0, d, None
-        for _ in range(20):
+        for _ in range(10):
             mid = 0.5 * (lo + hi)
             dev, c = deviation(mid)
             if dev <= tol:
                 lo, best = mid, c
-                if dev >= 0.98 * tol:
+                if dev >= 0.9 * tol:
                     break
             else:
                 hi = mid

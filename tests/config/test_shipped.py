@@ -18,6 +18,7 @@ SHIPPED = [
     ("demo.yaml", "demo_sequence.yaml"),
     ("single_axis_can.yaml", "single_axis_sequence.yaml"),
     ("gantry.yaml", "gantry_sequence.yaml"),
+    ("gantry.yaml", "gantry_groups_sequence.yaml"),
     ("telescope.yaml", "telescope_program.py"),
 ]
 
