@@ -764,3 +764,70 @@ def test_member_power_off_during_the_disable_brake() -> None:
     b.powers["x"].enable = False
     b.run_until_idle()
     assert b.rt.axes["x"].state is S.DISABLED and b.rt.axes["x"].v == 0.0
+
+
+# ------------------------------------------------ a halt / interrupt while another one brakes
+_BRAKES = {"interrupt": MC_GroupInterrupt, "halt": MC_GroupHalt}
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="defect: a second MC_GroupHalt / MC_GroupInterrupt issued while the first one's "
+    "brake runs replaces the group's stop job (group.py _process_inbox: "
+    "'self._stop_job = job') without ending the first: the first FB stays Busy and Active "
+    "for ever",
+)
+@pytest.mark.parametrize("second", list(_BRAKES))
+@pytest.mark.parametrize("first", list(_BRAKES))
+def test_a_second_brake_command_ends_the_first(first: str, second: str) -> None:
+    b, move = enter("moving")
+    one = b.add(_BRAKES[first](execute=True))
+    b.run(3)
+    two = b.add(_BRAKES[second](execute=True))
+    b.run_until_idle()
+    assert two.done
+    assert not one.busy and (one.done or one.command_aborted)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="defect: MC_GroupHalt aborts the interrupted move (CommandAborted) but, issued "
+    "while the interrupt's brake runs (or followed by an interrupt), leaves an interrupted "
+    "path behind (group.py _process_inbox, the 'halt' branch does not clear _interrupted / "
+    "_interrupt_jobs): MC_GroupContinue then drives the group to the aborted move's target",
+)
+@pytest.mark.parametrize("order", [("interrupt", "halt"), ("halt", "interrupt")])
+def test_continue_never_resumes_an_aborted_move(order: tuple[str, str]) -> None:
+    b, move = enter("moving")
+    b.add(_BRAKES[order[0]](execute=True))
+    b.run(3)
+    b.add(_BRAKES[order[1]](execute=True))
+    b.run_until_idle()
+    assert move.command_aborted
+    stopped = b.g.position()
+    cont = b.add(MC_GroupContinue(execute=True))
+    b.run_until_idle()
+    assert cont.error and cont.error_id is ErrorID.NOT_INTERRUPTED
+    assert b.g.position() == stopped
+
+
+@pytest.mark.xfail(
+    strict=True,
+    raises=AssertionError,
+    reason="defect: after two MC_GroupInterrupt in a row (the second while the first brakes) "
+    "MC_GroupContinue drives the group to the end of the interrupted move, but the move "
+    "never reports Done (Busy and Active for ever; its last piece lost its 'last' mark in "
+    "group.py _path_stop / _cut with keep=True)",
+)
+def test_continue_after_two_interrupts_completes_the_move() -> None:
+    b, move = enter("moving")
+    b.add(MC_GroupInterrupt(execute=True))
+    b.run(3)
+    b.add(MC_GroupInterrupt(execute=True))
+    b.run_until_idle()
+    cont = b.add(MC_GroupContinue(execute=True))
+    b.run_until_idle()
+    assert cont.done and b.g.position() == LINE_END
+    assert move.done
