@@ -572,9 +572,17 @@ class AxesGroup:
                 continue
             if kind in ("halt", "interrupt"):
                 keep = kind == "interrupt"
-                self._path_stop(
-                    abort=not keep, status=Status.ABORTED, keep=keep, dec=job.cmd.deceleration
-                )
+                if self._stop_job is not None:
+                    # the brake of an earlier Halt / Interrupt runs: this command takes over
+                    self._stop_job.handle._finish(Status.ABORTED)
+                    self._stop_job = None
+                interrupted = bool(self._interrupted or self._interrupt_jobs)
+                if not keep:
+                    self._drop_interrupted(Status.ABORTED)  # a Halt ends an interrupted path
+                if not (keep and interrupted):  # (a second Interrupt: the brake runs on)
+                    self._path_stop(
+                        abort=not keep, status=Status.ABORTED, keep=keep, dec=job.cmd.deceleration
+                    )
                 job.handle.status = Status.ACTIVE
                 self._stop_job = job
                 continue
@@ -1232,6 +1240,8 @@ class AxesGroup:
         """The chain becomes ``kept`` (the stop); ``rest`` is dropped (its commands end with
         ``status``) or kept for MC_GroupContinue (``keep``: its commands stay busy)."""
         self.chain.links = kept
+        if keep:  # only what a busy command still has to do can be resumed
+            rest = [lk for lk in rest if lk.owner is not None and not lk.owner.handle.terminal]
         kept_jobs = []
         for lk in kept:
             if lk.owner is not None and lk.owner not in kept_jobs:

@@ -770,14 +770,6 @@ def test_member_power_off_during_the_disable_brake() -> None:
 _BRAKES = {"interrupt": MC_GroupInterrupt, "halt": MC_GroupHalt}
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: a second MC_GroupHalt / MC_GroupInterrupt issued while the first one's "
-    "brake runs replaces the group's stop job (group.py _process_inbox: "
-    "'self._stop_job = job') without ending the first: the first FB stays Busy and Active "
-    "for ever",
-)
 @pytest.mark.parametrize("second", list(_BRAKES))
 @pytest.mark.parametrize("first", list(_BRAKES))
 def test_a_second_brake_command_ends_the_first(first: str, second: str) -> None:
@@ -790,14 +782,6 @@ def test_a_second_brake_command_ends_the_first(first: str, second: str) -> None:
     assert not one.busy and (one.done or one.command_aborted)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: MC_GroupHalt aborts the interrupted move (CommandAborted) but, issued "
-    "while the interrupt's brake runs (or followed by an interrupt), leaves an interrupted "
-    "path behind (group.py _process_inbox, the 'halt' branch does not clear _interrupted / "
-    "_interrupt_jobs): MC_GroupContinue then drives the group to the aborted move's target",
-)
 @pytest.mark.parametrize("order", [("interrupt", "halt"), ("halt", "interrupt")])
 def test_continue_never_resumes_an_aborted_move(order: tuple[str, str]) -> None:
     b, move = enter("moving")
@@ -813,14 +797,6 @@ def test_continue_never_resumes_an_aborted_move(order: tuple[str, str]) -> None:
     assert b.g.position() == stopped
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=AssertionError,
-    reason="defect: after two MC_GroupInterrupt in a row (the second while the first brakes) "
-    "MC_GroupContinue drives the group to the end of the interrupted move, but the move "
-    "never reports Done (Busy and Active for ever; its last piece lost its 'last' mark in "
-    "group.py _path_stop / _cut with keep=True)",
-)
 def test_continue_after_two_interrupts_completes_the_move() -> None:
     b, move = enter("moving")
     b.add(MC_GroupInterrupt(execute=True))
