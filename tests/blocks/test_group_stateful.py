@@ -17,9 +17,8 @@ move if that move is Done. After every step: nothing failed inside the kernel or
 (INTERNAL_ERROR, a group error other than a member's), members fault only when a fault was
 injected, and no move FB stays Busy while nothing is running, queued or interrupted.
 
-Known defects are kept out (see test_group_state.py's xfail tests): no MC_GroupHalt /
-MC_GroupInterrupt while the brake of another one runs, no member switched on again while
-the group still brakes.
+A known defect is kept out (see test_group_state.py's xfail test): no member switched on
+again while the group still brakes.
 
 80 examples x up to 50 steps, about 8 s.
 """
@@ -169,12 +168,6 @@ class GroupMachine(RuleBasedStateMachine):
             self.rest_checks += 1
             assert g.position() == target, (cycle, g.position(), target)
 
-    def _braking_for_a_halt(self) -> bool:
-        """A halt or interrupt brake is running (known defects: a second MC_GroupHalt /
-        MC_GroupInterrupt then leaves the first Busy for ever, or a continuable path of an
-        aborted move; xfail tests in test_group_state.py)."""
-        return self.g._stop_job is not None
-
     def _ends_elsewhere(self) -> None:
         self.last = None
 
@@ -249,14 +242,12 @@ class GroupMachine(RuleBasedStateMachine):
         self._move(fb, points[-1], dyn, trans, hold)
 
     # -- stops ------------------------------------------------------------------------------
-    @precondition(lambda self: not self._braking_for_a_halt())
     @rule(dec=st.sampled_from([0.0, 0.5, 5.0]), hold=st.booleans())
     def issue_halt(self, dec: float, hold: bool) -> None:
         self.halt.deceleration = dec
         if self._edge(self.halt, hold):
             self._ends_elsewhere()
 
-    @precondition(lambda self: not self._braking_for_a_halt())
     @rule(dec=st.sampled_from([0.0, 0.5, 5.0]), hold=st.booleans())
     def issue_interrupt(self, dec: float, hold: bool) -> None:
         self.interrupt.deceleration = dec
