@@ -190,7 +190,8 @@ class AxesGroup:
         self._interrupted: list[Link] = []  # the rest of an interrupted path
         self._interrupt_jobs: list[_GJob] = []
         self.override = 1.0
-        self._off = False  # a member is Disabled (switched off): it is not written
+        self._off = False  # a member was switched off during this motion: it is not written
+        self._dropped: set[Axis] = set()  # those members (until the group is at rest)
         self.path_velocity = 0.0
         self.path_s = 0.0  # distance travelled along paths since the start
         for ax in axes:
@@ -444,7 +445,7 @@ class AxesGroup:
         if self.state is G.GROUP_DISABLED:
             self.mq.inbox.clear()
             if self.chain.links:  # the stop of MC_GroupDisable
-                self._off = any(ax.state is S.DISABLED for ax in self.axes)
+                self._note_dropped()
                 self._advance(dt)
                 if not self.chain.links:
                     self._settle_members(False)
@@ -464,7 +465,7 @@ class AxesGroup:
 
     def _supervise(self) -> None:
         """A member axis in ErrorStop (or switched off) stops the group along the path."""
-        self._off = any(ax.state is S.DISABLED for ax in self.axes)
+        self._note_dropped()
         if self.state is G.GROUP_ERROR_STOP:
             for ax in self.axes:
                 self._take_over(ax)
@@ -478,6 +479,16 @@ class AxesGroup:
                 )
                 self.raise_group_error(ErrorID.AXIS_ERROR_STOP, why)
                 return
+
+    def _note_dropped(self) -> None:
+        """Members switched off while the group moves are not written again until the group
+        is at rest (switched on meanwhile, they stand where they are)."""
+        if not self.chain.links:
+            self._dropped.clear()
+        for ax in self.axes:
+            if ax.state is S.DISABLED:
+                self._dropped.add(ax)
+        self._off = bool(self._dropped)
 
     def _take_over(self, ax: Axis) -> None:
         """While the group brakes along its path after an axis error, the faulted member
@@ -1305,7 +1316,7 @@ class AxesGroup:
                 self._tau = 0.0
                 self.path_velocity = 0.0
                 for ax in self.axes:
-                    if ax.state is not S.DISABLED:
+                    if ax.state is not S.DISABLED and ax not in self._dropped:
                         ax.v = ax.a = ax.j = 0.0
                 if self._stop_job is not None:
                     self._stop_job.handle._finish(Status.DONE)
@@ -1347,7 +1358,7 @@ class AxesGroup:
             vel = tuple(x * e.v for x in d1)
         self.path_s += lk.piece.length if sampled is None else 0.0
         for ax, p, v in zip(self.axes, end, vel, strict=True):
-            if ax.state is S.DISABLED:
+            if ax.state is S.DISABLED or ax in self._dropped:
                 continue
             ax.p = p
             ax.v = v
@@ -1373,7 +1384,7 @@ class AxesGroup:
             for ax, prof in zip(axes, sampled.traj.profiles, strict=True):
                 s = prof.at(tau)
                 sp += s.v * s.v
-                if ax.state is not S.DISABLED:  # a member switched off is not moved
+                if ax.state is not S.DISABLED and ax not in self._dropped:  # switched off
                     ax.p, ax.v, ax.a, ax.j = s.p, s.v, s.a, s.j
             self.path_velocity = math.sqrt(sp)
             return
@@ -1387,7 +1398,7 @@ class AxesGroup:
         for ax, p, d1, d2, d3 in zip(axes, P, D1, D2, D3, strict=True):
             v = d1 * du
             sp += v * v
-            if off and ax.state is S.DISABLED:
+            if off and ax in self._dropped:
                 continue  # a member switched off is not moved (it follows its actual position)
             ax.p = p
             ax.v = v

@@ -64,6 +64,8 @@ def check_group_consistency(rt: Runtime, cycle: int) -> None:
                 continue
             if s in (S.ERROR_STOP, S.DISABLED):
                 continue
+            if s is S.STANDSTILL and ax in g._dropped:  # noqa: SLF001
+                continue  # switched off during the motion, on again: the group leaves it
             if s not in (S.STANDSTILL, S.SYNCHRONIZED_MOTION):
                 raise GroupStateError(f"{who} in {s.name}")
             if (s is S.SYNCHRONIZED_MOTION) is not moving:

@@ -809,15 +809,6 @@ def test_continue_after_two_interrupts_completes_the_move() -> None:
     assert move.done
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=InvariantError,
-    reason="defect: a member switched off while the group moves, then on again while the "
-    "group still brakes along its path (GroupErrorStop), goes Disabled -> Standstill and "
-    "is written by the brake again (group.py _sample / _finish_link skip only members in "
-    "Disabled): a velocity in Standstill and a jump from its actual position back onto "
-    "the path (runtime invariant C)",
-)
 def test_member_switched_on_again_during_the_error_stop_is_not_moved() -> None:
     b, move = enter("moving")
     b.powers["y"].enable = False
