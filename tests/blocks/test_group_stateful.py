@@ -6,7 +6,8 @@ MC_MovePassingPoints) with random targets in and around the workspace (the membe
 software limits just outside it), random BufferMode x TransitionMode x TransitionParameter
 (valid and invalid), Velocity / Acceleration / Jerk, Execute pulses or held, re-triggers; halts,
 stops (held, released), interrupts and continues, MC_GroupReset / Enable / Disable, override,
-member drive faults, member resets and power, and runs of a few cycles.
+MC_RemoveAxisFromGroup / MC_AddAxisToGroup (GroupDisabled; refused while the disable brake
+runs), member drive faults, member resets and power, and runs of a few cycles.
 
 Checked every cycle: the runtime's invariants (FB output rules of group and axis FBs; member
 state changes along the diagram, continuity of set positions, velocities and accelerations,
@@ -17,8 +18,7 @@ move if that move is Done. After every step: nothing failed inside the kernel or
 (INTERNAL_ERROR, a group error other than a member's), members fault only when a fault was
 injected, and no move FB stays Busy while nothing is running, queued or interrupted.
 
-A known defect is kept out (see test_group_state.py's xfail test): no member switched on
-again while the group still brakes.
+No known defect is kept out (those found are fixed; their tests in test_group_state.py).
 
 80 examples x up to 50 steps, about 8 s.
 """
@@ -322,8 +322,6 @@ class GroupMachine(RuleBasedStateMachine):
     @rule(name=st.sampled_from(["x", "y", "z"]), off=st.integers(0, 2))
     def member_power(self, name: str, off: int) -> None:
         on = bool(off)
-        if on and self.g.moving and self.bench.rt.axes[name].state is AxisState.DISABLED:
-            return  # known defect: switched on again during the group's brake, it is moved
         self.bench.powers[name].enable = on
         if not on:
             self._ends_elsewhere()
