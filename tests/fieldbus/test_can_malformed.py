@@ -630,7 +630,9 @@ def test_setup_without_peer_survives_malformed_frames(
             drive.open()
         assert rack[N].nmt_state == "OPERATIONAL"
         assert master.malformed_frames == {"emcy": 1, "heartbeat": 1, "sdo": 1}
-        assert not caplog.records  # nothing reached canopen's own error logging
+        # nothing reached canopen's own error logging (the virtual drives' rate-limited
+        # warnings about the injected frames may come from the pump thread at any time)
+        assert not [r for r in caplog.records if r.name.split(".")[0] == "canopen"]
     finally:
         stop.set()
         pumper.join(timeout=2.0)
