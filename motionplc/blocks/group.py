@@ -63,6 +63,7 @@ from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 from motionplc.blocks.axis import Axis
+from motionplc.blocks.axis_job import sign
 from motionplc.blocks.axis_state import Event as AxisEvent
 from motionplc.blocks.axis_state import next_state as next_axis_state
 from motionplc.blocks.enums import (
@@ -98,7 +99,6 @@ G = GroupState
 S = AxisState
 MAX_DEFLECTION = math.radians(179.0)
 _SMOOTH = 1e-9  # [rad] a junction deflecting less (with equal curvature) is smooth
-_MOTION_KINDS = ("linear", "circular", "direct", "curve", "halt", "interrupt")
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,20 +150,23 @@ class _GJob:
 
 
 class _Sampled:
-    """A link's motion not given by a piece profile: synchronised axes or a path trajectory
-    (both rest to rest)."""
+    """A link's motion not given by a piece profile: the synchronised axes of MC_MoveDirect*
+    (rest to rest)."""
 
-    __slots__ = ("traj", "kind", "duration", "end")
+    __slots__ = ("traj", "duration", "end")
 
-    def __init__(self, traj: Any, kind: str, end: tuple[float, ...]) -> None:
+    def __init__(self, traj: Any, end: tuple[float, ...]) -> None:
         self.traj = traj
-        self.kind = kind  # "direct" | "curve"
         self.duration = float(traj.duration)
         self.end = end
 
 
-def _sign(x: float) -> float:
-    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+def _g2_joint(pa: Piece, pb: Piece) -> bool:
+    """The acceleration per squared path speed is continuous from ``pa`` into ``pb`` (both
+    ends at zero path acceleration): a junction that can be passed at speed if tangent."""
+    acc_a, acc_b = pa.accel_out(), pb.accel_in()
+    scale = 1.0 + max(abs(x) for x in acc_a + acc_b)
+    return max(abs(a - b) for a, b in zip(acc_a, acc_b, strict=True)) <= 1e-9 * scale
 
 
 class AxesGroup:
@@ -454,14 +457,10 @@ class AxesGroup:
         if self.mq.inbox:
             self._process_inbox()
         if self.chain.links:
-            self._advance(dt * self.override_time)
+            self._advance(dt)
         else:
             self.path_velocity = 0.0
         self._settle()
-
-    @property
-    def override_time(self) -> float:
-        return 1.0
 
     def _supervise(self) -> None:
         """A member axis in ErrorStop (or switched off) stops the group along the path."""
@@ -632,29 +631,28 @@ class AxesGroup:
             else tuple(float(x) for x in cmd.position)
         )
         vm, am, jm = self._limits()
-        if kind in ("linear", "circular"):
+        if kind == "direct":
             self._check_limits(target, "position")
-            segs = self._segments(cmd, base, target)
-            if segs == [None]:  # a line: the closed-form piece, no numpy geometry
-                segs = []
-                pc = LinePiece.between(base, target)
-                lk = self._link(
-                    pc,
-                    job,
-                    (cmd.velocity or _INF) * self.override,
-                    cmd.acceleration or _INF,
-                    cmd.deceleration or _INF,
-                    cmd.jerk or _INF,
-                    vm,
-                    am,
-                    jm,
-                )
-                lk.last = True
-                job.end = target
-                job.links = [lk]
-                self._connect(job, [lk])
-                return
-            if not segs:  # zero-length move: done at once, or when the group gets there
+            traj = self._plan_direct(cmd, base, target)
+            job.end = target
+            lk = Link(_DUMMY, 1.0, 1.0, 1.0, 1.0, owner=job, last=True)
+            lk.sampled = _Sampled(traj, target)
+            job.links = [lk]
+            self._connect(job, [lk])
+            return
+        pieces: list[tuple[Piece, Any]]  # (piece, the segment it was made from, if kept)
+        if kind == "curve":
+            path, end = self._curve(cmd, base)
+            breaks = _curve_breaks(path)
+            pieces = [
+                (CurvePiece(path, a, b), None) for a, b in zip(breaks[:-1], breaks[1:], strict=True)
+            ]
+        elif kind in ("linear", "circular"):
+            self._check_limits(target, "position")
+            end = target
+            gap = max(abs(a - b) for a, b in zip(base, target, strict=True))
+            if kind == "linear" and gap <= 1e-12 * (1.0 + max(abs(x) for x in target)):
+                # zero-length move: done at once, or when the group gets there
                 job.end = target
                 links = self.chain.links
                 if links and cmd.mode is not BufferMode.ABORTING:
@@ -664,49 +662,25 @@ class AxesGroup:
                 job.handle.status = Status.ACTIVE
                 job.handle._finish(Status.DONE)
                 return
-            self._check_path_limits(segs)
-            vp = (cmd.velocity or _INF) * self.override
-            ap = cmd.acceleration or _INF
-            dp = cmd.deceleration or _INF
-            jp = cmd.jerk or _INF
-            links = []
-            for seg in segs:
-                pc = piece_for(seg)
-                links.append(self._link(pc, job, vp, ap, dp, jp, vm, am, jm, seg))
-            links[-1].last = True
-            job.end = target
-            job.links = links
-            self._connect(job, links)
-        elif kind == "direct":
-            self._check_limits(target, "position")
-            traj = self._plan_direct(cmd, base, target)
-            job.end = target
-            lk = Link(_DUMMY, 1.0, 1.0, 1.0, 1.0, owner=job, last=True)
-            lk.sampled = _Sampled(traj, "direct", target)
-            job.links = [lk]
-            self._connect(job, [lk])
-        elif kind == "curve":
-            path, end = self._curve(cmd, base)
-            vp = (cmd.velocity or _INF) * self.override
-            ap, dp, jp = cmd.acceleration or _INF, cmd.deceleration or _INF, cmd.jerk or _INF
-            links = []
-            breaks = _curve_breaks(path)
-            for a, b_ in zip(breaks[:-1], breaks[1:], strict=True):
-                pc = CurvePiece(path, a, b_)
-                links.append(self._link(pc, job, vp, ap, dp, jp, vm, am, jm))
-            for lk, nxt in zip(links[:-1], links[1:], strict=True):
-                acc_a, acc_b = lk.piece.accel_out(), nxt.piece.accel_in()
-                scale = 1.0 + max(abs(x) for x in acc_a + acc_b)
-                g2 = max(abs(x - y) for x, y in zip(acc_a, acc_b, strict=True)) <= 1e-9 * scale
-                # C2 joints (B-spline knots) are passed at speed; the C1 joints of the seed-002
-                # Hermite curve (a curvature jump) need rest there to keep the jerk limit
-                lk.cap_out = _INF if g2 else 0.0
-            links[-1].last = True
-            job.end = end
-            job.links = links
-            self._connect(job, links)
+            if kind == "linear":  # the closed-form piece, no numpy geometry
+                pieces = [(LinePiece.between(base, target), None)]
+            else:
+                segs = self._arc_segments(cmd, base, target)
+                self._check_path_limits(segs)
+                pieces = [(piece_for(seg), seg) for seg in segs]
         else:  # pragma: no cover - submit() filters the kinds
             raise _MoveError(ErrorID.INTERNAL_ERROR, f"unknown move kind {kind!r}")
+        vp = (cmd.velocity or _INF) * self.override
+        ap, dp, jp = cmd.acceleration or _INF, cmd.deceleration or _INF, cmd.jerk or _INF
+        links = [self._link(pc, job, vp, ap, dp, jp, vm, am, jm, seg) for pc, seg in pieces]
+        for lk, nxt in zip(links[:-1], links[1:], strict=True):
+            # C2 joints (B-spline knots) are passed at speed; the C1 joints of the seed-002
+            # Hermite curve (a curvature jump) need rest there to keep the jerk limit
+            lk.cap_out = _INF if _g2_joint(lk.piece, nxt.piece) else 0.0
+        links[-1].last = True
+        job.end = end
+        job.links = links
+        self._connect(job, links)
 
     def _link(
         self,
@@ -742,15 +716,8 @@ class AxesGroup:
             full_length=pc.length,
         )
 
-    def _segments(self, cmd: GroupCommand, base: tuple[float, ...], target: tuple[float, ...]):
-        """The geometric segments of a linear or circular move (empty: zero length)."""
-        if max(abs(a - b) for a, b in zip(base, target, strict=True)) <= 1e-12 * (
-            1.0 + max(abs(x) for x in target)
-        ):
-            if cmd.kind == "linear":
-                return []
-        if cmd.kind == "linear":
-            return [None]  # a line (built as a LinePiece by the caller)
+    def _arc_segments(self, cmd: GroupCommand, base: tuple[float, ...], target: tuple[float, ...]):
+        """The geometric segments of a circular move."""
         aux = tuple(float(x) for x in cmd.aux_point)
         n = len(base)
         try:
@@ -911,9 +878,7 @@ class AxesGroup:
         ta, tb = pa.tangent_out(), pb.tangent_in()
         dot = max(-1.0, min(1.0, sum(a * b for a, b in zip(ta, tb, strict=True))))
         theta = math.acos(dot)
-        acc_a, acc_b = pa.accel_out(), pb.accel_in()
-        scale = 1.0 + max(abs(x) for x in acc_a + acc_b)
-        g2 = max(abs(a - b) for a, b in zip(acc_a, acc_b, strict=True)) <= 1e-9 * scale
+        g2 = _g2_joint(pa, pb)
         idx = len(chain.links) - 1
         tm = cmd.transition_mode
         if theta <= _SMOOTH and g2:
@@ -1093,13 +1058,6 @@ class AxesGroup:
             if lk.profile is None and lk.sampled is None:
                 lk.profile = _guard_plan(lk)
 
-    def _plan_link(self, lk: Link) -> None:
-        if lk.sampled is not None:
-            lk.profile = None
-            lk.w_in = lk.w_out = 0.0
-            return
-        lk.profile = _guard_plan(lk)
-
     def _state_on(self, lk: Link) -> State:
         prof = lk.profile
         assert prof is not None
@@ -1134,7 +1092,7 @@ class AxesGroup:
         else:
             t1 = abs(a) / J
             v1 = st.v + 0.5 * a * t1
-            d1 = st.v * t1 + 0.5 * a * t1 * t1 - _sign(a) * J * t1**3 / 6.0
+            d1 = st.v * t1 + 0.5 * a * t1 * t1 - sign(a) * J * t1**3 / 6.0
         room = U - st.p - d1
         target = want / pc.g1
         if (room <= 0.0 or v1 < 0.0) and not lk.stale:

@@ -33,7 +33,7 @@ import numpy as np
 
 from motionplc.errors import PlanningError
 from motionplc.planning.paths.base import Path
-from motionplc.planning.paths.geometry import Line, PathSegment, _Circular
+from motionplc.planning.paths.geometry import Line, _Circular
 
 __all__ = [
     "BlendPiece",
@@ -422,8 +422,6 @@ def piece_for(seg: Path) -> Piece:
         return LinePiece(seg.start, seg.direction, seg.length)
     if isinstance(seg, _Circular):
         return CircularPiece(seg, seg.end)
-    if isinstance(seg, PathSegment):  # pragma: no cover - every PathSegment is one of the above
-        return CurvePiece(seg)
     return CurvePiece(seg)
 
 
