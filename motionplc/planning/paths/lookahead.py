@@ -53,38 +53,37 @@ def speed_change_distance(v: float, w: float, a: float, j: float) -> float:
 
 def max_speed_change(v: float, length: float, a: float, j: float) -> float:
     """The largest ``x >= 0`` such that changing the speed between ``v`` and ``v + x`` (either
-    way) fits in ``length`` (:func:`speed_change_distance` == ``length``); closed form."""
+    way) fits in ``length`` (:func:`speed_change_distance` == ``length``); closed forms in
+    their cancellation-free variants (``x`` may be many orders of magnitude below ``v``)."""
     if length <= 0.0:
         return 0.0
     if j == _INF:
         # (2v + x) x / (2a) = L  ->  x^2 + 2 v x - 2 a L = 0
-        return -v + math.sqrt(v * v + 2.0 * a * length)
+        return 2.0 * a * length / (v + math.sqrt(v * v + 2.0 * a * length))
     # trapezoid: (2v + x)/2 (x/a + a/j) = L -> x^2/a + x (a/j + 2v/a) + 2 v a / j - 2 L = 0
     qa = 1.0 / a
     qb = a / j + 2.0 * v / a
     qc = 2.0 * v * a / j - 2.0 * length
     disc = qb * qb - 4.0 * qa * qc
     if disc >= 0.0:
-        x = (-qb + math.sqrt(disc)) / (2.0 * qa)
+        x = -2.0 * qc / (qb + math.sqrt(disc))  # the positive root, qb > 0
         if x * j >= a * a:
             return x
-    # triangle: (2v + y^2) y = L sqrt(j), y = sqrt(x/j) * sqrt(j)... with y = sqrt(x):
-    # (2v + x) sqrt(x / j) = L  ->  y^3 + 2 v y - L sqrt(j) = 0, y = sqrt(x)
+    # triangle: (2v + x) sqrt(x / j) = L  ->  y^3 + 2 v y - L sqrt(j) = 0 with y = sqrt(x):
+    # one real root (f increasing and convex for y >= 0); Newton from an upper bound
+    # (y^3 <= L sqrt(j) and 2 v y <= L sqrt(j)) descends to it without overshooting
     p = 2.0 * v
-    q = -length * math.sqrt(j)
-    # one real root (p >= 0): Cardano
-    d = math.sqrt(q * q / 4.0 + p * p * p / 27.0)
-    y = _cbrt(-q / 2.0 + d) + _cbrt(-q / 2.0 - d)
-    # one Newton step for accuracy
-    f = y * y * y + p * y + q
-    df = 3.0 * y * y + p
-    if df > 0.0:
-        y -= f / df
+    q = length * math.sqrt(j)
+    y = q ** (1.0 / 3.0)
+    if p > 0.0:
+        y = min(y, q / p)
+    for _ in range(60):
+        f = y * y * y + p * y - q
+        step = f / (3.0 * y * y + p) if y > 0.0 else 0.0
+        if not step > 1e-16 * y:
+            break
+        y -= step
     return max(0.0, y * y)
-
-
-def _cbrt(x: float) -> float:
-    return math.copysign(abs(x) ** (1.0 / 3.0), x)
 
 
 @dataclass(slots=True, eq=False)
