@@ -86,6 +86,19 @@ __all__ = [
 
 AXIS_FIELDS = ("position", "actual_position", "velocity", "following_error", "state")
 GROUP_FIELDS = ("state", "path_velocity")
+
+
+def _target_fields(kind: str) -> tuple[str, tuple[str, ...], Any] | None:
+    """What an expectation may name on an axis or a group: (kind, fields, state enum)."""
+    from motionplc.blocks.enums import AxisState, GroupState  # (lazy, as the FB imports)
+
+    if kind == "axis":
+        return kind, AXIS_FIELDS, AxisState
+    if kind == "group":
+        return kind, GROUP_FIELDS, GroupState
+    return None
+
+
 SYNC_MOVE = "SyncMoveAbsolute"
 # group FBs not offered in sequences: the members are fixed by the configuration
 _GROUP_ADMIN = ("MC_AddAxisToGroup", "MC_RemoveAxisFromGroup", "MC_UngroupAllAxes")
@@ -588,38 +601,18 @@ class _Parser:
             kp = join(ep, key)
             line = em.line_of(key)
             obj, _, attr = str(key).partition(".")
-            if obj in self.axes:
-                if attr not in AXIS_FIELDS:
+            target = _target_fields(
+                "axis" if obj in self.axes else "group" if obj in self.groups else ""
+            )
+            if target is not None:
+                kind, fields, states = target
+                if attr not in fields:
                     c.error(
-                        em.key_lines[key],
-                        kp,
-                        f"unknown axis field {attr!r}",
-                        ", ".join(AXIS_FIELDS),
+                        em.key_lines[key], kp, f"unknown {kind} field {attr!r}", ", ".join(fields)
                     )
                     continue
                 if attr == "state":
-                    from motionplc.blocks import AxisState
-
-                    names = tuple(s.name for s in AxisState)
-                    if val not in names:
-                        c.error(line, kp, f"got {_tname(val)}", ", ".join(names))
-                        continue
-                elif isinstance(val, bool) or not isinstance(val, (int, float)):
-                    c.error(line, kp, f"got {_tname(val)}", "a number")
-                    continue
-            elif obj in self.groups:
-                if attr not in GROUP_FIELDS:
-                    c.error(
-                        em.key_lines[key],
-                        kp,
-                        f"unknown group field {attr!r}",
-                        ", ".join(GROUP_FIELDS),
-                    )
-                    continue
-                if attr == "state":
-                    from motionplc.blocks.enums import GroupState
-
-                    names = tuple(s.name for s in GroupState)
+                    names = tuple(s.name for s in states)
                     if val not in names:
                         c.error(line, kp, f"got {_tname(val)}", ", ".join(names))
                         continue
