@@ -47,6 +47,9 @@ class DriveFeedback:
     stale: bool = False  # no fresh feedback this cycle: values are the last ones received
     kind: str = ""  # class of a communication failure (``FAILURE_KINDS``), "" = none/other
     reset_pending: bool = False  # a fault reset requested by the master is still in progress
+    # a condition the drive reports without faulting (e.g. a CiA 301 warning EMCY:
+    # "EMCY 0x4210 (temperature device)"); "" = none. Shown to the user, never stops the axis
+    warning: str = ""
 
 
 # Classes of communication failures a backend reports in ``DriveFeedback.kind`` (drive faults
