@@ -283,26 +283,24 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if not args.quiet:
             what = f" with {args.script}" if args.script else ""
             print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)")
-        chunk = 1.0
-        next_report = 5.0
         program_error = ""
-        try:
-            while rt.time < limit - 1e-9:
-                span = min(chunk, limit - rt.time)
-                if args.seconds is None and runner is not None:
-                    end = rt.time + span
-                    rt.run_until(lambda: runner.over, max_seconds=span)
-                    if runner.over:
-                        break
-                    if rt.time < end - 1e-9:
-                        continue
-                else:
-                    rt.run(seconds=span)
-                    if runner is not None and runner.failed:
-                        break
-                if not args.quiet and rt.time >= next_report - 1e-9:
+        report = [5.0]  # next progress line [s]
+        stop_on = None if runner is None else ("over" if args.seconds is None else "failed")
+
+        def stop_now() -> bool:
+            # one run, no slices: a slice boundary is housekeeping between cycles, a gap on
+            # the bus in real time; called after every tick, so it only reads flags
+            if stop_on is not None and getattr(runner, stop_on):
+                return True
+            if rt.time >= report[0] - 1e-9:
+                report[0] += 5.0
+                if not args.quiet:
                     print(f"  t = {rt.time:7.1f} s", file=sys.stderr, flush=True)
-                    next_report += 5.0
+            return False
+
+        try:
+            if rt.time < limit - 1e-9:
+                rt.run_until(stop_now, max_seconds=limit - rt.time)
         except KeyboardInterrupt:
             failures.append("interrupted")
         except ProgramError as exc:  # the task halted, its axes are at rest

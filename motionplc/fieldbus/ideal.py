@@ -15,7 +15,7 @@ from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback
 
 _new = object.__new__
 try:
-    (_sp, _sv, _se, _sf, _sc, _so, _sd, _ss, _sk, _sr), _D = slot_setters(
+    (_sp, _sv, _se, _sf, _sc, _so, _sd, _ss, _sk, _sr, _sw), _D = slot_setters(
         DriveFeedback,
         (
             "position",
@@ -28,10 +28,12 @@ try:
             "stale",
             "kind",
             "reset_pending",
+            "warning",
         ),
     )
     _D_FAULT, _D_CODE, _D_DETAIL = _D["fault"], _D["error_code"], _D["detail"]
     _D_STALE, _D_KIND, _D_RESET = _D["stale"], _D["kind"], _D["reset_pending"]
+    _D_WARNING = _D["warning"]
 
     def _healthy_feedback(position: float, velocity: float, enabled: bool) -> DriveFeedback:
         """``DriveFeedback(position, velocity, enabled)`` (comm ok, no fault), built cheaply."""
@@ -46,6 +48,7 @@ try:
         _ss(fb, _D_STALE)
         _sk(fb, _D_KIND)
         _sr(fb, _D_RESET)
+        _sw(fb, _D_WARNING)
         return fb
 
 except TypeError:  # DriveFeedback changed: the normal constructor (slower, same values)

@@ -130,6 +130,11 @@ class Runtime:
         self.last_due: list[str] = []  # names of the tasks run in the last tick, in run order
         self.error_reason = ""  # set when a watchdog tripped or a program raised
         self._failed_tasks: list[Task] = []  # programs that raised, their axes still stopping
+        # real time: garbage collection outside the cycle's work (see _loop / _idle_gc)
+        self._gc_primed = False
+        self._gc_tick = 0
+        self._gc_every = max(1, round(1.0 / self.cycle))  # ticks between idle collections
+        self.gc_stats = {"collections": 0, "freed": 0, "max_ns": 0, "total_ns": 0}
         if check_invariants:
             from motionplc.runtime.invariants import InvariantChecker
 
@@ -328,9 +333,14 @@ class Runtime:
         self._start()
         if not self.clock.realtime:
             return self._cycles(end_tick, pred)
-        # Real time: no garbage-collector pauses inside the cycle (the cycle creates no
-        # reference cycles; memory is freed by reference counting). Collected again afterwards.
-        gc.collect()
+        # Real time: the collector never runs on its own inside the loop (a full collection
+        # of a loaded process takes ~10 ms: a stalled bus). One full collection before the
+        # first real-time run only (not before every run: a caller running in slices would
+        # stall the bus at each slice), everything alive then frozen out of later collections,
+        # and young garbage collected in the idle slack of a cycle (see _idle_gc).
+        if not self._gc_primed:
+            gc.collect()
+            self._gc_primed = True
         gc.freeze()
         was_enabled = gc.isenabled()
         gc.disable()
@@ -340,6 +350,22 @@ class Runtime:
             if was_enabled:
                 gc.enable()
             gc.unfreeze()
+
+    def _idle_gc(self, now: int, next_deadline: int) -> None:
+        """Real time: collect the youngest generation (what the cycles allocated since the
+        last one; reference cycles would otherwise pile up while the collector is off) at
+        most once per second, only when at least half a tick of slack is left before the
+        next deadline. Its cost is recorded in :attr:`gc_stats`."""
+        if self.tick - self._gc_tick < self._gc_every or next_deadline - now < self.tick_ns // 2:
+            return
+        self._gc_tick = self.tick
+        freed = gc.collect(0)
+        spent = self.clock.now_ns() - now
+        st = self.gc_stats
+        st["collections"] += 1
+        st["freed"] += freed
+        st["max_ns"] = max(st["max_ns"], spent)
+        st["total_ns"] += spent
 
     def _cycles(self, end_tick: int, pred: Callable[[], bool] | None) -> bool:
         clock = self.clock
@@ -365,6 +391,8 @@ class Runtime:
                         skipped = (k_new - 1) // pt - (self.tick - 1) // pt
                         task.omitted_cycles += max(0, skipped)
                     self.tick = min(k_new, end_tick)
+                elif clock.realtime:
+                    self._idle_gc(now, nxt)
             if self._failed_tasks:  # a program raised: run on until its axes are at rest
                 if self._failed_tasks_at_rest():
                     failed, self._failed_tasks = self._failed_tasks, []
