@@ -1,0 +1,1 @@
+"""Interoperability peers written from the standards, independent of ``motionplc.fieldbus``."""
