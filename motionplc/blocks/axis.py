@@ -78,6 +78,7 @@ from motionplc.blocks.planner_guard import guarded as _guarded
 from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
 from motionplc.fieldbus.base import Drive, DriveCommand
+from motionplc.fieldbus.error_codes import describe
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
 
 if TYPE_CHECKING:
@@ -159,6 +160,16 @@ def _clean(prof: Profile, s: float, p_limit: float, v_start: float) -> bool:
     return v_start > vtol or vmax <= vtol
 
 
+def _fault_text(code: int, detail: str) -> str:
+    """The reason of a drive fault: the code with its meaning, then the backend's detail;
+    a detail that already names the code is the whole text (no repetition)."""
+    name = f"0x{code:04X}"
+    if name in detail:
+        return detail
+    head = f"drive fault {name} ({describe(code)})"
+    return f"{head}: {detail}" if detail else head
+
+
 class Axis:
     """AXIS_REF: one axis with its drive, state machine, command queue and set values."""
 
@@ -195,6 +206,11 @@ class Axis:
         self.drive_enabled = False
         self.drive_fault = False
         self.comm_ok = True
+        # the drive's warning (DriveFeedback.warning, e.g. a warning EMCY): "" = none; each
+        # change is kept for the trace (events "<axis>.drive" / "warning: <text>")
+        self.drive_warning = ""
+        self.warnings_seen: list[tuple[float, str]] = []  # (time, text), the last 64
+        self._warning_edges: list[tuple[str, bool]] = []
         self._was_enabled = False
         self._sent_p = 0.0
         # requests
@@ -321,16 +337,15 @@ class Axis:
         self.drive_enabled = enabled
         self.drive_fault = fault
         self.comm_ok = comm_ok
+        if fb.warning != self.drive_warning:
+            self._drive_warning_changed(t, fb.warning)
         self.following_error = self._sent_p - act_p if enabled else 0.0
         state = self.state
         if state is not S.ERROR_STOP and (not comm_ok or fault or not enabled):
             if not comm_ok:
                 self.raise_axis_error(drive_error_kind(fb), fb.detail or "communication lost")
             elif fault:
-                self.raise_axis_error(
-                    drive_error_kind(fb),
-                    f"drive fault 0x{fb.error_code:04X}: {fb.detail}".rstrip(": "),
-                )
+                self.raise_axis_error(drive_error_kind(fb), _fault_text(fb.error_code, fb.detail))
             elif state is not S.DISABLED and self.power_request and self._was_enabled:
                 self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
         self._was_enabled = enabled
@@ -1414,8 +1429,23 @@ class Axis:
         )
 
     # -- diagnostics -----------------------------------------------------------------------
+    def _drive_warning_changed(self, t: float, text: str) -> None:
+        if self.drive_warning:
+            self._warning_edges.append((self.drive_warning, False))
+        if text:
+            self._warning_edges.append((text, True))
+            self.warnings_seen.append((t, text))
+            del self.warnings_seen[:-64]
+        self.drive_warning = text
+
     def emit_fb_edges(self, trace: Trace, cycle: int) -> None:
-        """Record FB output edges in the trace (called by the runtime once per cycle)."""
+        """Record FB output edges in the trace (called by the runtime once per cycle), and
+        the drive's warnings as events ``<axis>.drive`` / ``warning: <text>`` (True when it
+        appears, False when it goes)."""
+        if self._warning_edges:
+            for text, on in self._warning_edges:
+                trace.event(cycle, f"{self.name}.drive", f"warning: {text}", on)
+            self._warning_edges.clear()
         for fb in self.fbs:
             if fb._dirty:  # only FBs whose scan may have changed a traced output
                 bits = fb._get_outputs(fb)

@@ -62,6 +62,12 @@ class FunctionBlock:
             cls._get_outputs = staticmethod(attrgetter(*outs))
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        if name is not None and not isinstance(name, str):
+            # MC_Power(ax) would otherwise name the FB after the axis and leave it unconnected
+            raise TypeError(
+                f"{type(self).__name__}: the first positional argument is the FB's name (a str),"
+                f" got {type(name).__name__}; connect an axis with axis=..."
+            )
         self.axis: Axis | None = None
         self.name = name
         self._registered: Axis | None = None
