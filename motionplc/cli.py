@@ -218,6 +218,15 @@ def _summary(machine: Any, runner: Any) -> list[str]:
             f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} {ax.position:>14.9g} "
             f"{ax.actual_position:>14.9g} {max_fe:>12.3g}"
         )
+    warned = [(name, ax) for name, ax in machine.axes.items() if ax.warnings_seen]
+    if warned:
+        lines.append("")
+        for name, ax in warned:
+            t, text = ax.warnings_seen[-1]
+            more = len(ax.warnings_seen) - 1
+            also = f" (and {more} earlier)" if more else ""
+            now = "active" if ax.drive_warning else "gone"
+            lines.append(f"drive warning {name}: {text} at t = {t:.3f} s, {now}{also}")
     groups = getattr(machine, "axes_groups", {})
     if groups:
         lines.append("")

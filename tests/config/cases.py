@@ -251,13 +251,6 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         ["{f}:5: buses.can0.type: missing (allowed: can, modbus)"],
     ),
     (
-        "external drives on the virtual CAN bus",
-        _cfg(_X, buses="  can0: {type: can, interface: virtual, drives: external}\n"),
-        [
-            "{f}:5: buses.can0.drives: the python-can virtual bus does not reach other processes (allowed: simulated, or interface: socketcan)"
-        ],
-    ),
-    (
         "group with an unknown axis",
         _cfg(_X) + "groups:\n  g: [x, z]\n",
         ["{f}:8: groups.g[1]: unknown axis 'z' (allowed: x)"],
