@@ -1,22 +1,35 @@
-"""CiA 402 drives over Modbus TCP, master side, register map v1; the cycle never blocks on I/O.
+"""CiA 402 drives over Modbus TCP, master side, driven by a register map; the cycle never blocks
+on I/O.
 
 :class:`ModbusDrive` implements :class:`~motionplc.fieldbus.base.Drive` over a
-:class:`~motionplc.fieldbus.modbus_link.ModbusLink` (a non-blocking socket; PDUs by pymodbus):
+:class:`~motionplc.fieldbus.modbus_link.ModbusLink` (a non-blocking socket; PDUs by pymodbus).
+Where the drive keeps its objects, their types, word order and scale and which function codes
+to use come from its register map (:class:`~motionplc.fieldbus.modbus_regmap.RegisterMap`,
+``ModbusDriveConfig.register_map``: a shipped map's name, a file or a RegisterMap; default
+``motionplc-v1``, the map of our own virtual drive):
 
 * :meth:`ModbusDrive.open` (setup path, may raise :class:`FieldbusError`, every wait bounded by
-  ``timeout``): connect (loopback by default), check MAP_VERSION, DEVICE_PROFILE and the
-  WORD_ORDER_PROBE (a word-order mismatch refuses to enable), write the parameters
-  (CYCLE_TIME_US, following-error window/time-out, WATCHDOG_MS);
-* cyclic exchange, ``exchange="fc23"`` (default): :meth:`write_outputs` sends one FC23 per axis
-  and cycle (write the command block, read the status block); its answer is taken in by the
-  next :meth:`read_inputs` (one cycle of transport delay, as on CAN). ``exchange="split"``:
-  FC16 of the command block and FC03 of the status block, sent together.
+  ``timeout``): connect (loopback by default); read and check the map's identification
+  registers, if it has any (a mismatch, e.g. of the word-order probe, refuses to enable); write
+  ``mode_of_operation`` = 8 (CSP) if mapped (a drive without mode registers is assumed to run
+  CSP); write the setup parameters the map has and the configuration gives (``cycle_time``
+  always, ``following_error_window``, ``following_error_timeout``, ``watchdog``); read the status
+  once. A failure names the request and the register
+  (``setup failed: FC16 write 0x0300+2 (following_error_window): Modbus exception 0x02 ...``).
+* cyclic exchange: :meth:`write_outputs` sends the map's requests of one cycle together: the
+  writes of the command registers (FC 16 per group of registers without gaps, or FC 06 per
+  register) and the reads of the status registers (FC 03 / FC 04, grouped), or one FC 23 with
+  ``exchange: fc23``; their answers are taken in by the next :meth:`read_inputs` (one cycle of
+  transport delay, as on CAN). The command image: controlword, target position, mode 8, target
+  velocity (velocity feed-forward, else 0), target torque 0 and the life sign, each only if
+  mapped. Freshness: with ``life_sign`` and ``life_sign_echo`` mapped, the echo must equal the
+  last life sign sent; without, an answer to this cycle's reads is fresh.
 
 How long the cycle waits for an answer depends on the clock (:meth:`ModbusDrive.bind_clock`,
 called by the runtime):
 
 * real time: never. :meth:`read_inputs` takes what has arrived (the latest process image); an
-  exchange still unanswered holds the next one back (one request in flight per drive) and is
+  exchange still unanswered holds the next one back (one exchange in flight per drive) and is
   counted; after ``timeout_cycles = ceil(timeout / cycle_time)`` cycles without an answer the
   axis gets COMM_TIMEOUT and the connection is re-opened (without blocking). An answer later
   than the next cycle is still used, and counted in ``late_replies``. Other axes keep their
@@ -25,7 +38,7 @@ called by the runtime):
   until the server has answered or *parked* the request (an injected response delay runs on the
   simulated clock, see :class:`~motionplc.fieldbus.virtual_modbus.VirtualModbusServer`), so
   every run is bit-reproducible: the same timeouts in the same cycles on any host load.
-* simulated clock with any other server: the cycle waits for the answer at most ``timeout``
+* simulated clock with any other server: the cycle waits for the answers at most ``timeout``
   seconds (wall clock); no answer by then is COMM_TIMEOUT at once.
 
 Failures as values (nothing raises in the cycle):
@@ -33,15 +46,20 @@ Failures as values (nothing raises in the cycle):
 ==========================  =======  =======  ==========================================
 condition                   fault    comm_ok  error_code
 ==========================  =======  =======  ==========================================
-drive FAULT / FRA           True     True     ERROR_CODE register (e.g. 0x8611, 0x8100)
+drive FAULT / FRA           True     True     error_code register (e.g. 0x8611, 0x8100);
+                                              0 when the map has none
 no answer (timeout)         False    False    0x8130, kind "timeout"; latched until an
                                               answer comes; the connection is re-opened
-exception response c        False    False    0xFF00 | c, kind "exception" (DEVICE_BUSY
-                                              is re-sent once)
+exception response c        False    False    0xFF00 | c, kind "exception", the detail
+                                              names the request (``FC16 write 0x2000+4:
+                                              Modbus exception 0x02 (ILLEGAL_ADDRESS)``);
+                                              DEVICE_BUSY is re-sent once
+setpoint out of range of    False    False    0x6320, kind "" (COMMUNICATION_LOST), the
+its register                                  detail names the register; nothing is sent
 disconnected / refused /    False    False    0x8130, kind "disconnected", latched until
 reset / malformed stream                      MC_Reset (reconnects every
                                               ``reconnect_every`` cycles)
-stale LIFE_SIGN_ECHO        -        -        stale=True
+stale life sign echo        -        -        stale=True
 ==========================  =======  =======  ==========================================
 
 A fault reset (MC_Reset) re-opens a connection that timed out and is reported as
@@ -53,14 +71,17 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from pymodbus.constants import ExcCodes
 from pymodbus.pdu import ExceptionResponse, ModbusPDU
 from pymodbus.pdu.register_message import (
     ReadHoldingRegistersRequest,
+    ReadInputRegistersRequest,
     ReadWriteMultipleRegistersRequest,
     WriteMultipleRegistersRequest,
+    WriteSingleRegisterRequest,
 )
 
 from motionplc.fieldbus.base import (
@@ -77,51 +98,62 @@ from motionplc.fieldbus.cia402 import (
     next_controlword,
 )
 from motionplc.fieldbus.modbus_link import ModbusLink, Reply
-from motionplc.fieldbus.modbus_map import (
-    BY_NAME,
-    CMD_BASE,
-    DEVICE_PROFILE_VALUE,
-    ID_BASE,
-    ID_COUNT,
-    MAP_VERSION_VALUE,
-    STATUS_BASE,
-    STATUS_COUNT,
-    WORD_ORDER_PROBE_VALUE,
-    CommandBlock,
-    StatusBlock,
-    WordOrder,
-    decode_fields,
-    encode_fields,
+from motionplc.fieldbus.modbus_map import WordOrder
+from motionplc.fieldbus.modbus_regmap import (
+    CMD_CONTROLWORD,
+    CMD_LIFE_SIGN,
+    CMD_MODE,
+    CMD_POSITION,
+    CMD_TORQUE,
+    CMD_VELOCITY,
+    COMMAND_KEYS,
+    DEFAULT_MAP,
+    STATUS_KEYS,
+    Codec,
+    RegisterMap,
+    RegisterValueError,
+    Request,
+    load_register_map,
+    read_requests,
 )
 from motionplc.fieldbus.scaling import Scaling
 
-__all__ = ["ModbusDrive", "ModbusDriveConfig"]
+__all__ = ["ModbusDrive", "ModbusDriveConfig", "ModbusStatus"]
 
 CSP = int(OperationMode.CYCLIC_SYNCHRONOUS_POSITION)
 CODE_NO_RESPONSE = 0x8130
 CODE_EXCEPTION_BASE = 0xFF00
+CODE_OUT_OF_RANGE = 0x6320  # CiA 301 "parameter error": a setpoint its register cannot hold
 _POLL = 0.001  # [s] slice of a bounded wait (simulated clock only)
 
 
 @dataclass(frozen=True, slots=True)
 class ModbusDriveConfig:
-    """One Modbus TCP axis (SI units except where named)."""
+    """One Modbus TCP axis (SI units except where named).
+
+    ``register_map``: a :class:`RegisterMap`, the name of a shipped map or a path (loaded in
+    ``__post_init__``, so the field always holds a RegisterMap afterwards). ``word_order``
+    overrides the map's default word order (entries with their own keep it); None: the map's.
+    The setup parameters (``following_error_window`` [m], ``following_error_timeout`` [s],
+    ``watchdog`` [s], 0 = off) are written when given (None: not written) and need their
+    register in the map, as ``velocity_feed_forward`` needs ``target_velocity``.
+    """
 
     port: int
     host: str = "127.0.0.1"
     device_id: int = 1
-    counts_per_unit: float = 1.0e6
+    counts_per_unit: float = 1.0e6  # drive position units per m (or rad)
     offset_counts: int = 0
-    word_order: WordOrder = "big"
-    cycle_time: float = 0.004  # [s] -> CYCLE_TIME_US
+    word_order: WordOrder | None = None
+    cycle_time: float = 0.004  # [s] -> cycle_time register
     # [s] answer deadline: ceil(timeout / cycle_time) cycles of the task's clock; on the
     # simulated clock without a lockstep peer, the wall-clock bound of one wait
     timeout: float = 0.1
-    exchange: str = "fc23"  # "fc23" or "split"
-    following_error_window: float | None = None  # [m] -> FOLLOWING_ERROR_WINDOW
-    following_error_timeout: float | None = None  # [s] -> FOLLOWING_ERROR_TIMEOUT_MS
-    watchdog: float = 0.0  # [s] -> WATCHDOG_MS, 0 = off
-    velocity_feed_forward: bool = False  # send TARGET_VELOCITY (CSP: velocity offset)
+    register_map: RegisterMap | str | Path = DEFAULT_MAP
+    following_error_window: float | None = None  # [m]
+    following_error_timeout: float | None = None  # [s]
+    watchdog: float | None = None  # [s], 0 = off
+    velocity_feed_forward: bool = False  # send target_velocity (CSP: velocity offset)
     reconnect_every: int = 10  # cycles between reconnect attempts
     reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
 
@@ -130,10 +162,10 @@ class ModbusDriveConfig:
             raise ValueError(f"port must be in 1..65535, got {self.port}")
         if not 0 <= self.device_id <= 255:
             raise ValueError(f"device_id must be in 0..255, got {self.device_id}")
-        if self.word_order not in ("big", "little"):
-            raise ValueError(f"word_order must be 'big' or 'little', got {self.word_order!r}")
-        if self.exchange not in ("fc23", "split"):
-            raise ValueError(f"exchange must be 'fc23' or 'split', got {self.exchange!r}")
+        if self.word_order not in (None, "big", "little"):
+            raise ValueError(
+                f"word_order must be 'big', 'little' or None (the map's), got {self.word_order!r}"
+            )
         if not (self.timeout > 0 and math.isfinite(self.timeout)):
             raise ValueError(f"timeout must be a finite number of seconds > 0, got {self.timeout}")
         if not (self.cycle_time > 0 and math.isfinite(self.cycle_time)):
@@ -142,11 +174,73 @@ class ModbusDriveConfig:
             )
         if self.reconnect_every < 1:
             raise ValueError("reconnect_every must be >= 1")
+        rmap = self.register_map
+        if not isinstance(rmap, RegisterMap):
+            if not isinstance(rmap, (str, Path)):
+                raise ValueError(
+                    "register_map must be a RegisterMap, a shipped map's name or a path, "
+                    f"got {type(rmap).__name__}"
+                )
+            rmap = load_register_map(rmap)
+            object.__setattr__(self, "register_map", rmap)
+        for key, value, lo in (
+            ("following_error_window", self.following_error_window, 0.0),
+            ("following_error_timeout", self.following_error_timeout, 0.0),
+            ("watchdog", self.watchdog, -1.0),
+        ):
+            if value is None:
+                continue
+            if not (math.isfinite(value) and value > lo):
+                allowed = "> 0" if lo == 0.0 else ">= 0"
+                raise ValueError(f"{key} must be a finite number {allowed}, got {value}")
+            if key not in rmap:
+                raise ValueError(
+                    f"{key} is given but the register map {rmap.name!r} has no {key} register"
+                )
+        if self.velocity_feed_forward and "target_velocity" not in rmap:
+            raise ValueError(
+                f"velocity_feed_forward needs a target_velocity register; the register map "
+                f"{rmap.name!r} has none"
+            )
 
     @property
     def timeout_cycles(self) -> int:
         """Cycles without an answer after which the drive reports COMM_TIMEOUT (>= 1)."""
         return max(1, math.ceil(self.timeout / self.cycle_time - 1e-9))
+
+    @property
+    def map(self) -> RegisterMap:
+        """The register map with this drive's word order applied."""
+        assert isinstance(self.register_map, RegisterMap)
+        return self.register_map.with_word_order(self.word_order)
+
+
+@dataclass(frozen=True, slots=True)
+class ModbusStatus:
+    """The status registers of one answer, in the drive's units (None: not in the map)."""
+
+    statusword: int
+    mode_display: int | None
+    position: int | float
+    velocity: int | float | None
+    following_error: int | float | None
+    error_code: int | None
+    life_sign_echo: int | None
+
+
+assert (
+    tuple(ModbusStatus.__slots__)
+    == (  # type: ignore[attr-defined]
+        "statusword",
+        "mode_display",
+        "position",
+        "velocity",
+        "following_error",
+        "error_code",
+        "life_sign_echo",
+    )
+    and len(STATUS_KEYS) == 7
+)
 
 
 class _RequestError(Exception):
@@ -163,8 +257,11 @@ class _Exchange:
 
     life_sign: int
     sent_tick: int
-    pending: dict[int, str] = field(default_factory=dict)  # tid -> "fc23" | "write" | "read"
-    requests: dict[int, ModbusPDU] = field(default_factory=dict)
+    reads_left: int  # read answers still to come (the status is taken when all are in)
+    status: list[Any]  # the status image being filled
+    pending: dict[int, Request] = field(default_factory=dict)  # tid -> request
+    pdus: dict[int, ModbusPDU] = field(default_factory=dict)  # tid -> what was sent
+    read_failed: bool = False
     busy_retried: bool = False
     parked_due: float | None = None  # lockstep: the peer holds it until this simulated time
     peer_seq: int = 0  # lockstep: the peer's request count before this exchange was sent
@@ -175,12 +272,34 @@ def _exception_detail(code: int) -> str:
     return f"Modbus exception 0x{code:02X} ({name})"
 
 
+def _read_pdu(req: Request) -> ModbusPDU:
+    """The FC 03/04 request reading ``req``'s registers (the read part of an FC 23)."""
+    if req.function == 4:
+        return ReadInputRegistersRequest(address=req.address, count=req.count)
+    return ReadHoldingRegistersRequest(address=req.address, count=req.count)
+
+
+def _write_pdu(req: Request, registers: list[int]) -> ModbusPDU:
+    if req.function == 23:
+        return ReadWriteMultipleRegistersRequest(
+            read_address=req.address,
+            read_count=req.count,
+            write_address=req.write_address,
+            write_registers=registers,
+        )
+    if req.function == 6:
+        return WriteSingleRegisterRequest(address=req.address, registers=registers)
+    return WriteMultipleRegistersRequest(address=req.address, registers=registers)
+
+
 class ModbusDrive(Drive):
-    """One CiA 402 axis behind a Modbus TCP server with register map v1."""
+    """One CiA 402 axis behind a Modbus TCP server, laid out by its register map."""
 
     def __init__(self, name: str, config: ModbusDriveConfig, *, peer: Any = None) -> None:
         self.name = name
         self.config = config
+        self.map: RegisterMap = config.map
+        self.codec: Codec = self.map.codec()
         # LockstepPeer stepped after each write (in-process virtual server); when it can tell
         # which requests it holds back (``parked_due``), the simulated cycle waits exactly
         self.peer = peer
@@ -189,9 +308,16 @@ class ModbusDrive(Drive):
         self.link = ModbusLink(config.host, config.port)
         self.realtime = False
         self._opened = False
-        self.status: StatusBlock | None = None
+        self.status: ModbusStatus | None = None
         self.controlword = 0
         self.life_sign = 0
+        self._echo = "life_sign_echo" in self.map
+        self._read_pdus = {id(r): _read_pdu(r) for r in self.codec.requests if r.function in (3, 4)}
+        self._image: list[Any] = [0] * len(COMMAND_KEYS)
+        self._image[CMD_MODE] = CSP
+        self._image[CMD_TORQUE] = 0
+        self._velocity = 0.0  # [units/s] from positions when the map has no velocity_actual
+        self._status_tick = 0
         self._fresh = False
         self._failure: tuple[int, str, str] | None = None  # (code, detail, kind) this cycle
         self._timed_out = ""  # no answer for timeout_cycles: latched until an answer comes
@@ -214,37 +340,36 @@ class ModbusDrive(Drive):
 
     # ----------------------------------------------------------------- setup
     def open(self) -> None:
+        """Connect, identify, write the mode and the setup parameters, read the status once
+        (see the module docstring); raises :class:`FieldbusError` naming what failed."""
         cfg = self.config
         if not self.link.connect(cfg.timeout):
             reason = self.link.error or f"no answer within {cfg.timeout} s"
             self.link.close()
             raise FieldbusError(f"{self.name}: cannot connect to {cfg.host}:{cfg.port}: {reason}")
         try:
-            ident = decode_fields(ID_BASE, self._read(ID_BASE, ID_COUNT), cfg.word_order)
-            if ident["MAP_VERSION"] != MAP_VERSION_VALUE:
-                raise FieldbusError(f"{self.name}: register map version {ident['MAP_VERSION']}")
-            if ident["DEVICE_PROFILE"] != DEVICE_PROFILE_VALUE:
-                raise FieldbusError(f"{self.name}: device profile {ident['DEVICE_PROFILE']}")
-            if ident["WORD_ORDER_PROBE"] != WORD_ORDER_PROBE_VALUE:
-                raise FieldbusError(
-                    f"{self.name}: word-order probe reads 0x{ident['WORD_ORDER_PROBE']:08X}, "
-                    f"expected 0x{WORD_ORDER_PROBE_VALUE:08X} with word_order={cfg.word_order!r}"
-                    " (refusing to enable)"
-                )
-            params: dict[str, int] = {"CYCLE_TIME_US": round(cfg.cycle_time * 1e6)}
+            self._identify()
+            if "mode_of_operation" in self.map:
+                self._write_register("mode_of_operation", CSP)
+            params: list[tuple[str, float]] = [("cycle_time", cfg.cycle_time)]
             if cfg.following_error_window is not None:
-                params["FOLLOWING_ERROR_WINDOW"] = min(
-                    0xFFFFFFFE, round(abs(cfg.following_error_window * cfg.counts_per_unit))
-                )
+                window = abs(cfg.following_error_window * cfg.counts_per_unit)
+                params.append(("following_error_window", window))
             if cfg.following_error_timeout is not None:
-                params["FOLLOWING_ERROR_TIMEOUT_MS"] = round(cfg.following_error_timeout * 1000)
-            params["WATCHDOG_MS"] = round(cfg.watchdog * 1000)
-            for name, value in params.items():
-                f = BY_NAME[name]
-                self._write(
-                    f.address, encode_fields(f.address, f.size, {name: value}, cfg.word_order)
-                )
-            self.status = StatusBlock.decode(self._read(STATUS_BASE, STATUS_COUNT), cfg.word_order)
+                params.append(("following_error_timeout", cfg.following_error_timeout))
+            if cfg.watchdog is not None:
+                params.append(("watchdog", cfg.watchdog))
+            for key, value in params:
+                if key in self.map:
+                    self._write_register(key, value)
+            image: list[Any] = [None] * len(STATUS_KEYS)
+            for req in self.codec.reads:
+                rr = self._transact(_read_pdu(req), f"{req.label} ({', '.join(req.keys)})")
+                req.decode(self._registers(rr, req), image)
+            self._set_status(image, 0)
+        except RegisterValueError as exc:
+            self.link.close()
+            raise FieldbusError(f"{self.name}: setup failed: {exc}") from exc
         except _RequestError as exc:
             self.link.close()
             raise FieldbusError(f"{self.name}: setup failed: {exc.detail}") from exc
@@ -254,13 +379,64 @@ class ModbusDrive(Drive):
         self._fresh = True
         self._opened = True
 
-    def _transact(self, pdu: ModbusPDU) -> ModbusPDU:
-        """Setup path: one request and its answer, bounded by the timeout (BUSY re-sent once)."""
+    def _identify(self) -> None:
+        """Read the map's identification registers and compare each with its value."""
+        ident = self.map.identification
+        if not ident:
+            return
+        image: list[Any] = [None] * len(ident)
+        index = {id(e): i for i, e in enumerate(ident)}
+        for req in read_requests(self.map, ident, lambda e: index[id(e)]):
+            what = f"{req.label} (identification: {', '.join(req.keys)})"
+            req.decode(self._registers(self._transact(_read_pdu(req), what), req), image)
+        for e, value in zip(ident, image, strict=True):
+            if value == e.expect:
+                continue
+            if e.type == "f32":
+                shown, expected = f"{value!r}", f"{e.expect!r}"
+            else:
+                digits = 4 if e.size == 1 else 8
+                shown = f"{value} (0x{value & (16**digits - 1):0{digits}X})"
+                expected = f"{e.expect} (0x{e.expect & (16**digits - 1):0{digits}X})"
+            where = f"0x{e.wire:04X}" + (" (input)" if e.table == "input" else "")
+            order = f" with word_order={self.map.order_of(e)!r}" if e.size == 2 else ""
+            raise FieldbusError(
+                f"{self.name}: identification {e.name} at {where} reads {shown}, expected "
+                f"{expected}{order} (register map {self.map.name!r}; refusing to enable)"
+            )
+
+    def _write_register(self, key: str, value: float) -> None:
+        """Setup path: write one register of the map (FC 16 or FC 06)."""
+        r = self.map.get(key)
+        assert r is not None
+        regs = self.map.encode(key, value)
+        fc = self.map.write_function
+        if fc == 6:
+            pdu: ModbusPDU = WriteSingleRegisterRequest(address=r.wire, registers=regs)
+            label = f"FC06 write 0x{r.wire:04X} ({key})"
+        else:
+            pdu = WriteMultipleRegistersRequest(address=r.wire, registers=regs)
+            label = f"FC16 write 0x{r.wire:04X}+{len(regs)} ({key})"
+        self._transact(pdu, label)
+
+    def _registers(self, rr: ModbusPDU, req: Request) -> list[int]:
+        regs = list(rr.registers)
+        if len(regs) != req.count:
+            raise _RequestError(
+                CODE_NO_RESPONSE,
+                f"{req.label}: {len(regs)} registers in the answer, expected {req.count}",
+                "exception",
+            )
+        return regs
+
+    def _transact(self, pdu: ModbusPDU, what: str) -> ModbusPDU:
+        """Setup path: one request and its answer, bounded by the timeout (BUSY re-sent once);
+        errors name the request (``what``)."""
         for attempt in range(2):
             self.requests += 1
             tid = self.link.send(pdu, self.config.device_id)
             if tid is None:
-                raise _RequestError(CODE_NO_RESPONSE, self.link.error, "disconnected")
+                raise _RequestError(CODE_NO_RESPONSE, f"{what}: {self.link.error}", "disconnected")
             reply: Reply | None = None
             for _ in range(8):  # unrelated frames are skipped; each wait is bounded
                 if not self.link.wait_readable(self.config.timeout):
@@ -271,61 +447,84 @@ class ModbusDrive(Drive):
             if reply is None:
                 self.link.close()
                 if self.link.error:
-                    raise _RequestError(CODE_NO_RESPONSE, self.link.error, "disconnected")
+                    raise _RequestError(
+                        CODE_NO_RESPONSE, f"{what}: {self.link.error}", "disconnected"
+                    )
                 raise _RequestError(
-                    CODE_NO_RESPONSE, f"no response within {self.config.timeout} s", "timeout"
+                    CODE_NO_RESPONSE,
+                    f"{what}: no response within {self.config.timeout} s",
+                    "timeout",
                 )
             rr = reply.pdu
             if rr is None:
-                raise _RequestError(CODE_NO_RESPONSE, "undecodable response", "exception")
+                raise _RequestError(CODE_NO_RESPONSE, f"{what}: undecodable response", "exception")
             if isinstance(rr, ExceptionResponse):
                 code = int(rr.exception_code)
                 if code == ExcCodes.DEVICE_BUSY and attempt == 0:
                     continue
                 raise _RequestError(
-                    CODE_EXCEPTION_BASE | code, _exception_detail(code), "exception"
+                    CODE_EXCEPTION_BASE | code, f"{what}: {_exception_detail(code)}", "exception"
+                )
+            if rr.function_code != pdu.function_code:
+                raise _RequestError(
+                    CODE_NO_RESPONSE,
+                    f"{what}: answer of function {rr.function_code}",
+                    "exception",
                 )
             return rr
         raise AssertionError("unreachable")
 
-    def _read(self, address: int, count: int) -> list[int]:
-        rr = self._transact(ReadHoldingRegistersRequest(address=address, count=count))
-        return list(rr.registers)
-
-    def _write(self, address: int, values: list[int]) -> None:
-        self._transact(WriteMultipleRegistersRequest(address=address, registers=values))
-
     # ------------------------------------------------------------- answers
+    def _set_status(self, image: list[Any], tick: int) -> None:
+        """Take a complete status image in (answer to the exchange sent at ``tick``)."""
+        prev = self.status
+        st = ModbusStatus(*image)
+        if st.velocity is None and prev is not None and tick > self._status_tick:
+            # no velocity register: the difference of the last two positions
+            dt = (tick - self._status_tick) * self.config.cycle_time
+            self._velocity = (st.position - prev.position) / dt
+        self.status = st
+        self._status_tick = tick
+        self._fresh = True
+
     def _take(self, replies: list[Reply]) -> None:
         """Apply the answers that belong to the exchange in flight."""
         ex = self._exchange
         for reply in replies:
-            kind = ex.pending.pop(reply.tid, None) if ex is not None else None
-            if ex is None or kind is None:
+            req = ex.pending.pop(reply.tid, None) if ex is not None else None
+            if ex is None or req is None:
                 self.unexpected_replies += 1
                 continue
+            reads = req.function in (3, 4, 23)
             rr = reply.pdu
             if rr is None or (
                 not isinstance(rr, ExceptionResponse)
-                and rr.function_code != ex.requests[reply.tid].function_code
+                and rr.function_code != ex.pdus[reply.tid].function_code
             ):
-                self._failure = (CODE_NO_RESPONSE, "malformed response", "exception")
+                self._failure = (CODE_NO_RESPONSE, f"{req.label}: malformed response", "exception")
+                ex.read_failed |= reads
                 continue
             if isinstance(rr, ExceptionResponse):
                 code = int(rr.exception_code)
                 if code == ExcCodes.DEVICE_BUSY and not ex.busy_retried:
                     ex.busy_retried = True  # BUSY: send the same request once more
-                    self._send(ex, ex.requests[reply.tid], kind)
+                    self._send(ex, ex.pdus[reply.tid], req)
                     continue
-                self._failure = (CODE_EXCEPTION_BASE | code, _exception_detail(code), "exception")
+                detail = f"{req.label}: {_exception_detail(code)}"
+                self._failure = (CODE_EXCEPTION_BASE | code, detail, "exception")
+                ex.read_failed |= reads
                 continue
-            if kind in ("fc23", "read"):
+            if reads:
                 regs = list(rr.registers)
-                if len(regs) != STATUS_COUNT:
-                    self._failure = (CODE_NO_RESPONSE, f"{len(regs)} status registers", "exception")
+                if len(regs) != req.count:
+                    detail = f"{req.label}: {len(regs)} registers in the answer"
+                    self._failure = (CODE_NO_RESPONSE, detail, "exception")
+                    ex.read_failed = True
                     continue
-                self.status = StatusBlock.decode(regs, self.config.word_order)
-                self._fresh = True
+                req.decode(regs, ex.status)
+                ex.reads_left -= 1
+                if ex.reads_left == 0 and not ex.read_failed:
+                    self._set_status(ex.status, ex.sent_tick)
         if ex is not None and not ex.pending:
             self._timed_out = ""
             if self._tick - ex.sent_tick > 1:
@@ -372,7 +571,7 @@ class ModbusDrive(Drive):
                 if self.link.wait_readable(_POLL):
                     self._collect()
         else:
-            for _ in range(8):  # unrelated frames are skipped; each wait is bounded
+            for _ in range(8 + 2 * len(self.codec.requests)):  # each wait is bounded
                 if self._exchange is None or not self.link.connected:
                     return
                 if not self.link.wait_readable(cfg.timeout):
@@ -382,6 +581,9 @@ class ModbusDrive(Drive):
             self._time_out(f"no response within {cfg.timeout} s")
 
     def _time_out(self, detail: str) -> None:
+        ex = self._exchange
+        if ex is not None and ex.pending:
+            detail = f"{next(iter(ex.pending.values())).label}: {detail}"
         self.timeouts += 1
         self._timed_out = detail
         self._abandon()
@@ -409,12 +611,15 @@ class ModbusDrive(Drive):
         self._fresh = False
         if st is None:
             return DriveFeedback(0.0, 0.0, False, comm_ok=False, detail="not opened", stale=True)
-        state = decode_statusword(st.statusword)
+        state = decode_statusword(st.statusword & 0xFFFF)
         fault = state in (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
         comm_ok, error_code, detail, kind = True, 0, "", ""
         if fault:
-            error_code = st.error_code
-            detail = f"drive fault 0x{st.error_code:04X} ({state.value})"
+            if st.error_code is None:
+                detail = f"drive fault ({state.value}; the register map has no error_code)"
+            else:
+                error_code = st.error_code
+                detail = f"drive fault 0x{st.error_code:04X} ({state.value})"
         if self._disconnected or not self._opened:
             comm_ok, error_code, kind = False, CODE_NO_RESPONSE, "disconnected"
             detail = "not opened" if not self._opened else self._disconnected
@@ -424,14 +629,15 @@ class ModbusDrive(Drive):
             comm_ok, (error_code, detail, kind) = False, self._failure
         elif self._timed_out:
             comm_ok, error_code, detail, kind = False, CODE_NO_RESPONSE, self._timed_out, "timeout"
-        if fresh and st.life_sign_echo != self.life_sign and self.config.exchange == "fc23":
+        if fresh and self._echo and st.life_sign_echo != self.life_sign:
             fresh = False  # the drive has not seen our last command
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
         self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
         reset_pending = self._reset_until is not None
+        velocity = st.velocity if st.velocity is not None else self._velocity
         return DriveFeedback(
-            position=self.scaling.position_to_si(st.position),
-            velocity=self.scaling.velocity_to_si(st.velocity),
+            position=self.scaling.position_to_si(st.position),  # type: ignore[arg-type]
+            velocity=self.scaling.velocity_to_si(velocity),  # type: ignore[arg-type]
             enabled=enabled,
             fault=fault,
             error_code=error_code,
@@ -442,13 +648,13 @@ class ModbusDrive(Drive):
             reset_pending=reset_pending,
         )
 
-    def _send(self, ex: _Exchange, pdu: ModbusPDU, kind: str) -> bool:
+    def _send(self, ex: _Exchange, pdu: ModbusPDU, req: Request) -> bool:
         self.requests += 1
         tid = self.link.send(pdu, self.config.device_id)
         if tid is None:
             return False
-        ex.pending[tid] = kind
-        ex.requests[tid] = pdu
+        ex.pending[tid] = req
+        ex.pdus[tid] = pdu
         return True
 
     def _connected(self, reset: bool) -> bool:
@@ -486,46 +692,46 @@ class ModbusDrive(Drive):
             self._step_peer(t)
             return
         st = self.status
-        state = decode_statusword(st.statusword) if st is not None else Cia402State.UNKNOWN
+        state = decode_statusword(st.statusword & 0xFFFF) if st is not None else Cia402State.UNKNOWN
         if self._disconnected:
             state = Cia402State.UNKNOWN  # -> controlword 0x00 until reset
         target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
         resetting = self._reset_until is not None
         cw = next_controlword(state, target, self.controlword, resetting)
-        self.controlword = cw
+        image = self._image
         if state is Cia402State.OPERATION_ENABLED and command.enable:
-            position = self.scaling.position_to_counts(command.position)
-            velocity = (
-                self.scaling.velocity_to_counts(command.velocity)
-                if cfg.velocity_feed_forward
-                else 0
+            image[CMD_POSITION] = command.position * cfg.counts_per_unit + cfg.offset_counts
+            image[CMD_VELOCITY] = (
+                command.velocity * cfg.counts_per_unit if cfg.velocity_feed_forward else 0
             )
         else:
-            position = st.position if st is not None else 0
-            velocity = 0
-        self.life_sign = (self.life_sign + 1) & 0xFFFF
-        block = CommandBlock(cw, CSP, position, velocity, 0, self.life_sign).encode(cfg.word_order)
-        ex = _Exchange(self.life_sign, self._tick)
+            image[CMD_POSITION] = st.position if st is not None else 0
+            image[CMD_VELOCITY] = 0
+        life_sign = (self.life_sign + 1) & 0xFFFF
+        image[CMD_CONTROLWORD] = cw
+        image[CMD_LIFE_SIGN] = life_sign
+        try:
+            blocks = self.codec.encode(image)
+        except RegisterValueError as exc:
+            self._failure = (CODE_OUT_OF_RANGE, f"setpoint not sent: {exc}", "")
+            self._step_peer(t)
+            return
+        self.controlword = cw
+        self.life_sign = life_sign
+        ex = _Exchange(life_sign, self._tick, len(self.codec.reads), [None] * len(STATUS_KEYS))
         if self._parks is not None:
             ex.peer_seq = self._parks.request_count(cfg.device_id)
         self._exchange = ex
-        if cfg.exchange == "fc23":
-            ok = self._send(
-                ex,
-                ReadWriteMultipleRegistersRequest(
-                    read_address=STATUS_BASE,
-                    read_count=STATUS_COUNT,
-                    write_address=CMD_BASE,
-                    write_registers=block,
-                ),
-                "fc23",
-            )
-        else:
-            ok = self._send(
-                ex, WriteMultipleRegistersRequest(address=CMD_BASE, registers=block), "write"
-            ) and self._send(
-                ex, ReadHoldingRegistersRequest(address=STATUS_BASE, count=STATUS_COUNT), "read"
-            )
+        ok = True
+        writes = iter(blocks)
+        for req in self.codec.requests:
+            if req.function in (3, 4):
+                pdu = self._read_pdus[id(req)]
+            else:
+                pdu = _write_pdu(req, next(writes))
+            if not self._send(ex, pdu, req):
+                ok = False
+                break
         if not ok:
             self._link_lost()
         elif not self.realtime:
