@@ -79,7 +79,33 @@ __all__ = [
 CLOCKS = ("simulated", "realtime")
 OVERRUN = ("skip", "catch_up")
 BUS_TYPES = ("can", "modbus")
-CAN_INTERFACES = ("virtual", "socketcan")
+# python-can 4.6's interfaces (can.interfaces.VALID_INTERFACES; a test keeps the two equal) but
+# udp_multicast: multicast leaves this machine. A literal, so that loading a configuration does
+# not import python-can.
+CAN_INTERFACES = (
+    "virtual",
+    "socketcan",
+    "socketcand",
+    "pcan",
+    "kvaser",
+    "ixxat",
+    "vector",
+    "slcan",
+    "gs_usb",
+    "serial",
+    "canalystii",
+    "cantact",
+    "etas",
+    "iscan",
+    "neousys",
+    "neovi",
+    "nican",
+    "nixnet",
+    "robotell",
+    "seeedstudio",
+    "systec",
+    "usb2can",
+)
 CAN_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)
 BUS_DRIVES = ("simulated", "external")
 UNITS = ("m", "rad")
@@ -408,6 +434,20 @@ class BusSpec:
     port: int = 0
     timeout: float = 0.1
     max_frames_per_cycle: int = 256  # CAN: received frames handled per cycle (the rest counted)
+    # CAN: further keyword arguments of can.Bus for this interface (e.g. pcan's ``fd``,
+    # slcan's ``tty_baudrate``), passed through as given
+    options: tuple[tuple[str, Any], ...] = ()
+
+    def can_bus_kwargs(self, channel: str | None = None) -> dict[str, Any]:
+        """The keyword arguments of ``can.Bus`` for this CAN bus."""
+        kwargs: dict[str, Any] = {
+            "interface": self.interface,
+            "channel": self.channel if channel is None else channel,
+        }
+        if self.interface != "virtual":
+            kwargs["bitrate"] = self.bitrate
+        kwargs.update(self.options)
+        return kwargs
 
 
 @dataclass(frozen=True, slots=True)
@@ -518,7 +558,14 @@ _RUNTIME = {
 _TASK = {"period": False, "priority": False, "watchdog": False}
 _WATCHDOG = {"time": True, "sensitivity": False}
 _BUS = {"type": True, "drives": False}
-_CAN = {"interface": False, "channel": False, "bitrate": False, "max_frames_per_cycle": False}
+_CAN = {
+    "interface": False,
+    "channel": False,
+    "bitrate": False,
+    "max_frames_per_cycle": False,
+    "options": False,
+}
+_CAN_RESERVED = ("interface", "channel", "bitrate")  # not settable through options
 _MODBUS = {"host": False, "port": False, "timeout": False}
 _AXIS = {
     "units": False,
@@ -635,18 +682,42 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
     c.keys(m, path, keys)
     drives = c.choice(m, "drives", path, BUS_DRIVES, "simulated")
     if kind == "can":
-        interface = c.choice(m, "interface", path, CAN_INTERFACES, "virtual")
-        channel = c.string(m, "channel", path, name if interface == "virtual" else "vcan0")
+        if m.get("interface") == "udp_multicast":
+            c.error(
+                m.line_of("interface"),
+                join(path, "interface"),
+                "udp_multicast sends CAN frames as IP multicast beyond this machine",
+                ", ".join(CAN_INTERFACES),
+            )
+            interface = None
+        else:
+            interface = c.choice(m, "interface", path, CAN_INTERFACES, "virtual")
+        default_channel = {"virtual": name, "socketcan": "vcan0"}.get(interface or "")
+        if default_channel is None and "channel" not in m and interface is not None:
+            c.error(m.line, join(path, "channel"), f"missing (interface {interface})", "a channel")
+        channel = c.string(m, "channel", path, default_channel)
         bitrate = c.choice(m, "bitrate", path, CAN_BITRATES, 1_000_000)
         max_frames = c.integer(m, "max_frames_per_cycle", path, 256, lo=1, hi=100_000)
+        options: list[tuple[str, Any]] = []
+        if "options" in m:
+            om = c.mapping(m["options"], m.line_of("options"), join(path, "options"), None)
+            for key, value in (om or {}).items():
+                op = join(join(path, "options"), key)
+                if key in _CAN_RESERVED:
+                    c.error(om.line_of(key), op, "set it on the bus itself", f"buses.{name}.{key}")
+                elif not isinstance(key, str) or isinstance(value, (dict, list)):
+                    c.error(om.line_of(key), op, f"got {_tname(value)}", "a scalar value")
+                else:
+                    options.append((key, value))
         return BusSpec(
             name,
             kind,
             drives,
-            interface,
+            interface or "virtual",
             channel or name,
             bitrate,
             max_frames_per_cycle=max_frames or 256,
+            options=tuple(options),
         )
     host = c.string(m, "host", path, "127.0.0.1") or "127.0.0.1"
     if drives == "simulated" and not _is_loopback(host):
@@ -1137,6 +1208,36 @@ def build(
     return machine
 
 
+def _open_can(bus: BusSpec, channel: str, where: str) -> Any:
+    """``can.Bus`` for ``bus``; a failure names the file, the bus, the interface and the
+    channel, and says what to do about a missing SocketCAN channel."""
+    import errno
+
+    import can
+
+    from motionplc.fieldbus.base import FieldbusError
+
+    try:
+        return can.Bus(**bus.can_bus_kwargs(channel))
+    except (OSError, can.CanError, ImportError, ValueError, TypeError) as exc:
+        hint = ""
+        code = getattr(exc, "errno", None)
+        if bus.interface == "socketcan" and code == errno.EAFNOSUPPORT:
+            hint = (
+                "; this kernel has no SocketCAN (AF_CAN): load the can, can_raw and vcan "
+                "modules, or use interface: virtual"
+            )
+        elif bus.interface == "socketcan" and code in (errno.ENODEV, errno.ENXIO):
+            hint = (
+                f"; {channel} does not exist: sudo ip link add dev {channel} type vcan && "
+                f"sudo ip link set up {channel} (tools/setup_vcan.sh), or name a real adapter"
+            )
+        raise FieldbusError(
+            f"{where}: buses.{bus.name}: cannot open CAN interface {bus.interface!r} channel "
+            f"{channel!r}: {exc}{hint}"
+        ) from exc
+
+
 def _make_drive(
     machine: Machine,
     ax: AxisSpec,
@@ -1153,8 +1254,6 @@ def _make_drive(
     assert d.bus is not None
     bus = cfg.bus(d.bus)
     if d.kind == "canopen":
-        import can
-
         from motionplc.fieldbus.canopen_drive import (
             CanopenDrive,
             CanopenDriveConfig,
@@ -1177,13 +1276,13 @@ def _make_drive(
                     if a.drive.bus == d.bus and a.drive.node_id is not None
                 ]
                 rack = VirtualCanBus(
-                    can.Bus(interface=bus.interface, channel=channel),
+                    _open_can(bus, channel, cfg.path),
                     [VirtualCia402Drive(n) for n in nodes],
                 )
                 machine._closers.append(rack.close)
                 machine.peers[d.bus] = rack
             master = CanopenMaster(
-                can.Bus(interface=bus.interface, channel=channel),
+                _open_can(bus, channel, cfg.path),
                 peer=rack,
                 max_frames_per_cycle=bus.max_frames_per_cycle,
             )
