@@ -56,7 +56,7 @@ in counts per second (``inc/s``).
 
 Register map
 ============
-Input registers (function 0x04, read only). Readable area: 0x1000..0x103F (unassigned
+Input registers (function 0x04, read only). Readable area: 0x1000..0x10FF (unassigned
 addresses read 0) and 0x1F00..0x1F07.
 
 =========  ====  ==========================================================================
@@ -76,8 +76,8 @@ address    type  meaning
 0x1F06     u32   word-order probe 0x12345678 (reads 0x5678, 0x1234)
 =========  ====  ==========================================================================
 
-Holding registers (function 0x03 read, 0x06 / 0x10 write). Readable area: 0x2000..0x203F and
-0x3000..0x303F (unassigned addresses read 0 and refuse writes with 0x02).
+Holding registers (function 0x03 read, 0x06 / 0x10 write). Readable area: 0x2000..0x20FF and
+0x3000..0x30FF (unassigned addresses read 0 and refuse writes with 0x02).
 
 =========  ====  ====  ===============================================  ========================
 address    type  rw    meaning                                          range (else 0x04)
@@ -147,10 +147,13 @@ ENABLED bit 12 ("drive follows the command value") is set; bit 13 (following err
 while |following error| > window; bit 11 (internal limit) while the velocity is limited.
 
 CSP only: in OPERATION ENABLED the drive takes the target position of each cycle as its demand;
-the plant follows it with a first-order lag (time constant 0x3006) plus the velocity
-feed-forward, its speed limited to 0x3008::
+the plant moves by the velocity feed-forward and follows the rest with a first-order lag (time
+constant tau = 0x3006), its speed limited to 0x3008 (T = cycle time)::
 
-    step = (demand - actual) * (1 - exp(-T / tau)) + feed_forward * T,  |step| <= v_max * T
+    step = ff * T + (demand - actual - ff * T) * (1 - exp(-T / tau)),   |step| <= v_max * T
+
+so a ramp of slope v is followed with the constant error v T (1 - a) / a, a = 1 - exp(-T / tau),
+without feed-forward, and with none when the feed-forward equals v.
 
 Out of OPERATION ENABLED the motor holds its position (demand = actual, following error 0); in
 QUICK STOP ACTIVE and FAULT REACTION ACTIVE the demand is frozen at the position where the stop
@@ -352,8 +355,8 @@ _INPUT_REGS = (
     _Reg("firmware_version", 0x1F04, "u32"),
     _Reg("word_order_probe", 0x1F06, "u32"),
 )
-_HOLDING_AREAS = ((0x2000, 0x203F), (0x3000, 0x303F))
-_INPUT_AREAS = ((0x1000, 0x103F), (0x1F00, 0x1F07))
+_HOLDING_AREAS = ((0x2000, 0x20FF), (0x3000, 0x30FF))
+_INPUT_AREAS = ((0x1000, 0x10FF), (0x1F00, 0x1F07))
 _IDENTIFICATION = {
     "vendor_id": 0x4B53,
     "device_profile": 402,
@@ -563,7 +566,8 @@ class ModbusServo:
             self._velocity = 0.0
             return
         tau = self._params["lag_time_constant_us"] * 1e-6
-        step = (self._demand - self._position) * (1.0 - math.exp(-dt / tau)) + feed_forward * dt
+        ahead = feed_forward * dt
+        step = ahead + (self._demand - self._position - ahead) * (1.0 - math.exp(-dt / tau))
         limit = self._params["max_velocity"] * dt
         if abs(step) > limit:
             step = math.copysign(limit, step)
