@@ -442,6 +442,7 @@ class ModbusServo:
         self._power_up()
 
         self._listener: socket.socket | None = None
+        self._port: int | None = None
         self._thread: threading.Thread | None = None
         self._selector: selectors.BaseSelector | None = None
         self._wake_r: socket.socket | None = None
@@ -750,6 +751,7 @@ class ModbusServo:
         listener.listen(16)
         listener.setblocking(False)
         self._listener = listener
+        self._port = listener.getsockname()[1]
         self._wake_r, self._wake_w = socket.socketpair()
         self._wake_r.setblocking(False)
         self._selector = selectors.DefaultSelector()
@@ -779,9 +781,9 @@ class ModbusServo:
     @property
     def port(self) -> int:
         """The TCP port the server listens on (after ``start``)."""
-        if self._listener is None:
+        if self._port is None:
             raise RuntimeError("ModbusServo not started")
-        return self._listener.getsockname()[1]
+        return self._port
 
     @property
     def unit_id(self) -> int:
@@ -998,5 +1000,4 @@ class ModbusServo:
         return len(self._conns)
 
     def __repr__(self) -> str:
-        port = self._listener.getsockname()[1] if self._listener is not None else None
-        return f"ModbusServo(port={port}, unit_id={self._unit_id}, state={self._state.name})"
+        return f"ModbusServo(port={self._port}, unit_id={self._unit_id}, state={self._state.name})"

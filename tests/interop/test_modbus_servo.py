@@ -374,6 +374,8 @@ def test_constructor_errors() -> None:
     with pytest.raises(ValueError, match="watchdog_ms"):
         ModbusServo(factory={"watchdog_ms": 70000})
     servo = ModbusServo(factory={"lag_time_constant_us": 2000})
+    with pytest.raises(RuntimeError, match="not started"):
+        servo.port  # noqa: B018
     assert servo.parameters == {**FACTORY, "lag_time_constant_us": 2000}
     with pytest.raises(ValueError, match="fault code"):
         servo.inject_fault(0)
@@ -803,6 +805,21 @@ def test_several_clients(servo: ModbusServo) -> None:
     assert not errors
     assert servo.requests_by_function[0x04] == 4 + 300
     for c in clients:
+        c.close()
+
+
+def test_stop_closes_and_restart() -> None:
+    servo = ModbusServo().start()
+    c = connect(servo)
+    port = servo.port
+    servo.stop()
+    assert servo.port == port and "SWITCH_ON_DISABLED" in repr(servo)
+    with pytest.raises(ModbusException):
+        c.read_input_registers(STATUS, count=1, device_id=UNIT)
+    c.close()
+    with servo:  # started again, on a new port, same drive
+        c = connect(servo)
+        assert status(c) == 0x0250
         c.close()
 
 
