@@ -2,22 +2,33 @@
 
 :class:`CanopenMaster` owns one CAN endpoint and one ``canopen.Network`` (never
 ``Network.connect()``: no Notifier, no thread in the cycle). :class:`CanopenDrive` is one axis
-on it and implements :class:`~motionplc.fieldbus.base.Drive`:
+on it and implements :class:`~motionplc.fieldbus.base.Drive`. It works with drives we did not
+write: everything it does follows CiA 301 / CiA 402 and its configuration, not one drive.
 
-* :meth:`CanopenDrive.open` (setup path, may raise :class:`FieldbusError`): NMT
-  PRE-OPERATIONAL, SDO configuration (0x6060 = CSP and check of 0x6061, 0x60C2 interpolation
-  period, 0x1006, 0x1017 heartbeat, 0x1016 master-heartbeat consumer, 0x6065/0x6066), PDO
-  mapping through ``PdoMap.save()`` (RPDO1 6040+607A, optional RPDO2 60B1; TPDO1 6041+6064,
-  optional TPDO2 606C+603F, all synchronous), NMT start;
+* :meth:`CanopenDrive.open` (setup path, may raise :class:`FieldbusError`) runs the start-up
+  script of :mod:`~motionplc.fieldbus.canopen_startup` (NMT pre-operational, 0x1000 device
+  type, 0x1018 identity checked against the EDS, 0x6502, 0x6060 = CSP and 0x6061 polled until
+  it shows CSP, 0x60C2, 0x1006, 0x1005, heartbeat 0x1017 or node guarding 0x100C/0x100D,
+  consumer 0x1016, scaling objects, 0x6065/0x6066, the PDO layout of the configuration, NMT
+  start) through our own SDO client (:mod:`~motionplc.fieldbus.sdo`). Optional objects the
+  drive lacks are skipped and recorded in :attr:`CanopenDrive.startup_log`; errors name the
+  node, the transfer, the object and the abort code with its CiA 301 meaning, e.g.
+  ``x: node 3: SDO write 0x1800:01 aborted 0x06090030 (value range of parameter exceeded)``.
+  With an in-process peer the setup runs in lockstep (deterministic; the setup clock
+  advances only by the script's waits); without one a temporary Notifier receives.
 * :meth:`CanopenDrive.read_inputs`: the master drains the bus once per cycle with
-  ``recv(timeout=0)`` into ``Network.notify`` (frames stamped with the cycle time ``t``), then
-  the drive decodes its latest TPDOs, supervises its heartbeat and TPDO freshness and reports
-  EMCY errors;
+  ``recv(timeout=0)`` (frames stamped with the cycle time ``t``), then the drive decodes its
+  latest TPDOs (compiled from the layout actually configured), supervises its heartbeat or
+  node guarding and TPDO freshness and reports EMCY errors;
 * :meth:`CanopenDrive.write_outputs`: controlword from :func:`cia402.next_controlword`
   (MC_Power enable -> OPERATION ENABLED, disable -> READY TO SWITCH ON, MC_Reset -> fault reset
-  edge) and target position; RPDO sent with a one-shot ``transmit()``; once every drive of
-  the master has written, the master sends one SYNC (and its heartbeat) and steps the
-  in-process peer if there is one.
+  edge) and target position (and the other RPDO objects of the layout); RPDOs sent as raw
+  frames; once every drive of the master has written, the master sends one SYNC (and its
+  heartbeat, and node-guarding requests when due) and steps the in-process peer if there is
+  one. Without a peer on the simulated clock it then waits (at most ``external_wait`` of wall
+  time, with ``bus.recv(timeout)``) for the TPDOs of this SYNC, so runs against a drive in
+  another thread are reproducible; a drive that missed one wait is not waited for again
+  until it sends again. On the real-time clock it never waits.
 
 Feedback read in cycle k+1 reflects the setpoint written in cycle k (one cycle of transport
 delay with the virtual drives, which answer the SYNC of cycle k before cycle k+1).
@@ -27,9 +38,11 @@ Failure modes as values (never raised in the cycle):
 =====================  ========  ==========  ===================================  ===========
 condition              fault     comm_ok     error_code                           kind
 =====================  ========  ==========  ===================================  ===========
-drive FAULT / FRA      True      True        0x603F (TPDO2), else EMCY code
+drive FAULT / FRA      True      True        0x603F (TPDO), else EMCY code
 heartbeat lost         False     False       0x8130                               heartbeat
-node not OPERATIONAL   False     False       0x8130 (boot-up seen or NMT state)   heartbeat
+node guarding lost     False     False       0x8130                               heartbeat
+node rebooted          False     False       0x8130 (configuration lost)          heartbeat
+node not OPERATIONAL   False     False       0x8130 (NMT state)                   heartbeat
 no TPDO > limit        False     False       0x8250                               no_feedback
 bus-off (send fails)   False     False       0x8140 (latched until MC_Reset)      bus_off
 =====================  ========  ==========  ===================================  ===========
@@ -37,7 +50,13 @@ bus-off (send fails)   False     False       0x8140 (latched until MC_Reset)    
 A fault reset (``DriveCommand.fault_reset``, MC_Reset) starts a reset sequence: after bus-off
 the node is re-initialised (NMT start), a drive in FAULT gets fault-reset edges; feedback
 carries ``reset_pending`` until the drive is out of FAULT with communication OK, or
-``reset_timeout`` has passed (the reset then fails).
+``reset_timeout`` has passed (the reset then fails). A drive that rebooted (boot-up message,
+or a heartbeat / guarding answer in PRE-OPERATIONAL) has lost its configuration: MC_Reset
+then runs the whole start-up script again inside the cycle, non-blocking (one SDO transfer in
+flight, its answer taken from the cycle's drain; SYNC and the other drives' PDOs go on), and
+``reset_pending`` lasts until the drive is verified configured (script done, NMT started,
+TPDOs arriving, statusword not FAULT). An SDO abort, no answer within ``sdo_timeout`` or the
+script not done within ``setup_timeout`` ends the reset, with the located error in ``detail``.
 
 Received frames are validated before anything interprets them
 (:class:`~motionplc.fieldbus.fastcan.RxGuard`): error, remote and FD frames, extended IDs, bad
@@ -52,8 +71,8 @@ most once per kind per second of cycle time. What each malformed kind means for 
   a complete EMCY); fewer than 2 bytes: no code to read, ignored;
 * heartbeat that is not exactly one valid NMT state byte: cannot be interpreted, ignored (it
   does not count as a sign of life: a node that only sends such frames is ``heartbeat`` lost);
-* NMT, SDO, LSS frames of the wrong length: ignored; SDO/LSS responses while no setup
-  transfer is in flight: ignored (``sdo_unsolicited``; canopen would queue them unboundedly).
+* NMT, SDO, LSS frames of the wrong length: ignored; SDO/LSS responses while no transfer of
+  ours is in flight: ignored (``sdo_unsolicited``).
 
 Every handler call (ours and canopen's) is wrapped: an exception is counted as
 ``handler_error`` and the frame dropped, so nothing received ever raises out of a cycle. At
@@ -63,14 +82,17 @@ this master are kept (the newest), the rest is dropped and counted
 (:attr:`CanopenMaster.frames_dropped`) — a flood costs one ID lookup per frame, and the next
 cycle starts from an empty queue.
 
-Cyclic fast path: RPDOs are packed with precompiled ``struct`` layouts (from canopen's PDO
-maps) and sent as raw frames; TPDOs are decoded straight from the received frames; frames
-are :class:`~motionplc.fieldbus.fastcan.FastMessage` (cheap copy on the virtual bus). SDO, NMT,
-EMCY and heartbeat go through canopen.
+Cyclic fast path: RPDOs and TPDOs are packed/decoded with ``struct`` layouts compiled from the
+mapping actually configured and sent/received as raw frames; frames are
+:class:`~motionplc.fieldbus.fastcan.FastMessage` (cheap copy on the virtual bus). NMT, EMCY
+and heartbeat go through canopen; SDO through :class:`~motionplc.fieldbus.sdo.SdoClient`.
 """
 
 from __future__ import annotations
 
+import queue
+import struct
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -79,7 +101,6 @@ import can
 import canopen
 from canopen.emcy import EmcyError
 from canopen.objectdictionary import ObjectDictionary
-from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from motionplc.fieldbus.base import (
     Drive,
@@ -89,8 +110,27 @@ from motionplc.fieldbus.base import (
     LockstepPeer,
     reset_in_progress,
 )
+from motionplc.fieldbus.canopen_startup import (
+    ABSENT,
+    RPDO_OBJECTS,
+    TPDO_OBJECTS,
+    Aborted,
+    ConfiguredPdo,
+    Delay,
+    Identity,
+    Nmt,
+    PdoSpec,
+    Read,
+    ScalingSpec,
+    StartupError,
+    StartupInputs,
+    StartupRecord,
+    Write,
+    check_layout,
+    default_layout,
+    startup_script,
+)
 from motionplc.fieldbus.cia402 import (
-    SUPPORTED_MODE_BIT,
     Cia402State,
     OperationMode,
     decode_statusword,
@@ -98,20 +138,32 @@ from motionplc.fieldbus.cia402 import (
 )
 from motionplc.fieldbus.fastcan import (
     DEFAULT_MAX_FRAMES,
+    FastMessage,
     GuardedEndpoint,
     RxGuard,
     drain,
     make_message,
     service_error,
 )
-from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.scaling import Scaling
-from motionplc.fieldbus.virtual_cia402 import eds_path
+from motionplc.fieldbus.sdo import (
+    ABORT_OBJECT_MISSING,
+    ABORT_SUBINDEX_MISSING,
+    SdoClient,
+    SdoDone,
+    SdoFailed,
+    SdoSend,
+    abort_text,
+    object_name,
+)
 
 __all__ = [
     "CanopenDrive",
     "CanopenDriveConfig",
     "CanopenMaster",
+    "Identity",
+    "PdoSpec",
+    "ScalingSpec",
     "interpolation_period_code",
 ]
 
@@ -120,6 +172,19 @@ CODE_HEARTBEAT = 0x8130
 CODE_BUS_OFF = 0x8140
 CODE_NO_FEEDBACK = 0x8250
 EMCY_HISTORY = 32  # EMCYs kept in canopen's node.emcy.log / .active
+ABSENT_CODES = frozenset({ABORT_OBJECT_MISSING, ABORT_SUBINDEX_MISSING})
+NMT_BOOT_UP = 0x00
+NMT_PRE_OPERATIONAL = 0x7F
+
+# attribute of CanopenDrive each TPDO object is decoded into
+_TPDO_ATTRS = {
+    0x6041: "statusword",
+    0x6064: "position_counts",
+    0x606C: "velocity_counts",
+    0x603F: "drive_error_code",
+    0x60F4: "following_error_counts",
+    0x6061: "mode_display",
+}
 
 
 def interpolation_period_code(period: float) -> tuple[int, int]:
@@ -131,9 +196,23 @@ def interpolation_period_code(period: float) -> tuple[int, int]:
     raise ValueError(f"cycle time {period} s cannot be written as value*10^index (value <= 255)")
 
 
+def _check_range(name: str, value: Any, lo: float, hi: float, unit: str = "s") -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not lo <= value <= hi:
+        raise ValueError(f"{name} must be in [{lo:g}, {hi:g}] {unit}, got {value!r}".rstrip())
+
+
 @dataclass(frozen=True, slots=True)
 class CanopenDriveConfig:
-    """Configuration of one CiA 402 axis on CANopen (SI units except where named)."""
+    """Configuration of one CiA 402 axis on CANopen (SI units except where named).
+
+    ``pdos`` None = the default layout (RPDO1 0x6040 + 0x607A, RPDO2 0x60B1 with
+    ``velocity_feed_forward``; TPDO1 0x6041 + 0x6064, TPDO2 0x606C + 0x603F (optional) with
+    ``feedback_velocity``). ``guard_time`` > 0 selects node guarding (0x100C, life time =
+    ``guard_time`` x ``life_time_factor``) instead of the heartbeat (then
+    ``heartbeat_period`` must be 0). ``sync_cob_id`` None = the master's. ``scaling_objects``:
+    a :class:`ScalingSpec` to write, ``"read"`` to read them back into
+    ``drive.scaling_objects``, None to leave them.
+    """
 
     node_id: int
     counts_per_unit: float = 1.0e6  # increments per m (or rad)
@@ -144,13 +223,23 @@ class CanopenDriveConfig:
     master_heartbeat_timeout: float = 0.0  # [s] drive consumer 0x1016; 0 = off
     following_error_window: float | None = None  # [m] -> 0x6065; None keeps the drive's
     following_error_timeout: float | None = None  # [s] -> 0x6066
-    velocity_feed_forward: bool = False  # RPDO2 with 0x60B1
-    feedback_velocity: bool = True  # TPDO2 with 0x606C + 0x603F
+    velocity_feed_forward: bool = False  # default layout: RPDO2 with 0x60B1
+    feedback_velocity: bool = True  # default layout: TPDO2 with 0x606C + 0x603F
     tpdo_loss_limit: int = 3  # cycles without TPDO1 before comm_ok = False
     reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
-    eds: str | None = None  # object dictionary; None = the shipped virtual-drive EDS
+    eds: str | None = None  # object dictionary file (presence of objects, identity); None = none
+    pdos: tuple[PdoSpec, ...] | None = None
+    mode_timeout: float = 0.5  # [s] 0x6061 must show CSP within this time after 0x6060 = 8
+    guard_time: float = 0.0  # [s] node guarding (0x100C); 0 = heartbeat supervision
+    life_time_factor: int = 3  # 0x100D
+    sync_cob_id: int | None = None  # 0x1005; None = the master's SYNC COB-ID
+    scaling_objects: ScalingSpec | str | None = None
+    setup_timeout: float = 2.0  # [s] whole re-configuration after a reboot (MC_Reset)
+    external_wait: float = 0.2  # [s wall clock] wait for an external drive's TPDOs per SYNC
 
     def __post_init__(self) -> None:
+        if isinstance(self.node_id, bool) or not isinstance(self.node_id, int):
+            raise ValueError(f"node_id must be an integer in 1..127, got {self.node_id!r}")
         if not 1 <= self.node_id <= 127:
             raise ValueError(f"node_id must be in 1..127, got {self.node_id}")
         if not self.cycle_time > 0:
@@ -158,8 +247,53 @@ class CanopenDriveConfig:
         interpolation_period_code(self.cycle_time)
         if self.heartbeat_period < 0 or self.master_heartbeat_timeout < 0:
             raise ValueError("heartbeat times must be >= 0")
+        _check_range("heartbeat_period", self.heartbeat_period, 0.0, 65.535)
+        _check_range("master_heartbeat_timeout", self.master_heartbeat_timeout, 0.0, 65.535)
         if self.tpdo_loss_limit < 1:
             raise ValueError(f"tpdo_loss_limit must be >= 1, got {self.tpdo_loss_limit}")
+        if self.following_error_window is not None:
+            _check_range("following_error_window", self.following_error_window, 0.0, 1e12, "m")
+        if self.following_error_timeout is not None:
+            _check_range("following_error_timeout", self.following_error_timeout, 0.0, 65.535)
+        _check_range("mode_timeout", self.mode_timeout, 0.0, 60.0)
+        _check_range("guard_time", self.guard_time, 0.0, 65.535)
+        if 0 < self.guard_time < 0.001:
+            raise ValueError(f"guard_time must be 0 or in [0.001, 65.535] s, got {self.guard_time}")
+        if (
+            isinstance(self.life_time_factor, bool)
+            or not isinstance(self.life_time_factor, int)
+            or not 1 <= self.life_time_factor <= 255
+        ):
+            raise ValueError(
+                f"life_time_factor must be an integer in 1..255, got {self.life_time_factor!r}"
+            )
+        if self.guard_time > 0 and self.heartbeat_period > 0:
+            raise ValueError(
+                "guard_time and heartbeat_period are exclusive (node guarding or heartbeat): "
+                f"got guard_time {self.guard_time} s and heartbeat_period "
+                f"{self.heartbeat_period} s; set heartbeat_period to 0"
+            )
+        if self.sync_cob_id is not None and (
+            isinstance(self.sync_cob_id, bool)
+            or not isinstance(self.sync_cob_id, int)
+            or not 0x001 <= self.sync_cob_id <= 0x7FF
+        ):
+            raise ValueError(f"sync_cob_id must be in 0x001..0x7FF, got {self.sync_cob_id!r}")
+        s = self.scaling_objects
+        if not (s is None or s == "read" or isinstance(s, ScalingSpec)):
+            raise ValueError(f"scaling_objects must be a ScalingSpec, 'read' or None, got {s!r}")
+        _check_range("setup_timeout", self.setup_timeout, 0.001, 600.0)
+        _check_range("external_wait", self.external_wait, 0.0, 10.0)
+        if self.pdos is not None:
+            if not isinstance(self.pdos, tuple):
+                raise ValueError(f"pdos must be a tuple of PdoSpec, got {self.pdos!r}")
+            check_layout(self.pdos, self.node_id)
+
+    def layout(self) -> tuple[PdoSpec, ...]:
+        """The PDO layout to configure (``pdos`` or the default one)."""
+        if self.pdos is not None:
+            return self.pdos
+        return default_layout(self.velocity_feed_forward, self.feedback_velocity)
 
 
 class _MasterNetwork(canopen.Network):
@@ -171,7 +305,9 @@ class _MasterNetwork(canopen.Network):
         self._master = master
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
-        msg = make_message(can_id, data, remote)
+        self.send_frame(make_message(can_id, data, remote))
+
+    def send_frame(self, msg: can.Message) -> None:
         try:
             with self.send_lock:
                 self.bus.send(msg)
@@ -190,8 +326,12 @@ class CanopenMaster(GuardedEndpoint):
     other end (e.g. :class:`~motionplc.fieldbus.virtual_cia402.VirtualCanBus`), stepped after
     each SYNC; without a peer the setup SDO traffic is received by a temporary Notifier.
     ``node_id`` is the master's own id for its heartbeat (sent every ``heartbeat_period``).
+    ``sync_cob_id`` is the COB-ID of the SYNC it produces (0x80 by default; the drives get it
+    in 0x1005 when it differs). ``sdo_timeout`` [s] bounds each SDO transfer.
     ``max_frames_per_cycle`` bounds the frames dispatched per cycle (see the module notes);
     ``log_interval`` [s of cycle time] is the minimum spacing of log lines per malformed kind.
+    ``realtime`` (set by the runtime through ``Drive.bind_clock``): True = never wait for
+    external drives.
     """
 
     def __init__(
@@ -204,7 +344,14 @@ class CanopenMaster(GuardedEndpoint):
         sdo_timeout: float = 0.3,
         max_frames_per_cycle: int = DEFAULT_MAX_FRAMES,
         log_interval: float = 1.0,
+        sync_cob_id: int = 0x80,
     ) -> None:
+        if isinstance(sync_cob_id, bool) or not isinstance(sync_cob_id, int):
+            raise ValueError(f"sync_cob_id must be an integer in 0x001..0x7FF, got {sync_cob_id!r}")
+        if not 0x001 <= sync_cob_id <= 0x7FF:
+            raise ValueError(f"sync_cob_id must be in 0x001..0x7FF, got 0x{sync_cob_id:X}")
+        if not 0.0 < sdo_timeout <= 60.0:
+            raise ValueError(f"sdo_timeout must be in (0, 60] s, got {sdo_timeout!r}")
         self.rx = RxGuard(
             "CANopen master", max_frames=max_frames_per_cycle, log_interval=log_interval
         )
@@ -213,20 +360,25 @@ class CanopenMaster(GuardedEndpoint):
         self.node_id = node_id
         self.heartbeat_period = heartbeat_period
         self.sdo_timeout = sdo_timeout
+        self.sync_cob_id = sync_cob_id
         self.network = _MasterNetwork(bus, self)
+        self.network.sync.cob_id = sync_cob_id
         self.drives: list[CanopenDrive] = []
         self.t = 0.0
+        self.realtime = False
         self._pumped_t: float | None = None
         self._written: set[int] = set()
         self._written_t: float | None = None
         self._next_hb_t: float | None = None
         self._exchange_now = False
-        self._in_setup = False  # SDO/LSS responses are accepted only during run_setup
+        self._in_setup = False  # LSS responses are accepted only during run_setup
+        self._held: list[can.Message] = []  # received while waiting for external drives
         self.bus_ok = True
         self.bus_fault_latched = False
         self.bus_error = ""
         self.sync_sent = 0
         self.frames_received = 0
+        self.external_waits = 0  # waits for external drives' TPDOs that ran out (statistics)
         self.sync_enabled = True  # fault injection: SYNC loss when False
         # cyclic fast path: TPDO COB-ID -> decoder (bypasses canopen's PdoMap.on_message)
         self.rx_handlers: dict[int, Callable[[bytearray], None]] = {}
@@ -251,14 +403,18 @@ class CanopenMaster(GuardedEndpoint):
         return self.rx_handlers.keys() | self.network.subscribers.keys()
 
     def _drain(self, t: float) -> None:
+        held = self._held
         try:
             frames = drain(self.bus)
         except can.CanError as exc:
             self._on_send_error(exc)
-            return
+            frames = []
         except Exception as exc:  # noqa: BLE001 - a broken bus object must not end the cycle
             self.rx.failed(t, -1, exc)
-            return
+            frames = []
+        if held:
+            self._held = []
+            frames = held + frames
         if frames:
             self._dispatch(frames, t)
 
@@ -284,7 +440,7 @@ class CanopenMaster(GuardedEndpoint):
                     # a short EMCY whose error code is readable is still an emergency
                     rx.malformed(kind, t, cob_id, data, "accepted, missing bytes as 0")
                     data = bytes(data) + bytes(8 - len(data))
-                elif not self._in_setup and (0x581 <= cob_id <= 0x5FF or cob_id == 0x7E4):
+                elif not self._in_setup and cob_id == 0x7E4:
                     if cob_id in self.network.subscribers:
                         rx.malformed("sdo_unsolicited", t, cob_id, data)
                     continue
@@ -323,7 +479,8 @@ class CanopenMaster(GuardedEndpoint):
             self.end_cycle(t)
 
     def end_cycle(self, t: float) -> None:
-        """SYNC, master heartbeat, then step the in-process peer."""
+        """SYNC, master heartbeat, node-guarding requests, then step the in-process peer (or
+        wait for external drives on the simulated clock)."""
         self.t = t
         if self.sync_enabled:
             try:
@@ -338,8 +495,46 @@ class CanopenMaster(GuardedEndpoint):
                 except can.CanError:
                     pass
                 self._next_hb_t = t + self.heartbeat_period
+        for drive in self.drives:
+            if drive.config.guard_time > 0:
+                drive._guard(t)
         if self.peer is not None:
             self.peer.step(t)
+        elif not self.realtime:
+            self._wait_external()
+
+    def _wait_external(self) -> None:
+        """Simulated clock, external drives: receive until every drive expected to answer
+        this SYNC has sent its TPDOs (and its SDO answer, while one is in flight), each
+        ``recv`` bounded by the drives' ``external_wait``. Frames are kept for the next
+        cycle's drain. A drive still missing is marked and not waited for again until it
+        sends again."""
+        expected: dict[int, CanopenDrive] = {}
+        wait = 0.0
+        for drive in self.drives:
+            ids = drive._expected_ids(self.sync_enabled)
+            if ids:
+                wait = max(wait, drive.config.external_wait)
+                for cob_id in ids:
+                    expected[cob_id] = drive
+        if not expected or wait <= 0.0:
+            return
+        missing = set(expected)
+        limit = self.rx.max_frames
+        while missing and len(self._held) < limit:
+            try:
+                msg = self.bus.recv(timeout=wait)
+            except can.CanError as exc:
+                self._on_send_error(exc)
+                return
+            if msg is None:
+                break
+            self._held.append(msg)
+            missing.discard(msg.arbitration_id)
+        if missing:
+            self.external_waits += 1
+            for cob_id in missing:
+                expected[cob_id]._waived = True
 
     # ----------------------------------------------------------------- setup
     def attach(self, drive: CanopenDrive) -> None:
@@ -370,23 +565,214 @@ class CanopenMaster(GuardedEndpoint):
         self.bus.shutdown()
 
 
+class _SetupRun:
+    """One run of the start-up script for one drive: one SDO transfer in flight.
+
+    :meth:`poll` advances it as far as it can at the driver's time ``t`` and says what it
+    waits for ("reply", "delay") or "done"; it raises :class:`StartupError` with the
+    located text on an abort, a missing answer (``sdo_timeout``) or when the whole run is
+    older than ``deadline``. The blocking ``open()`` and the in-cycle re-configuration drive
+    the same object.
+    """
+
+    def __init__(self, drive: CanopenDrive, t: float, deadline: float | None) -> None:
+        self.drive = drive
+        self.record = StartupRecord()
+        self.t = t
+        self.deadline = deadline
+        self.gen = startup_script(drive._startup_inputs(), self.record, lambda: self.t)
+        self.step: Any = None
+        self.started = False
+        self.waiting = False
+        self.sent_t = t
+        self.until = t
+        self.result: Any = None
+
+    def describe(self) -> str:
+        step = self.step
+        if isinstance(step, (Read, Write)):
+            op = "read" if isinstance(step, Read) else "write"
+            return f"SDO {op} {object_name(step.index, step.subindex)}"
+        if isinstance(step, Delay):
+            return "waiting for 0x6061"
+        return "NMT"
+
+    def _send(self, data: bytes) -> None:
+        self.drive.master.network.send_message(self.drive.sdo.request_cob_id, data)
+
+    def _finish_transfer(self, step: Read | Write, outcome: SdoDone | SdoFailed) -> Any:
+        where = self.describe()
+        log = self.record.log
+        if isinstance(outcome, SdoDone):
+            if isinstance(step, Read):
+                log.append(f"{where} = 0x{int.from_bytes(outcome.data[:4], 'little'):X}")
+            else:
+                value = int.from_bytes(step.data, "little")
+                log.append(f"{where} <- 0x{value:X}")
+            return outcome.data
+        if outcome.send:
+            try:
+                self._send(outcome.send)
+            except can.CanError:
+                pass
+        code = outcome.code
+        if step.optional and code in ABSENT_CODES:
+            log.append(f"{where} skipped: aborted {abort_text(code)}")
+            return ABSENT
+        if code in step.tolerate:
+            log.append(f"{where} aborted {abort_text(code)}")
+            return Aborted(code)
+        log.append(f"{where} aborted {abort_text(code)}")
+        raise StartupError(f"{where} aborted {abort_text(code)}")
+
+    def poll(self, t: float) -> str:
+        self.t = t
+        drive = self.drive
+        client = drive.sdo
+        if self.deadline is not None and t > self.deadline + 1e-9:
+            client.cancel()
+            raise StartupError(
+                f"start-up not done within {drive.config.setup_timeout:g} s (at {self.describe()})"
+            )
+        while True:
+            step = self.step
+            if self.waiting:
+                data = drive._take_reply()
+                if data is None:
+                    if t - self.sent_t > drive.master.sdo_timeout + 1e-9:
+                        self.waiting = False
+                        fail = client.timeout()
+                        try:
+                            self._send(fail.send)
+                        except can.CanError:
+                            pass
+                        text = f"{self.describe()}: no answer within {drive.master.sdo_timeout:g} s"
+                        self.record.log.append(text)
+                        raise StartupError(text)
+                    return "reply"
+                outcome = client.on_response(data)
+                if outcome is None:
+                    continue
+                if isinstance(outcome, SdoSend):
+                    self._send(outcome.data)
+                    self.sent_t = t
+                    continue
+                self.waiting = False
+                self.result = self._finish_transfer(step, outcome)
+            elif isinstance(step, Delay):
+                if t < self.until - 1e-12:
+                    return "delay"
+                self.result = None
+            try:
+                step = self.gen.send(self.result) if self.started else next(self.gen)
+            except StopIteration:
+                self.step = None
+                return "done"
+            self.started = True
+            self.step = step
+            self.result = None
+            if isinstance(step, Nmt):
+                drive.node.nmt.send_command(step.command)
+            elif isinstance(step, Delay):
+                self.until = t + step.seconds
+            else:
+                od = drive.od
+                if step.optional and od is not None and not _in_od(od, step.index, step.subindex):
+                    self.record.log.append(f"{self.describe()} skipped: not in the EDS")
+                    self.result = ABSENT
+                    continue
+                if isinstance(step, Read):
+                    request = client.read(step.index, step.subindex)
+                else:
+                    request = client.write(step.index, step.subindex, step.data)
+                self.sent_t = t
+                self.waiting = True
+                self._send(request)
+
+
+def _in_od(od: ObjectDictionary, index: int, subindex: int) -> bool:
+    try:
+        obj = od[index]
+    except KeyError:
+        return False
+    if subindex == 0 and not hasattr(obj, "subindices"):
+        return True
+    try:
+        obj[subindex]
+    except (KeyError, TypeError):
+        return False
+    return True
+
+
+class _CompiledPdo:
+    """One configured PDO as a ``struct`` layout (little endian, byte-aligned objects)."""
+
+    __slots__ = ("cob_id", "objects", "struct", "trans_type")
+
+    def __init__(self, pdo: ConfiguredPdo) -> None:
+        table = RPDO_OBJECTS if pdo.kind == "rpdo" else TPDO_OBJECTS
+        self.cob_id = pdo.cob_id
+        self.objects = pdo.objects
+        self.trans_type = pdo.trans_type
+        self.struct = struct.Struct("<" + "".join(table[i][0] for i in pdo.objects))
+
+
 class CanopenDrive(Drive):
-    """One CiA 402 axis in CSP on a :class:`CanopenMaster`."""
+    """One CiA 402 axis in CSP on a :class:`CanopenMaster`.
+
+    After :meth:`open`: :attr:`startup_log` (one line per SDO transfer and per skipped
+    optional object), :attr:`identity` (0x1018), :attr:`scaling_objects` (what was written,
+    or read back with ``scaling_objects="read"``), :attr:`pdos` (the PDO layout actually
+    configured, optional objects the drive refused left out).
+    """
 
     def __init__(self, name: str, master: CanopenMaster, config: CanopenDriveConfig) -> None:
         self.name = name
         self.master = master
         self.config = config
+        n = config.node_id
+        if config.sync_cob_id is not None and config.sync_cob_id != master.sync_cob_id:
+            raise ValueError(
+                f"{name}: sync_cob_id 0x{config.sync_cob_id:03X} differs from the master's "
+                f"SYNC COB-ID 0x{master.sync_cob_id:03X}"
+            )
+        if any(d.config.node_id == n for d in master.drives):
+            raise ValueError(f"{name}: node {n} is already an axis on this master")
         self.scaling = Scaling(config.counts_per_unit, config.offset_counts)
-        od: ObjectDictionary = canopen.import_od(
-            config.eds if config.eds is not None else str(eds_path()), config.node_id
-        )
-        self.node = canopen.RemoteNode(config.node_id, od)
-        self.node.sdo.RESPONSE_TIMEOUT = master.sdo_timeout
-        master.network.add_node(self.node)
+        self.od: ObjectDictionary | None = None
+        if config.eds is not None:
+            try:
+                self.od = canopen.import_od(config.eds, n)
+            except Exception as exc:  # noqa: BLE001 - any parse failure is a config error
+                raise FieldbusError(f"{name}: EDS {config.eds}: cannot read it: {exc}") from None
+        self.node = canopen.RemoteNode(n, self.od if self.od is not None else ObjectDictionary())
+        network = master.network
+        network.add_node(self.node)
+        # SDO is ours (one code path for open() and the in-cycle re-configuration)
+        network.unsubscribe(self.node.sdo.tx_cobid, self.node.sdo.on_response)
+        self.sdo = SdoClient(n)
+        network.subscribe(self.sdo.response_cob_id, self._on_sdo_response)
+        network.subscribe(0x700 + n, self._on_nmt_state)  # after canopen's own handler
+        self._replies: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+        self._wake = threading.Event()  # never set: a bounded wait without reading a clock
         master.attach(self)
         self.node.emcy.add_callback(self._on_emcy)
+        self.startup_log: list[str] = []
+        self.identity: Identity | None = None
+        self.scaling_objects: dict[str, Any] = {}
+        self.pdos: tuple[ConfiguredPdo, ...] = ()
+        self._rpdos: list[_CompiledPdo] = []
+        self._tpdo_ids: tuple[int, ...] = ()
+        self._expect_ids: tuple[int, ...] = ()
+        self._needs_velocity = False
         self._opened = False
+        self._configured = False
+        self._setup: _SetupRun | None = None
+        self._verify_deadline: float | None = None
+        self._setup_error = ""
+        self._lost_detail = ""
+        self._waived = False
+        self.guard_toggle_errors = 0
         self._reset_cycle_state()
 
     def _reset_cycle_state(self) -> None:
@@ -394,108 +780,215 @@ class CanopenDrive(Drive):
         self.position_counts = 0
         self.velocity_counts = 0
         self.drive_error_code = 0
+        self.following_error_counts = 0
+        self.mode_display = 0
         self.emcy_code = 0
         self.controlword = 0
         self._tpdo_count = 0
         self._tpdo_seen = 0
+        self._tpdo_at_start = 0
         self._have_feedback = False
         self._missed = 0
         self._sync_pending = False
         self._armed_t: float | None = None
         self._hb_lost = False
         self._reset_until: float | None = None  # fault reset in progress until this time
+        self._next_guard_t: float | None = None
+        self._guard_answer_t: float | None = None
+        self._guard_toggle: int | None = None
 
-    # ------------------------------------------------------------------ open
-    def open(self) -> None:
-        try:
-            self.master.run_setup(self._configure)
-        except (SdoAbortedError, SdoCommunicationError, can.CanError) as exc:
-            detail = f"SDO abort 0x{exc.code:08X}" if isinstance(exc, SdoAbortedError) else str(exc)
-            raise FieldbusError(
-                f"{self.name}: configuration of CANopen node {self.config.node_id} failed: {detail}"
-            ) from exc
-        self._opened = True
+    def bind_clock(self, realtime: bool) -> None:
+        """Real-time clock: the master never waits for external drives."""
+        self.master.realtime = realtime
 
-    def _configure(self) -> None:
+    # ---------------------------------------------------------------- start-up
+    def _startup_inputs(self) -> StartupInputs:
         cfg = self.config
-        node = self.node
-        sdo = node.sdo
-        node.nmt.state = "PRE-OPERATIONAL"
-        supported = sdo[0x6502].raw
-        if not supported >> SUPPORTED_MODE_BIT[CSP] & 1:
-            raise FieldbusError(
-                f"{self.name}: node {cfg.node_id} does not support CSP (0x6502 = {supported:#x})"
-            )
-        sdo[0x6060].raw = int(CSP)
-        shown = sdo[0x6061].raw
-        if shown != CSP:
-            raise FieldbusError(f"{self.name}: 0x6061 shows mode {shown}, expected {int(CSP)}")
-        value, index = interpolation_period_code(cfg.cycle_time)
-        sdo[0x60C2][1].raw = value
-        sdo[0x60C2][2].raw = index
-        sdo[0x1006].raw = round(cfg.cycle_time * 1e6)
-        sdo[0x1017].raw = round(cfg.heartbeat_period * 1000)
+        master = self.master
+        consumer = None
         if cfg.master_heartbeat_timeout > 0:
-            sdo[0x1016][1].raw = (self.master.node_id << 16) | round(
-                cfg.master_heartbeat_timeout * 1000
-            )
+            consumer = (master.node_id << 16) | round(cfg.master_heartbeat_timeout * 1000)
+        window = None
         if cfg.following_error_window is not None:
-            window = abs(cfg.following_error_window) * abs(cfg.counts_per_unit)
-            sdo[0x6065].raw = min(0xFFFFFFFE, round(window))
+            window = min(
+                0xFFFFFFFE, round(abs(cfg.following_error_window) * abs(cfg.counts_per_unit))
+            )
+        fe_ms = None
         if cfg.following_error_timeout is not None:
-            sdo[0x6066].raw = min(0xFFFF, round(cfg.following_error_timeout * 1000))
-        self._map_pdos()
-        node.nmt.state = "OPERATIONAL"
+            fe_ms = min(0xFFFF, round(cfg.following_error_timeout * 1000))
+        vendor = product = None
+        if self.od is not None:
+            info = self.od.device_information
+            vendor = info.vendor_number
+            product = info.product_number
+        return StartupInputs(
+            node_id=cfg.node_id,
+            cycle_time=cfg.cycle_time,
+            interpolation=interpolation_period_code(cfg.cycle_time),
+            heartbeat_ms=round(cfg.heartbeat_period * 1000),
+            guard_ms=round(cfg.guard_time * 1000),
+            life_time_factor=cfg.life_time_factor,
+            consumer=consumer,
+            sync_cob_id=master.sync_cob_id,
+            scaling=cfg.scaling_objects,
+            fe_window=window,
+            fe_timeout_ms=fe_ms,
+            pdos=cfg.layout(),
+            mode_timeout=cfg.mode_timeout,
+            eds_vendor=vendor,
+            eds_product=product,
+        )
 
-    def _map_pdos(self) -> None:
-        n = self.config.node_id
-        layout: list[tuple[Any, int, list[int], bool]] = [
-            (self.node.rpdo[1], 0x200 + n, [0x6040, 0x607A], True),
-            (self.node.rpdo[2], 0x300 + n, [0x60B1], self.config.velocity_feed_forward),
-            (self.node.tpdo[1], 0x180 + n, [0x6041, 0x6064], True),
-            (self.node.tpdo[2], 0x280 + n, [0x606C, 0x603F], self.config.feedback_velocity),
-        ]
-        for pdo_map, cob_id, objects, enabled in layout:
-            pdo_map.clear()
-            pdo_map.cob_id = cob_id
-            pdo_map.trans_type = 1
-            pdo_map.enabled = enabled
-            if enabled:
-                for index in objects:
-                    pdo_map.add_variable(index)
-            pdo_map.save()
-            # canopen subscribes every saved map; TPDOs are decoded by our handlers below and
-            # RPDOs are ours to send: a frame on their COB-ID is not for this master
-            if pdo_map.on_message in self.master.network.subscribers.get(cob_id, ()):
-                self.master.network.unsubscribe(cob_id, pdo_map.on_message)
-        self._rpdo1 = PdoCodec(self.node.rpdo[1])
-        self._rpdo2 = PdoCodec(self.node.rpdo[2]) if self.config.velocity_feed_forward else None
-        self._tpdo1 = PdoCodec(self.node.tpdo[1])
-        self._tpdo2 = PdoCodec(self.node.tpdo[2]) if self.config.feedback_velocity else None
-        self._rpdo1_id = n + 0x200
-        self._rpdo2_id = n + 0x300
-        # cyclic TPDOs are decoded straight from the frames (layout compiled from canopen's map)
+    def _located(self, text: str) -> str:
+        return f"{self.name}: node {self.config.node_id}: {text}"
+
+    def open(self) -> None:
+        """Run the start-up script (blocking); raises :class:`FieldbusError` naming the node,
+        the transfer, the object and the abort code when the drive cannot be configured."""
+        self._opened = False
+        self._configured = False
+        try:
+            record = self.master.run_setup(self._run_blocking)
+        except StartupError as exc:
+            raise FieldbusError(self._located(str(exc))) from None
+        except can.CanError as exc:
+            raise FieldbusError(
+                self._located(f"CAN send failed during the start-up: {exc}")
+            ) from exc
+        self._apply_record(record, self.master.t)
+        self._opened = True
+        self._configured = True
+
+    def _run_blocking(self) -> StartupRecord:
+        master = self.master
+        peer = master.peer
+        t = master.t
+        self._flush_replies()
+        run = _SetupRun(self, t, None)
+        self._setup = run
+        try:
+            while True:
+                if peer is not None:
+                    master.t = t
+                state = run.poll(t)
+                if state == "done":
+                    return run.record
+                if state == "delay":
+                    dt = run.until - t
+                    t = run.until
+                    if peer is not None:
+                        master.t = t
+                        master._exchange()
+                    else:
+                        self._wake.wait(dt)
+                elif peer is not None:
+                    # lockstep: the peer answers at once or not at all; let the timeout pass
+                    t = run.sent_t + master.sdo_timeout + 1e-6
+                    master.t = t
+                    master._exchange()
+                else:
+                    try:
+                        data = self._replies.get(timeout=master.sdo_timeout)
+                    except queue.Empty:
+                        t = run.sent_t + master.sdo_timeout + 1e-6
+                    else:
+                        self._replies.put(data)
+        finally:
+            self._setup = None
+            self.startup_log = run.record.log
+
+    def _flush_replies(self) -> None:
+        while self._take_reply() is not None:
+            pass
+
+    def _take_reply(self) -> bytes | None:
+        try:
+            return self._replies.get_nowait()
+        except queue.Empty:
+            return None
+
+    def _apply_record(self, record: StartupRecord, t: float) -> None:
+        """Compile the configured PDO layout (codecs and receive handlers)."""
+        self.startup_log = record.log
+        self.identity = record.identity
+        self.scaling_objects = dict(record.scaling_objects)
+        self.pdos = tuple(record.pdos)
         handlers = self.master.rx_handlers
-        handlers[0x180 + n] = self._on_tpdo1
-        if self._tpdo2 is not None:
-            handlers[0x280 + n] = self._on_tpdo2
+        for cob_id in self._tpdo_ids:
+            handlers.pop(cob_id, None)
+        self._rpdos = [_CompiledPdo(p) for p in self.pdos if p.kind == "rpdo" and p.objects]
+        tpdos = [_CompiledPdo(p) for p in self.pdos if p.kind == "tpdo" and p.objects]
+        self._needs_velocity = any(0x60B1 in c.objects for c in self._rpdos)
+        for c in tpdos:
+            handlers[c.cob_id] = self._tpdo_handler(c)
+        self._tpdo_ids = tuple(c.cob_id for c in tpdos)
+        self._expect_ids = tuple(c.cob_id for c in tpdos if c.trans_type == 1)
+        # supervision starts afresh from the NMT start
+        self.node.nmt.timestamp = None
+        self._armed_t = None
+        self._missed = 0
+        self._have_feedback = False
+        self._tpdo_seen = self._tpdo_count
+        self._tpdo_at_start = self._tpdo_count
+        self._next_guard_t = None
+        self._guard_answer_t = None
+        self._guard_toggle = None
+        self._waived = False
+
+    def _tpdo_handler(self, c: _CompiledPdo) -> Callable[[bytearray], None]:
+        unpack = c.struct.unpack
+        size = c.struct.size
+        attrs = tuple(_TPDO_ATTRS[i] for i in c.objects)
+        counts = 0x6041 in c.objects
+        cob_id = c.cob_id
+        master = self.master
+
+        def on_tpdo(data: bytearray) -> None:
+            if len(data) != size:
+                # wrong length: ignored (the values would be garbage) = missing feedback
+                master.rx.malformed("pdo", master.t, cob_id, data)
+                return
+            for attr, value in zip(attrs, unpack(data), strict=True):
+                setattr(self, attr, value)
+            self._waived = False
+            if counts:
+                self._tpdo_count += 1
+
+        return on_tpdo
 
     # ------------------------------------------------------------- callbacks
-    def _on_tpdo1(self, data: bytearray) -> None:
-        values = self._tpdo1.unpack(data)
-        if values is None:
-            # wrong length: ignored (the values would be garbage) = missing feedback
-            self.master.rx.malformed("pdo", self.master.t, 0x180 + self.config.node_id, data)
+    def _on_sdo_response(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        if self._setup is None or not self.sdo.busy:
+            self.master.rx.malformed("sdo_unsolicited", timestamp, can_id, data)
             return
-        self.statusword, self.position_counts = values
-        self._tpdo_count += 1
+        self._waived = False
+        self._replies.put(bytes(data))
 
-    def _on_tpdo2(self, data: bytearray) -> None:
-        values = None if self._tpdo2 is None else self._tpdo2.unpack(data)
-        if values is None:
-            self.master.rx.malformed("pdo", self.master.t, 0x280 + self.config.node_id, data)
+    def _on_nmt_state(self, can_id: int, data: bytearray, timestamp: float) -> None:
+        """Heartbeat, boot-up or node-guarding answer (canopen's handler ran first)."""
+        if len(data) != 1:
             return
-        self.velocity_counts, self.drive_error_code = values
+        state = data[0] & 0x7F
+        if self.config.guard_time > 0 and state != NMT_BOOT_UP:
+            toggle = data[0] >> 7
+            if self._guard_toggle is None or toggle == self._guard_toggle:
+                self._guard_answer_t = timestamp
+                self._guard_toggle = toggle ^ 1
+            else:
+                self.guard_toggle_errors += 1  # an old or repeated answer: not a sign of life
+        if not self._configured or self._setup is not None or self._verify_deadline is not None:
+            return
+        n = self.config.node_id
+        if state == NMT_BOOT_UP:
+            self._configured = False
+            self._lost_detail = f"node {n} rebooted: configuration lost, MC_Reset re-configures it"
+        elif state == NMT_PRE_OPERATIONAL and self._tpdo_count != self._tpdo_at_start:
+            # back in PRE-OPERATIONAL after it was running: it came back from a reset
+            self._configured = False
+            self._lost_detail = (
+                f"node {n} rebooted (PRE-OPERATIONAL again): configuration lost, "
+                "MC_Reset re-configures it"
+            )
 
     def _on_emcy(self, entry: EmcyError) -> None:
         self.emcy_code = entry.code
@@ -506,16 +999,55 @@ class CanopenDrive(Drive):
             del emcy.active[:-EMCY_HISTORY]
 
     # ----------------------------------------------------------------- cycle
+    def _guard(self, t: float) -> None:
+        """Node guarding: the RTR on 0x700 + node every guard time (called after the SYNC)."""
+        if not self._opened or not (self._configured or self._verify_deadline is not None):
+            return
+        if self._next_guard_t is None or t + 1e-12 >= self._next_guard_t:
+            self._next_guard_t = t + self.config.guard_time
+            rtr = FastMessage(
+                arbitration_id=0x700 + self.config.node_id,
+                is_extended_id=False,
+                is_remote_frame=True,
+                dlc=1,
+                check=False,
+            )
+            try:
+                self.master.network.send_frame(rtr)
+            except can.CanError:
+                pass  # recorded by the master (bus-off)
+
+    def _expected_ids(self, sync_sent: bool) -> tuple[int, ...]:
+        """COB-IDs the master waits for after this SYNC (external drives, simulated clock)."""
+        if not self._opened or self._waived:
+            return ()
+        run = self._setup
+        if run is not None:
+            return (self.sdo.response_cob_id,) if run.waiting else ()
+        if sync_sent and (self._configured or self._verify_deadline is not None):
+            return self._expect_ids
+        return ()
+
     def _heartbeat_ok(self, t: float) -> tuple[bool, str]:
-        period = self.config.heartbeat_period
+        cfg = self.config
+        n = cfg.node_id
+        if cfg.guard_time > 0:
+            life = cfg.guard_time * cfg.life_time_factor
+            ref = self._guard_answer_t if self._guard_answer_t is not None else self._armed_t
+            if ref is not None and t - ref > life + 1e-9:
+                return False, f"node guarding of node {n}: no answer for {life:g} s"
+            if self._guard_answer_t is not None and self.node.nmt.state != "OPERATIONAL":
+                return False, f"node {n} is {self.node.nmt.state}"
+            return True, ""
+        period = cfg.heartbeat_period
         if period <= 0:
             return True, ""
         last = self.node.nmt.timestamp
         ref = last if last is not None else self._armed_t
-        if ref is not None and t - ref > self.config.heartbeat_timeout_factor * period + 1e-9:
-            return False, f"heartbeat of node {self.config.node_id} lost"
+        if ref is not None and t - ref > cfg.heartbeat_timeout_factor * period + 1e-9:
+            return False, f"heartbeat of node {n} lost"
         if last is not None and self.node.nmt.state != "OPERATIONAL":
-            return False, f"node {self.config.node_id} is {self.node.nmt.state}"
+            return False, f"node {n} is {self.node.nmt.state}"
         return True, ""
 
     def read_inputs(self, t: float) -> DriveFeedback:
@@ -533,6 +1065,8 @@ class CanopenDrive(Drive):
 
         state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
         fault = state in (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
+        if self._verify_deadline is not None:
+            self._verify(t, fresh, state, fault)
         error_code = 0
         detail = ""
         if fault:
@@ -543,22 +1077,31 @@ class CanopenDrive(Drive):
             detail = f"EMCY 0x{self.emcy_code:04X}"
         comm_ok = True
         kind = ""
-        hb_ok, hb_detail = self._heartbeat_ok(t)
+        reconfiguring = self._setup is not None or self._verify_deadline is not None
         if self.master.bus_fault_latched:
             comm_ok, error_code, kind = False, CODE_BUS_OFF, "bus_off"
             detail = self.master.bus_error or "bus-off"
             if self.master.bus_ok:
                 detail += " (bus recovered; reset required)"
-        elif not hb_ok:
-            comm_ok, error_code, detail, kind = False, CODE_HEARTBEAT, hb_detail, "heartbeat"
-        elif self._missed > self.config.tpdo_loss_limit:
-            comm_ok, error_code, kind = False, CODE_NO_FEEDBACK, "no_feedback"
-            detail = f"no TPDO from node {self.config.node_id} for {self._missed} cycles"
-        elif not self._opened:
-            comm_ok, detail = False, "not opened"
+        elif self._opened and not self._configured:
+            comm_ok, error_code, kind = False, CODE_HEARTBEAT, "heartbeat"
+            if reconfiguring:
+                where = self._setup.describe() if self._setup is not None else "waiting for TPDOs"
+                detail = f"node {self.config.node_id}: re-configuring ({where})"
+            else:
+                detail = self._setup_error or self._lost_detail
+        else:
+            hb_ok, hb_detail = self._heartbeat_ok(t)
+            if not hb_ok:
+                comm_ok, error_code, detail, kind = False, CODE_HEARTBEAT, hb_detail, "heartbeat"
+            elif self._missed > self.config.tpdo_loss_limit:
+                comm_ok, error_code, kind = False, CODE_NO_FEEDBACK, "no_feedback"
+                detail = f"no TPDO from node {self.config.node_id} for {self._missed} cycles"
+            elif not self._opened:
+                comm_ok, detail = False, "not opened"
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
         self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
-        reset_pending = self._reset_until is not None
+        reset_pending = reconfiguring or self._reset_until is not None
         return DriveFeedback(
             position=self.scaling.position_to_si(self.position_counts),
             velocity=self.scaling.velocity_to_si(self.velocity_counts),
@@ -572,22 +1115,84 @@ class CanopenDrive(Drive):
             reset_pending=reset_pending,
         )
 
+    def _verify(self, t: float, fresh: bool, state: Cia402State, fault: bool) -> None:
+        """After an in-cycle re-configuration: configured once TPDOs arrive without FAULT."""
+        deadline = self._verify_deadline
+        assert deadline is not None
+        if fresh and not fault:
+            self._verify_deadline = None
+            self._configured = True
+            self._setup_error = ""
+            self._lost_detail = ""
+            self._armed_t = t
+            self._reset_until = t + self.config.reset_timeout
+        elif t > deadline + 1e-9:
+            self._verify_deadline = None
+            what = (
+                f"the drive is in {state.value}"
+                if self._have_feedback
+                else "no TPDO arrived after the NMT start"
+            )
+            self._setup_error = self._located(
+                f"re-configured, but {what} {self.config.setup_timeout:g} s after MC_Reset"
+            )
+
+    def _start_reconfigure(self, t: float) -> None:
+        self._flush_replies()
+        self.sdo.cancel()
+        self._setup_error = ""
+        self._reset_until = None
+        self._setup = _SetupRun(self, t, t + self.config.setup_timeout)
+
+    def _advance_setup(self, t: float) -> None:
+        run = self._setup
+        assert run is not None
+        try:
+            state = run.poll(t)
+        except StartupError as exc:
+            self._setup = None
+            self.startup_log = run.record.log
+            self._setup_error = self._located(str(exc))
+            return
+        except can.CanError as exc:
+            self._setup = None
+            self.startup_log = run.record.log
+            self._setup_error = self._located(f"CAN send failed during the start-up: {exc}")
+            return
+        if state == "done":
+            self._setup = None
+            self._apply_record(run.record, t)
+            self._verify_deadline = run.deadline
+
     def write_outputs(self, t: float, command: DriveCommand) -> None:
         if not self._opened:
             self.master.written(self, t)
             return
-        state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
         if command.fault_reset:
             # MC_Reset: run the reset sequence (fault-reset edges, re-initialisation after a
-            # communication failure) over the next cycles; reported as reset_pending
-            self._reset_until = t + self.config.reset_timeout
-            if self.master.bus_fault_latched and self.master.bus_ok:
+            # communication failure, the whole start-up after a reboot) over the next cycles;
+            # reported as reset_pending
+            bus_recovered = self.master.bus_fault_latched and self.master.bus_ok
+            if bus_recovered:
                 self.master.bus_fault_latched = False  # re-initialise after recovery
                 self.master.bus_error = ""
-                self._restart_node()
-            elif self.node.nmt.timestamp is not None and self.node.nmt.state != "OPERATIONAL":
-                self._restart_node()  # the node rebooted / left OPERATIONAL: NMT start again
-        resetting = self._reset_until is not None
+            if not self._configured:
+                if self._setup is None and self._verify_deadline is None:
+                    self._start_reconfigure(t)
+            else:
+                self._reset_until = t + self.config.reset_timeout
+                if bus_recovered:
+                    self._restart_node()
+                elif self.node.nmt.timestamp is not None and self.node.nmt.state != "OPERATIONAL":
+                    self._restart_node()  # the node left OPERATIONAL: NMT start again
+        if self._setup is not None:
+            self._advance_setup(t)
+        if not self._configured and self._verify_deadline is None:
+            self._sync_pending = False  # no PDO exchange with an unconfigured node
+            self.master.written(self, t)
+            return
+        state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
+        resetting = self._reset_until is not None or self._verify_deadline is not None
         if resetting and state is not Cia402State.FAULT:
             self.emcy_code = 0  # warnings / communication errors acknowledged
         target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
@@ -597,13 +1202,12 @@ class CanopenDrive(Drive):
             target_counts = self.scaling.position_to_counts(command.position)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
+        values = {0x6040: cw, 0x607A: target_counts, 0x60B2: 0, 0x6060: int(CSP)}
+        if self._needs_velocity:
+            values[0x60B1] = self.scaling.velocity_to_counts(command.velocity)
         try:
-            self.master.send_pdo(self._rpdo1_id, self._rpdo1.pack((cw, target_counts)))
-            if self._rpdo2 is not None:
-                self.master.send_pdo(
-                    self._rpdo2_id,
-                    self._rpdo2.pack((self.scaling.velocity_to_counts(command.velocity),)),
-                )
+            for c in self._rpdos:
+                self.master.send_pdo(c.cob_id, c.struct.pack(*[values[i] for i in c.objects]))
         except can.CanError:
             pass  # recorded by the master (bus-off)
         self._sync_pending = self.master.sync_enabled
@@ -621,7 +1225,6 @@ class CanopenDrive(Drive):
     def close(self) -> None:
         if self in self.master.drives:
             self.master.drives.remove(self)
-        n = self.config.node_id
-        for cob_id in (0x180 + n, 0x280 + n):
+        for cob_id in self._tpdo_ids:
             self.master.rx_handlers.pop(cob_id, None)
         self._opened = False
