@@ -223,7 +223,21 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
     (
         "CAN interface not allowed",
         _cfg(_X, buses="  can0: {type: can, interface: udp_multicast}\n"),
-        ["{f}:5: buses.can0.interface: got string 'udp_multicast' (allowed: virtual, socketcan)"],
+        [
+            "{f}:5: buses.can0.interface: udp_multicast sends CAN frames as IP multicast beyond "
+            "this machine (allowed: virtual, socketcan, socketcand, pcan, kvaser, ixxat, vector, "
+            "slcan, gs_usb, serial, canalystii, cantact, etas, iscan, neousys, neovi, nican, "
+            "nixnet, robotell, seeedstudio, systec, usb2can)"
+        ],
+    ),
+    (
+        "CAN interface unknown",
+        _cfg(_X, buses="  can0: {type: can, interface: peak}\n"),
+        [
+            "{f}:5: buses.can0.interface: got string 'peak' (allowed: virtual, socketcan, "
+            "socketcand, pcan, kvaser, ixxat, vector, slcan, gs_usb, serial, canalystii, cantact, "
+            "etas, iscan, neousys, neovi, nican, nixnet, robotell, seeedstudio, systec, usb2can)"
+        ],
     ),
     (
         "bitrate not allowed",
