@@ -1,0 +1,297 @@
+"""The YAML side of a CANopen drive's options (under an axis' ``drive:``).
+
+:func:`check_canopen_drive` checks the keys of :data:`CANOPEN_DRIVE_KEYS` in one ``drive:``
+mapping and returns keyword arguments of
+:class:`~motionplc.fieldbus.canopen_drive.CanopenDriveConfig`; every problem is reported
+through ``Checker.error`` with the line, the key path and the allowed values (nothing raises).
+The caller (``motionplc.config``) handles the other drive keys (``kind``, ``bus``, ``node_id``,
+``counts_per_unit``) and passes the axis' following error as the default window.
+
+.. code-block:: yaml
+
+    drive:
+      eds: drives/servo.eds            # relative to the configuration file
+      heartbeat: {producer: 0.05, consumer: 0.2}   # s; consumer = the drive watches the master
+      node_guarding: {guard_time: 0.1, life_time_factor: 3}   # instead of heartbeat.producer
+      pdo:
+        rpdo1: {objects: [0x6040, 0x607A], cob_id: 0x201, transmission: 1}
+        tpdo1: {objects: [0x6041, 0x6064]}
+        tpdo2: {objects: [0x606C, {index: 0x603F, optional: true}]}
+      scaling: {encoder_resolution: [4096, 1], gear_ratio: [10, 1], feed_constant: [5000, 1],
+                polarity: 0}                # or: scaling: read
+      mode_timeout: 0.5
+      setup_timeout: 2.0
+      following_error_window: 0.002    # m
+      following_error_timeout: 0.01    # s
+
+Objects are written as an index (``0x6041`` or ``"0x6041"``), ``"index:sub"`` or
+``{index, sub, optional}``.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+from motionplc.config import Checker, YamlList, YamlMap, join
+from motionplc.fieldbus.canopen_startup import (
+    RPDO_OBJECTS,
+    TPDO_OBJECTS,
+    PdoSpec,
+    ScalingSpec,
+    check_layout,
+)
+
+__all__ = ["CANOPEN_DRIVE_KEYS", "check_canopen_drive"]
+
+CANOPEN_DRIVE_KEYS: dict[str, bool] = {
+    "eds": False,
+    "heartbeat": False,
+    "node_guarding": False,
+    "pdo": False,
+    "scaling": False,
+    "mode_timeout": False,
+    "setup_timeout": False,
+    "following_error_window": False,
+    "following_error_timeout": False,
+}
+
+HEARTBEAT_KEYS = {"producer": False, "consumer": False}
+GUARDING_KEYS = {"guard_time": True, "life_time_factor": False}
+PDO_ENTRY_KEYS = {"objects": True, "cob_id": False, "transmission": False}
+OBJECT_KEYS = {"index": True, "sub": False, "optional": False}
+SCALING_KEYS = {
+    "encoder_resolution": False,
+    "gear_ratio": False,
+    "feed_constant": False,
+    "polarity": False,
+}
+PDO_NAME = re.compile(r"^(rpdo|tpdo)([1-4])$")
+OBJECT_TEXT = re.compile(r"^\s*(0[xX][0-9a-fA-F]+|\d+)\s*(?::\s*(0[xX][0-9a-fA-F]+|\d+)\s*)?$")
+OBJECT_FORMS = 'an index (0x6041 or "0x6041"), "index:sub", or {index, sub, optional}'
+
+
+def _int(x: Any) -> bool:
+    return isinstance(x, int) and not isinstance(x, bool)
+
+
+def check_canopen_drive(
+    c: Checker,
+    m: YamlMap,
+    path: str,
+    base_dir: str | Path | None = None,
+    following_error_window: float | None = None,
+) -> dict[str, Any]:
+    """CanopenDriveConfig keyword arguments from the CANopen keys of ``m`` (a ``drive:``
+    mapping at ``path``); unknown keys are the caller's business. ``base_dir``: directory of
+    the configuration file (``eds`` is relative to it). ``following_error_window``: the
+    default window (the axis' following error) when the key is absent."""
+    out: dict[str, Any] = {}
+    if "eds" in m:
+        eds = c.string(m, "eds", path)
+        if eds is not None:
+            p = Path(eds)
+            if not p.is_absolute() and base_dir is not None:
+                p = Path(base_dir) / p
+            if not p.is_file():
+                c.error(m.line_of("eds"), join(path, "eds"), f"no such file: {p}", "an EDS file")
+            else:
+                out["eds"] = str(p)
+
+    guarding = False
+    if "node_guarding" in m and m["node_guarding"] is not None:
+        gp = join(path, "node_guarding")
+        g = c.mapping(m["node_guarding"], m.line_of("node_guarding"), gp, GUARDING_KEYS)
+        if g is not None:
+            guard = c.number(g, "guard_time", gp, ge=0.001, le=65.535)
+            factor = c.integer(g, "life_time_factor", gp, 3, lo=1, hi=255)
+            if guard is not None:
+                guarding = True
+                out["guard_time"] = guard
+                out["heartbeat_period"] = 0.0
+            if factor is not None:
+                out["life_time_factor"] = factor
+    if "heartbeat" in m and m["heartbeat"] is not None:
+        hp = join(path, "heartbeat")
+        h = c.mapping(m["heartbeat"], m.line_of("heartbeat"), hp, HEARTBEAT_KEYS)
+        if h is not None:
+            if "producer" in h and guarding:
+                c.error(
+                    h.line_of("producer"),
+                    join(hp, "producer"),
+                    "heartbeat.producer and node_guarding are exclusive",
+                    "one of them",
+                )
+            else:
+                producer = c.number(h, "producer", hp, ge=0.0, le=65.535)
+                if producer is not None:
+                    out["heartbeat_period"] = producer
+            consumer = c.number(h, "consumer", hp, ge=0.0, le=65.535)
+            if consumer is not None:
+                out["master_heartbeat_timeout"] = consumer
+
+    if "pdo" in m and m["pdo"] is not None:
+        node = m.get("node_id")
+        node_id = node if _int(node) and 1 <= node <= 127 else 1
+        pdos = _check_pdos(c, m["pdo"], m.line_of("pdo"), join(path, "pdo"), node_id)
+        if pdos is not None:
+            out["pdos"] = pdos
+
+    if "scaling" in m and m["scaling"] is not None:
+        scaling = _check_scaling(c, m["scaling"], m.line_of("scaling"), join(path, "scaling"))
+        if scaling is not None:
+            out["scaling_objects"] = scaling
+
+    for key, lo, hi in (("mode_timeout", 0.0, 60.0), ("setup_timeout", 0.001, 600.0)):
+        value = c.number(m, key, path, ge=lo, le=hi)
+        if value is not None:
+            out[key] = value
+    window = c.number(m, "following_error_window", path, following_error_window, gt=0.0, le=1e12)
+    if window is not None:
+        out["following_error_window"] = window
+    timeout = c.number(m, "following_error_timeout", path, ge=0.0, le=65.535)
+    if timeout is not None:
+        out["following_error_timeout"] = timeout
+    return out
+
+
+def _check_object(
+    c: Checker, x: Any, line: int, path: str, kind: str
+) -> tuple[int, int, bool] | None:
+    index: Any = None
+    sub: Any = 0
+    optional = False
+    if _int(x):
+        index = x
+    elif isinstance(x, str):
+        match = OBJECT_TEXT.match(x)
+        if match is None:
+            c.error(line, path, f"got string {x!r}", OBJECT_FORMS)
+            return None
+        index = int(match.group(1), 0)
+        sub = int(match.group(2), 0) if match.group(2) else 0
+    elif isinstance(x, YamlMap):
+        om = c.mapping(x, line, path, OBJECT_KEYS)
+        if om is None or "index" not in om:
+            return None
+        raw = om["index"]
+        if _int(raw):
+            index = raw
+        elif isinstance(raw, str) and OBJECT_TEXT.match(raw) and ":" not in raw:
+            index = int(raw.strip(), 0)
+        else:
+            c.error(om.line_of("index"), join(path, "index"), f"got {raw!r}", "an object index")
+            return None
+        sub = c.integer(om, "sub", path, 0, lo=0, hi=255)
+        optional = c.boolean(om, "optional", path, False)
+        line = om.line_of("index")
+    else:
+        c.error(line, path, f"got {type(x).__name__}", OBJECT_FORMS)
+        return None
+    table = RPDO_OBJECTS if kind == "rpdo" else TPDO_OBJECTS
+    if index not in table:
+        listed = ", ".join(f"0x{i:04X}" for i in table)
+        shown = f"0x{index:04X}" if 0 <= index <= 0xFFFF else str(index)
+        c.error(line, path, f"object {shown} cannot be mapped in a {kind.upper()}", listed)
+        return None
+    if sub != 0:
+        c.error(line, path, f"object 0x{index:04X} sub-index {sub}", "sub-index 0")
+        return None
+    return index, 0, optional
+
+
+def _check_pdos(
+    c: Checker, x: Any, line: int, path: str, node_id: int
+) -> tuple[PdoSpec, ...] | None:
+    pm = c.mapping(x, line, path)
+    if pm is None:
+        return None
+    specs: list[PdoSpec] = []
+    ok = True
+    for name, entry in pm.items():
+        ep = join(path, name)
+        match = PDO_NAME.match(str(name))
+        if match is None:
+            c.error(
+                pm.key_lines.get(name, pm.line), ep, "unknown key", "rpdo1..rpdo4, tpdo1..tpdo4"
+            )
+            ok = False
+            continue
+        kind, number = match.group(1), int(match.group(2))
+        em = c.mapping(entry, pm.line_of(name), ep, PDO_ENTRY_KEYS)
+        if em is None or "objects" not in em:
+            ok = False
+            continue
+        objs = em["objects"]
+        op = join(ep, "objects")
+        if not isinstance(objs, YamlList) or not objs:
+            c.error(em.line_of("objects"), op, "got " + repr(objs), "a non-empty list of objects")
+            ok = False
+            continue
+        objects = []
+        for i, item in enumerate(objs):
+            obj = _check_object(c, item, objs.line_of(i), join(op, i), kind)
+            if obj is None:
+                ok = False
+            else:
+                objects.append(obj)
+        cob_id = c.integer(em, "cob_id", ep, None, lo=0x001, hi=0x7FF)
+        trans = c.integer(em, "transmission", ep, 1, lo=1, hi=240)
+        if not ok or trans is None:
+            continue
+        try:
+            specs.append(PdoSpec(kind, number, tuple(objects), cob_id, trans))
+        except ValueError as exc:
+            c.error(pm.line_of(name), ep, _strip(str(exc)))
+            ok = False
+    if not ok:
+        return None
+    layout = tuple(sorted(specs, key=lambda s: (s.kind, s.number)))
+    try:
+        check_layout(layout, node_id)
+    except ValueError as exc:
+        c.error(pm.line, path, _strip(str(exc)))
+        return None
+    return layout
+
+
+def _strip(text: str) -> str:
+    return text[len("pdos: ") :] if text.startswith("pdos: ") else text
+
+
+def _check_scaling(c: Checker, x: Any, line: int, path: str) -> ScalingSpec | str | None:
+    if x == "read":
+        return "read"
+    if not isinstance(x, YamlMap):
+        c.error(line, path, f"got {x!r}", "read, or a mapping of scaling objects")
+        return None
+    sm = c.mapping(x, line, path, SCALING_KEYS)
+    if sm is None:
+        return None
+    kwargs: dict[str, Any] = {}
+    ok = True
+    for key in ("encoder_resolution", "gear_ratio", "feed_constant"):
+        if key not in sm or sm[key] is None:
+            continue
+        pair = sm[key]
+        if (
+            isinstance(pair, list)
+            and len(pair) == 2
+            and all(_int(v) and 1 <= v <= 0xFFFFFFFF for v in pair)
+        ):
+            kwargs[key] = (pair[0], pair[1])
+        else:
+            c.error(
+                sm.line_of(key),
+                join(path, key),
+                f"got {pair!r}",
+                "[numerator, denominator], integers in 1..4294967295",
+            )
+            ok = False
+    polarity = c.integer(sm, "polarity", path, None, lo=0, hi=255)
+    if polarity is not None:
+        kwargs["polarity"] = polarity
+    if not ok:
+        return None
+    return ScalingSpec(**kwargs)
