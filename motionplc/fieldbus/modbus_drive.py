@@ -154,6 +154,11 @@ class ModbusDriveConfig:
     following_error_timeout: float | None = None  # [s]
     watchdog: float | None = None  # [s], 0 = off
     velocity_feed_forward: bool = False  # send target_velocity (CSP: velocity offset)
+    # requests of one cycle on the wire at once: 1 (default) sends each after the answer to
+    # the previous one, as servers that take one transaction at a time need (pymodbus' own
+    # server drops a second frame that arrives in the same TCP segment); more for servers
+    # that queue requests
+    requests_in_flight: int = 1
     reconnect_every: int = 10  # cycles between reconnect attempts
     reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
 
@@ -174,6 +179,8 @@ class ModbusDriveConfig:
             )
         if self.reconnect_every < 1:
             raise ValueError("reconnect_every must be >= 1")
+        if not 1 <= self.requests_in_flight <= 16:
+            raise ValueError(f"requests_in_flight must be in 1..16, got {self.requests_in_flight}")
         rmap = self.register_map
         if not isinstance(rmap, RegisterMap):
             if not isinstance(rmap, (str, Path)):
@@ -259,6 +266,8 @@ class _Exchange:
     sent_tick: int
     reads_left: int  # read answers still to come (the status is taken when all are in)
     status: list[Any]  # the status image being filled
+    queue: list[Request] = field(default_factory=list)  # still to send, in order
+    blocks: dict[int, list[int]] = field(default_factory=dict)  # id(request) -> registers
     pending: dict[int, Request] = field(default_factory=dict)  # tid -> request
     pdus: dict[int, ModbusPDU] = field(default_factory=dict)  # tid -> what was sent
     read_failed: bool = False
@@ -525,7 +534,11 @@ class ModbusDrive(Drive):
                 ex.reads_left -= 1
                 if ex.reads_left == 0 and not ex.read_failed:
                     self._set_status(ex.status, ex.sent_tick)
-        if ex is not None and not ex.pending:
+        if ex is not None and ex is self._exchange and ex.queue:
+            if not self._pump(ex):
+                self._link_lost()
+                return
+        if ex is not None and not ex.pending and not ex.queue:
             self._timed_out = ""
             if self._tick - ex.sent_tick > 1:
                 self.late_replies += 1
@@ -559,17 +572,9 @@ class ModbusDrive(Drive):
         """Simulated clock: wait until the exchange is answered, parked by the lockstep peer, or
         (without one) the timeout has passed; bounded by ``timeout`` of wall time."""
         cfg = self.config
-        ex = self._exchange
         if self._parks is not None:
-            for _ in range(max(1, math.ceil(cfg.timeout / _POLL))):
-                if self._exchange is None or not self.link.connected:
-                    return
-                due = self._parks.parked_due(cfg.device_id, ex.peer_seq)
-                if due is not None:
-                    ex.parked_due = due
-                    return
-                if self.link.wait_readable(_POLL):
-                    self._collect()
+            if self._settle_lockstep():
+                return
         else:
             for _ in range(8 + 2 * len(self.codec.requests)):  # each wait is bounded
                 if self._exchange is None or not self.link.connected:
@@ -580,10 +585,28 @@ class ModbusDrive(Drive):
         if self._exchange is not None and self.link.connected:
             self._time_out(f"no response within {cfg.timeout} s")
 
+    def _settle_lockstep(self) -> bool:
+        """Lockstep: take answers in until the exchange is done or the peer holds one of its
+        requests (parked until a later simulated time); True then, False when ``timeout`` of
+        wall time per request has passed without either."""
+        cfg = self.config
+        for _ in range(len(self.codec.requests) * max(1, math.ceil(cfg.timeout / _POLL))):
+            ex = self._exchange
+            if ex is None or not self.link.connected:
+                return True
+            if ex.parked_due is None:
+                ex.parked_due = self._parks.parked_due(cfg.device_id, ex.peer_seq)
+            if ex.parked_due is not None and ex.parked_due > self._last_step_t:
+                return True  # the peer releases it at a later step
+            if self.link.wait_readable(_POLL):
+                self._collect()
+        return False
+
     def _time_out(self, detail: str) -> None:
         ex = self._exchange
-        if ex is not None and ex.pending:
-            detail = f"{next(iter(ex.pending.values())).label}: {detail}"
+        if ex is not None and (ex.pending or ex.queue):
+            req = next(iter(ex.pending.values())) if ex.pending else ex.queue[0]
+            detail = f"{req.label}: {detail}"
         self.timeouts += 1
         self._timed_out = detail
         self._abandon()
@@ -595,11 +618,8 @@ class ModbusDrive(Drive):
             ex = self._exchange
             if ex is not None and ex.parked_due is not None and ex.parked_due <= self._last_step_t:
                 # lockstep: the peer released the parked answer at its last step; take it in
-                for _ in range(max(1, math.ceil(self.config.timeout / _POLL))):
-                    if self._exchange is None or not self.link.connected:
-                        break
-                    if self.link.wait_readable(_POLL):
-                        self._collect()
+                # (and the rest of the exchange, unless the peer parks that too)
+                self._settle_lockstep()
             self._collect()
             ex = self._exchange
             if ex is not None and self._tick - ex.sent_tick > self.config.timeout_cycles:
@@ -647,6 +667,23 @@ class ModbusDrive(Drive):
             kind=kind,
             reset_pending=reset_pending,
         )
+
+    def _pump(self, ex: _Exchange) -> bool:
+        """Send the exchange's next requests, up to ``requests_in_flight`` on the wire; False
+        when the connection is lost."""
+        if self._parks is not None and not ex.pending:
+            # lockstep: what the peer parks from now on belongs to these requests
+            ex.peer_seq = self._parks.request_count(self.config.device_id)
+            ex.parked_due = None
+        while ex.queue and len(ex.pending) < self.config.requests_in_flight:
+            req = ex.queue.pop(0)
+            if req.function in (3, 4):
+                pdu = self._read_pdus[id(req)]
+            else:
+                pdu = _write_pdu(req, ex.blocks[id(req)])
+            if not self._send(ex, pdu, req):
+                return False
+        return True
 
     def _send(self, ex: _Exchange, pdu: ModbusPDU, req: Request) -> bool:
         self.requests += 1
@@ -719,20 +756,10 @@ class ModbusDrive(Drive):
         self.controlword = cw
         self.life_sign = life_sign
         ex = _Exchange(life_sign, self._tick, len(self.codec.reads), [None] * len(STATUS_KEYS))
-        if self._parks is not None:
-            ex.peer_seq = self._parks.request_count(cfg.device_id)
+        ex.queue = list(self.codec.requests)
+        ex.blocks = {id(r): b for r, b in zip(self.codec.writes, blocks, strict=True)}
         self._exchange = ex
-        ok = True
-        writes = iter(blocks)
-        for req in self.codec.requests:
-            if req.function in (3, 4):
-                pdu = self._read_pdus[id(req)]
-            else:
-                pdu = _write_pdu(req, next(writes))
-            if not self._send(ex, pdu, req):
-                ok = False
-                break
-        if not ok:
+        if not self._pump(ex):
             self._link_lost()
         elif not self.realtime:
             self._wait_settled()

@@ -730,7 +730,10 @@ def check_register_map(
     """Validate a register map document (from :func:`~motionplc.config.load_yaml`, or inline
     at ``path`` of a configuration file); every problem goes to ``c``; None when invalid."""
     n_errors = len(c.errors)
-    m = c.mapping(data, line, path or "(top level)", _TOP)
+    if not isinstance(data, YamlMap):
+        c.mapping(data, line, path or "(top level)")
+        return None
+    m = c.mapping(data, line, path, _TOP)
     if m is None:
         return None
     c.choice(m, "format", path, (FORMAT,), None)
