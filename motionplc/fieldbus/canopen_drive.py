@@ -1073,8 +1073,9 @@ class CanopenDrive(Drive):
             # 0x603F (TPDO2) is the fault's own code; a later EMCY may be a mere warning
             error_code = self.drive_error_code or self.emcy_code
             detail = f"drive fault 0x{error_code:04X} ({state.value})"
-        elif self.emcy_code and self._have_feedback:
-            detail = f"EMCY 0x{self.emcy_code:04X}"
+        warning = ""
+        if not fault and self.emcy_code and self._have_feedback:
+            detail = warning = f"EMCY 0x{self.emcy_code:04X}"  # the drive goes on: a warning
         comm_ok = True
         kind = ""
         reconfiguring = self._setup is not None or self._verify_deadline is not None
@@ -1113,6 +1114,7 @@ class CanopenDrive(Drive):
             stale=not fresh,
             kind=kind,
             reset_pending=reset_pending,
+            warning=warning,
         )
 
     def _verify(self, t: float, fresh: bool, state: Cia402State, fault: bool) -> None:

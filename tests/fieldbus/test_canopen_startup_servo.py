@@ -157,3 +157,50 @@ def test_servo_heartbeat_only_without_1017_is_a_located_error(make: Callable[...
         "ax: node 5: SDO write 0x1017:00 aborted 0x06020000 (object does not exist in the "
         "object dictionary)"
     )
+
+
+def test_warning_emcy_is_a_warning_not_a_fault(make: Callable[..., Rig]) -> None:
+    rig = make()
+    rig.open()
+    rig.hold(10, enable=True)
+    rig.servo.warn(0x4210)
+    fb = rig.hold(2, enable=True)
+    assert fb.enabled and not fb.fault and fb.comm_ok and fb.warning == "EMCY 0x4210"
+    rig.servo.clear_warning()
+    fb = rig.hold(2, enable=True)
+    assert fb.warning == ""
+
+
+def _threaded_run(channel: str) -> list[tuple[float, float, bool]]:
+    """The servo in its own thread (an external drive), the master on the simulated clock."""
+    servo_bus = can.Bus(interface="virtual", channel=channel)
+    servo = CanopenServo(servo_bus, N)
+    servo.start(poll_s=0.001)
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), sdo_timeout=0.5)
+    out = []
+    try:
+        drive = CanopenDrive("ax", master, CanopenDriveConfig(node_id=N, heartbeat_period=0.0))
+        drive.bind_clock(False)
+        drive.open()
+        for k in range(150):
+            t = k * DT
+            fb = drive.read_inputs(t)
+            out.append((fb.position, fb.velocity, fb.stale))
+            target = 0.002 * min(1.0, k / 100.0)
+            drive.write_outputs(t, DriveCommand(target if fb.enabled else fb.position, enable=True))
+        assert master.external_waits == 0
+    finally:
+        master.close()
+        servo.stop()
+        servo_bus.shutdown()
+    return out
+
+
+def test_external_servo_thread_runs_are_reproducible() -> None:
+    import uuid
+
+    first = _threaded_run(f"t-{uuid.uuid4()}")
+    second = _threaded_run(f"t-{uuid.uuid4()}")
+    assert first == second
+    assert not any(stale for _, _, stale in first[3:])
+    assert first[-1][0] == pytest.approx(0.002, abs=2e-5)
