@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterator
 
 import pytest
@@ -15,10 +16,16 @@ from motionplc.fieldbus.modbus_map import (
     from_registers,
     to_registers,
 )
+from motionplc.fieldbus.modbus_regmap import load_register_map
 from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
 
 DT = 0.001
 TIMEOUT = 0.05
+# map v1 with the FC 16 write and the FC 03 read as two requests, one after the other
+V1_SEPARATE = dataclasses.replace(load_register_map("motionplc-v1"), exchange="separate")
+EXCHANGES = pytest.mark.parametrize(
+    "cfg", [{}, {"register_map": V1_SEPARATE}], ids=["fc23", "separate"]
+)
 
 
 # ------------------------------------------------------------------ pure map
@@ -196,9 +203,10 @@ def test_word_order_mismatch_refuses_to_enable(server) -> None:
     drive.close()
 
 
-def test_cyclic_fc23_life_sign_and_analytic_lag(rig) -> None:
+@EXCHANGES
+def test_cyclic_fc23_life_sign_and_analytic_lag(rig, cfg: dict) -> None:
     vd = VirtualModbusDrive(1)
-    r = rig(vd)
+    r = rig(vd, **cfg)
     enable(r)
     d = r.drives[0]
     v = 0.05  # m/s
@@ -219,9 +227,10 @@ def test_cyclic_fc23_life_sign_and_analytic_lag(rig) -> None:
     assert d.status.following_error == pytest.approx(lag * 1e6, abs=1)
 
 
-def test_exception_maps_to_axis_error_while_other_axes_cycle(rig) -> None:
+@EXCHANGES
+def test_exception_maps_to_axis_error_while_other_axes_cycle(rig, cfg: dict) -> None:
     a, b = VirtualModbusDrive(1), VirtualModbusDrive(2)
-    r = rig(a, b)
+    r = rig(a, b, **cfg)
     enable(r)
     b.inject_exception(0x04)
     fbs = r.hold(2, dp=1e-5)
@@ -233,12 +242,13 @@ def test_exception_maps_to_axis_error_while_other_axes_cycle(rig) -> None:
     assert all(fb.comm_ok for fb in fbs)
 
 
-def test_late_answer_is_used_and_counted(rig) -> None:
+@EXCHANGES
+def test_late_answer_is_used_and_counted(rig, cfg: dict) -> None:
     """An answer parked for 10 ms of simulated time (below the 50-cycle timeout):
     the cycles in between report stale feedback with communication OK and send nothing; the
     late answer is taken in the cycle after its release and counted."""
     vd = VirtualModbusDrive(1)
-    r = rig(vd)
+    r = rig(vd, **cfg)
     enable(r)
     d = r.drives[0]
     vd.drop_every = vd.requests + 1  # the very next request is parked
@@ -263,12 +273,13 @@ def test_late_answer_is_used_and_counted(rig) -> None:
     assert fbs[0].comm_ok and not fbs[0].stale
 
 
-def test_no_answer_times_out_in_cycles_then_recovers(rig) -> None:
+@EXCHANGES
+def test_no_answer_times_out_in_cycles_then_recovers(rig, cfg: dict) -> None:
     """No answer for timeout / cycle_time = 50 cycles -> COMM_TIMEOUT in exactly the 51st
     cycle (simulated clock, lockstep); the connection is re-opened and the next exchange
     is answered; the abandoned answer never shows up."""
     vd = VirtualModbusDrive(1)
-    r = rig(vd)
+    r = rig(vd, **cfg)
     enable(r)
     d = r.drives[0]
     assert d.config.timeout_cycles == 50

@@ -191,3 +191,17 @@ def test_the_shipped_v1_map_does_not_fit_this_drive(servo: ModbusServo, master) 
         r"profile, word-order probe\): Modbus exception 0x02 \(ILLEGAL_ADDRESS\)$",
     ):
         d.open()
+
+
+def test_pipelined_requests_to_a_drive_that_queues_them(servo: ModbusServo, master) -> None:
+    """The drive answers requests in order, also several in one TCP segment (its manual):
+    with ``requests_in_flight=2`` the write and the read of a cycle go out together."""
+    d = master(requests_in_flight=2)
+    d.open()
+    cycle = Cycle(d)
+    sp = cycle.enable().position
+    for _ in range(20):
+        sp += 1e-5
+        fb = cycle(lambda fb, sp=sp: DriveCommand(sp, enable=True))
+        assert fb.comm_ok and fb.enabled and not fb.stale
+    assert servo.target_position == round(sp * CPU) and d.late_replies == 0
