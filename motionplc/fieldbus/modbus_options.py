@@ -15,6 +15,8 @@ For the configuration parser (:mod:`motionplc.config`)::
           following_error_timeout: 0.01  # [s] optional, written at setup
           watchdog: 0.05                 # [s] optional, 0 = off, written at setup
           velocity_feed_forward: true    # optional (needs a target_velocity register)
+          requests_in_flight: 1          # optional, 1..16: requests of a cycle on the wire at
+                                         # once (1: each after the previous answer)
 
 :data:`MODBUS_DRIVE_KEYS` lists these keys (key -> required); :func:`check_modbus_drive` checks
 their presence and values (a missing ``unit_id`` included) and returns the
@@ -51,6 +53,7 @@ MODBUS_DRIVE_KEYS: dict[str, bool] = {
     "following_error_timeout": False,
     "watchdog": False,
     "velocity_feed_forward": False,
+    "requests_in_flight": False,
 }
 WORD_ORDERS = ("big", "little")
 
@@ -144,6 +147,10 @@ def check_modbus_drive(c: Checker, m: YamlMap, path: str, base_dir: Path) -> dic
                 f"got {value:g}: {exc}",
                 f"a number up to {hi:.6g} {unit_name}",
             )
+    if m.get("requests_in_flight") is not None:
+        n = c.integer(m, "requests_in_flight", path, None, lo=1, hi=16)
+        if n is not None:
+            out["requests_in_flight"] = n
     if "velocity_feed_forward" in m:
         ff = c.boolean(m, "velocity_feed_forward", path, False)
         out["velocity_feed_forward"] = ff

@@ -45,6 +45,7 @@ def test_keys_and_the_config_they_give(tmp_path: Path) -> None:
         "following_error_timeout",
         "watchdog",
         "velocity_feed_forward",
+        "requests_in_flight",
     }
     assert MODBUS_DRIVE_KEYS["unit_id"] and not MODBUS_DRIVE_KEYS["register_map"]
     _, out, errors = check(tmp_path, "bus: mb0\nunit_id: 3")
@@ -56,11 +57,12 @@ def test_keys_and_the_config_they_give(tmp_path: Path) -> None:
         tmp_path,
         "unit_id: 4\nword_order: little\nregister_map: motionplc-v1\n"
         "following_error_window: 0.002\nfollowing_error_timeout: 0.01\nwatchdog: 0\n"
-        "velocity_feed_forward: true",
+        "velocity_feed_forward: true\nrequests_in_flight: 2",
     )
     assert errors == []
     cfg = ModbusDriveConfig(port=1502, **out)
     assert cfg.map.word_order == "little" and cfg.watchdog == 0.0 and cfg.velocity_feed_forward
+    assert cfg.requests_in_flight == 2
     assert cfg.following_error_window == 0.002 and cfg.following_error_timeout == 0.01
     _, out, errors = check(tmp_path, "unit_id: 4\nregister_map: tiny.yaml")
     assert errors == [] and out["register_map"].name == "tiny"
@@ -112,6 +114,7 @@ def test_keys_and_the_config_they_give(tmp_path: Path) -> None:
             "watchdog",
             ("got 70", "70000 is out of range", "up to 65.5355 s"),
         ),
+        ("unit_id: 1\nrequests_in_flight: 0", 5, "requests_in_flight", ("1..16",)),
         ("unit_id: 1\nwatchdog: -0.1", 5, "watchdog", ("got -0.1", ">= 0")),
         ("unit_id: 1\nfollowing_error_timeout: 0", 5, "following_error_timeout", ("> 0",)),
         (
