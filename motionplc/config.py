@@ -434,6 +434,12 @@ class BusSpec:
     port: int = 0
     timeout: float = 0.1
     max_frames_per_cycle: int = 256  # CAN: received frames handled per cycle (the rest counted)
+    # CAN master: its node id (heartbeat COB-ID 0x700+id), heartbeat period [s] (None: half
+    # the shortest time a drive watches it, 0 when none does), SYNC COB-ID, SDO time-out [s]
+    master_node_id: int = 0x7F
+    master_heartbeat: float | None = None
+    sync_cob_id: int = 0x80
+    sdo_timeout: float = 0.3
     # CAN: further keyword arguments of can.Bus for this interface (e.g. pcan's ``fd``,
     # slcan's ``tty_baudrate``), passed through as given
     options: tuple[tuple[str, Any], ...] = ()
@@ -481,6 +487,9 @@ class DriveSpec:
     unit_id: int | None = None  # Modbus
     counts_per_unit: float = 1.0e6
     word_order: str = "big"
+    # the backend's own keyword arguments from the bus-specific keys (CanopenDriveConfig /
+    # ModbusDriveConfig fields: eds, pdo layout, heartbeat, register map, ...), validated
+    options: Mapping[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True, slots=True)
@@ -564,6 +573,10 @@ _CAN = {
     "bitrate": False,
     "max_frames_per_cycle": False,
     "options": False,
+    "master_node_id": False,
+    "master_heartbeat": False,
+    "sync_cob_id": False,
+    "sdo_timeout": False,
 }
 _CAN_RESERVED = ("interface", "channel", "bitrate")  # not settable through options
 _MODBUS = {"host": False, "port": False, "timeout": False}
@@ -586,13 +599,11 @@ _POSITION_MAX = 1e12
 _LIMITS = {"v_max": True, "a_max": True, "j_max": False, "v_min": False, "a_min": False}
 _SWLIM = {"min": False, "max": False}
 _HOMING = {"method": False, "switch": False, "velocity": False}
-_DRIVE_KEYS = {
+_DRIVE_KEYS = {  # the bus-specific keys: canopen_options / modbus_options
     "type": False,
     "bus": False,
     "node_id": False,
-    "unit_id": False,
     "counts_per_unit": False,
-    "word_order": False,
 }
 
 
@@ -709,6 +720,10 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
                     c.error(om.line_of(key), op, f"got {_tname(value)}", "a scalar value")
                 else:
                     options.append((key, value))
+        master_id = c.integer(m, "master_node_id", path, 0x7F, lo=1, hi=127)
+        master_hb = c.number(m, "master_heartbeat", path, None, ge=0.0, le=65.535)
+        sync_id = c.integer(m, "sync_cob_id", path, 0x80, lo=1, hi=0x7FF)
+        sdo_timeout = c.number(m, "sdo_timeout", path, 0.3, gt=0.0, le=60.0)
         return BusSpec(
             name,
             kind,
@@ -717,6 +732,10 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             channel or name,
             bitrate,
             max_frames_per_cycle=max_frames or 256,
+            master_node_id=master_id or 0x7F,
+            master_heartbeat=master_hb,
+            sync_cob_id=sync_id or 0x80,
+            sdo_timeout=sdo_timeout or 0.3,
             options=tuple(options),
         )
     host = c.string(m, "host", path, "127.0.0.1") or "127.0.0.1"
@@ -847,15 +866,20 @@ def _parse_axis(
 def _parse_drive(
     c: Checker, axis: YamlMap, path: str, buses: dict[str, BusSpec]
 ) -> DriveSpec | None:
+    from motionplc.fieldbus.canopen_options import CANOPEN_DRIVE_KEYS, check_canopen_drive
+    from motionplc.fieldbus.modbus_options import MODBUS_DRIVE_KEYS, check_modbus_drive
+
     dp = join(path, "drive")
-    m = c.mapping(axis["drive"], axis.line_of("drive"), dp, _DRIVE_KEYS)
+    m = c.mapping(axis["drive"], axis.line_of("drive"), dp, None)
     if m is None:
         return None
+    known = {k: False for k in (*_DRIVE_KEYS, *CANOPEN_DRIVE_KEYS, *MODBUS_DRIVE_KEYS)}
+    c.keys(m, dp, known)
     dtype = c.choice(m, "type", dp, ("ideal", "bus"), None)
     bus_name = m.get("bus")
     if dtype == "ideal" or (dtype is None and bus_name is None):
-        for k in ("bus", "node_id", "unit_id", "counts_per_unit", "word_order"):
-            if k in m:
+        for k in m:
+            if k != "type" and k in known:
                 c.error(m.key_lines[k], join(dp, k), "not used by an ideal drive", "type: ideal")
         return DriveSpec()
     if bus_name is None:
@@ -870,22 +894,33 @@ def _parse_drive(
         )
         return None
     bus = buses[bus_name]
+    base_dir = Path(c.file).parent
     cpu = c.number(m, "counts_per_unit", dp, 1.0e6, gt=0.0) or 1.0e6
     if bus.type == "can":
-        for k in ("unit_id", "word_order"):
-            if k in m:
+        for k in MODBUS_DRIVE_KEYS:
+            if k in m and k not in CANOPEN_DRIVE_KEYS:
                 c.error(m.key_lines[k], join(dp, k), "not used on a CAN bus", "node_id")
         if "node_id" not in m:
             c.error(m.line, join(dp, "node_id"), "missing", "an integer in 1..127")
         node = c.integer(m, "node_id", dp, None, lo=1, hi=127)
-        return DriveSpec("canopen", bus_name, node_id=node, counts_per_unit=cpu)
+        options = check_canopen_drive(c, m, dp, base_dir)
+        return DriveSpec("canopen", bus_name, node_id=node, counts_per_unit=cpu, options=options)
     if "node_id" in m:
         c.error(m.key_lines["node_id"], join(dp, "node_id"), "not used on Modbus", "unit_id")
-    if "unit_id" not in m:
-        c.error(m.line, join(dp, "unit_id"), "missing", "an integer in 1..247")
-    unit = c.integer(m, "unit_id", dp, None, lo=1, hi=247)
-    order = c.choice(m, "word_order", dp, WORD_ORDERS, "big")
-    return DriveSpec("modbus", bus_name, unit_id=unit, counts_per_unit=cpu, word_order=order)
+    for k in CANOPEN_DRIVE_KEYS:
+        if k in m and k not in MODBUS_DRIVE_KEYS:
+            c.error(m.key_lines[k], join(dp, k), "not used on Modbus", ", ".join(MODBUS_DRIVE_KEYS))
+    options = check_modbus_drive(c, m, dp, base_dir)
+    unit = options.pop("device_id", None)
+    order = options.pop("word_order", "big")
+    return DriveSpec(
+        "modbus",
+        bus_name,
+        unit_id=unit,
+        counts_per_unit=cpu,
+        word_order=order,
+        options=options,
+    )
 
 
 def parse_config(data: Any, file: str | Path) -> Config:
@@ -1208,6 +1243,20 @@ def build(
     return machine
 
 
+def _master_heartbeat(cfg: Config, bus: BusSpec) -> float:
+    """The CAN master's heartbeat period: as configured, else half the shortest time a drive
+    on the bus watches it (0x1016), else 0 (none)."""
+    if bus.master_heartbeat is not None:
+        return bus.master_heartbeat
+    watched = [
+        a.drive.options.get("master_heartbeat_timeout", 0.0)
+        for a in cfg.axes
+        if a.drive.bus == bus.name
+    ]
+    watched = [w for w in watched if w > 0]
+    return min(watched) / 2 if watched else 0.0
+
+
 def _open_can(bus: BusSpec, channel: str, where: str) -> Any:
     """``can.Bus`` for ``bus``; a failure names the file, the bus, the interface and the
     channel, and says what to do about a missing SocketCAN channel."""
@@ -1285,6 +1334,10 @@ def _make_drive(
                 _open_can(bus, channel, cfg.path),
                 peer=rack,
                 max_frames_per_cycle=bus.max_frames_per_cycle,
+                node_id=bus.master_node_id,
+                heartbeat_period=_master_heartbeat(cfg, bus),
+                sync_cob_id=bus.sync_cob_id,
+                sdo_timeout=bus.sdo_timeout,
             )
             machine._closers.append(master.close)
             masters[d.bus] = master
@@ -1293,7 +1346,10 @@ def _make_drive(
             ax.name,
             masters[d.bus],
             CanopenDriveConfig(
-                node_id=d.node_id, counts_per_unit=d.counts_per_unit, cycle_time=period
+                node_id=d.node_id,
+                counts_per_unit=d.counts_per_unit,
+                cycle_time=period,
+                **d.options,
             ),
         )
     from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig
@@ -1327,6 +1383,7 @@ def _make_drive(
             word_order=d.word_order,  # type: ignore[arg-type]
             cycle_time=period,
             timeout=bus.timeout,
+            **d.options,
         ),
         peer=peer,
     )

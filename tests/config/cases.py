@@ -251,7 +251,8 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         _cfg(_X, buses="  can0: {type: can, port: 502}\n"),
         [
             "{f}:5: buses.can0.port: unknown key "
-            "(allowed: type, drives, interface, channel, bitrate, max_frames_per_cycle, options)"
+            "(allowed: type, drives, interface, channel, bitrate, max_frames_per_cycle, options, "
+            "master_node_id, master_heartbeat, sync_cob_id, sdo_timeout)"
         ],
     ),
     (
