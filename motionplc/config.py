@@ -486,7 +486,7 @@ class DriveSpec:
     node_id: int | None = None  # CANopen
     unit_id: int | None = None  # Modbus
     counts_per_unit: float = 1.0e6
-    word_order: str = "big"
+    word_order: str | None = None  # Modbus: overrides the register map's; None = the map's
     # the backend's own keyword arguments from the bus-specific keys (CanopenDriveConfig /
     # ModbusDriveConfig fields: eds, pdo layout, heartbeat, register map, ...), validated
     options: Mapping[str, Any] = field(default_factory=dict)
@@ -912,7 +912,7 @@ def _parse_drive(
             c.error(m.key_lines[k], join(dp, k), "not used on Modbus", ", ".join(MODBUS_DRIVE_KEYS))
     options = check_modbus_drive(c, m, dp, base_dir)
     unit = options.pop("device_id", None)
-    order = options.pop("word_order", "big")
+    order = options.pop("word_order", None)
     return DriveSpec(
         "modbus",
         bus_name,
@@ -1362,7 +1362,10 @@ def _make_drive(
 
             units = [a.drive for a in cfg.axes if a.drive.bus == d.bus]
             server = VirtualModbusServer(
-                [VirtualModbusDrive(u.unit_id or 1, word_order=u.word_order) for u in units],  # type: ignore[arg-type]
+                [
+                    VirtualModbusDrive(u.unit_id or 1, word_order=u.word_order or "big")  # type: ignore[arg-type]
+                    for u in units
+                ],
                 host=bus.host,
                 port=bus.port,
             )

@@ -64,7 +64,12 @@ stale life sign echo        -        -        stale=True
 
 A fault reset (MC_Reset) re-opens a connection that timed out and is reported as
 ``reset_pending`` until the drive is out of FAULT with communication OK, or ``reset_timeout``
-has passed.
+has passed. The fault reset after a reconnection (the connection was lost: a drive reboot
+drops it) first runs the setup of :meth:`ModbusDrive.open` again — identification, mode, setup
+parameters — so a power-cycled drive is never enabled with its factory parameters; a failure
+keeps the axis disconnected with the located reason. That setup waits for its answers (a few
+requests, each bounded by ``timeout``), also in real time: it runs once per such reset, with
+the axis in ErrorStop at rest (counted in ``reconfigurations``).
 """
 
 from __future__ import annotations
@@ -342,6 +347,7 @@ class ModbusDrive(Drive):
         self.held_cycles = 0  # cycles whose setpoint was not sent (previous one unanswered)
         self.timeouts = 0  # COMM_TIMEOUTs (exchanges abandoned)
         self.unexpected_replies = 0  # answers to no request in flight (ignored)
+        self.reconfigurations = 0  # setups repeated on a reset after a reconnection
 
     def bind_clock(self, realtime: bool) -> None:
         """Real time: never wait for an answer inside the cycle (see the module docstring)."""
@@ -357,20 +363,7 @@ class ModbusDrive(Drive):
             self.link.close()
             raise FieldbusError(f"{self.name}: cannot connect to {cfg.host}:{cfg.port}: {reason}")
         try:
-            self._identify()
-            if "mode_of_operation" in self.map:
-                self._write_register("mode_of_operation", CSP)
-            params: list[tuple[str, float]] = [("cycle_time", cfg.cycle_time)]
-            if cfg.following_error_window is not None:
-                window = abs(cfg.following_error_window * cfg.counts_per_unit)
-                params.append(("following_error_window", window))
-            if cfg.following_error_timeout is not None:
-                params.append(("following_error_timeout", cfg.following_error_timeout))
-            if cfg.watchdog is not None:
-                params.append(("watchdog", cfg.watchdog))
-            for key, value in params:
-                if key in self.map:
-                    self._write_register(key, value)
+            self._configure()
             image: list[Any] = [None] * len(STATUS_KEYS)
             for req in self.codec.reads:
                 rr = self._transact(_read_pdu(req), f"{req.label} ({', '.join(req.keys)})")
@@ -387,6 +380,39 @@ class ModbusDrive(Drive):
             raise
         self._fresh = True
         self._opened = True
+
+    def _configure(self) -> None:
+        """Identification, mode and setup parameters (blocking, each request bounded by the
+        timeout): at :meth:`open`, and again on the fault reset after a reconnection (the
+        drive may have been power-cycled and be back at its factory parameters)."""
+        cfg = self.config
+        self._identify()
+        if "mode_of_operation" in self.map:
+            self._write_register("mode_of_operation", CSP)
+        params: list[tuple[str, float]] = [("cycle_time", cfg.cycle_time)]
+        if cfg.following_error_window is not None:
+            window = abs(cfg.following_error_window * cfg.counts_per_unit)
+            params.append(("following_error_window", window))
+        if cfg.following_error_timeout is not None:
+            params.append(("following_error_timeout", cfg.following_error_timeout))
+        if cfg.watchdog is not None:
+            params.append(("watchdog", cfg.watchdog))
+        for key, value in params:
+            if key in self.map:
+                self._write_register(key, value)
+
+    def _reconfigure(self) -> bool:
+        """The fault reset after a reconnection: configure the drive again before it is used;
+        False (the connection closed, the reason latched) when that fails."""
+        try:
+            self._configure()
+        except (_RequestError, RegisterValueError, FieldbusError) as exc:
+            detail = exc.detail if isinstance(exc, _RequestError) else str(exc)
+            self._disconnected = f"re-configuration after reconnecting failed: {detail}"
+            self.link.close()
+            return False
+        self.reconfigurations += 1
+        return True
 
     def _identify(self) -> None:
         """Read the map's identification registers and compare each with its value."""
@@ -723,7 +749,11 @@ class ModbusDrive(Drive):
             self._step_peer(t)
             return
         if self._disconnected and reset:
-            self._disconnected = ""  # explicit reset after reconnecting
+            # explicit reset after reconnecting: the drive may have rebooted, set it up again
+            if not self._reconfigure():
+                self._step_peer(t)
+                return
+            self._disconnected = ""
         if self._exchange is not None:
             self.held_cycles += 1  # the previous exchange is still unanswered
             self._step_peer(t)
