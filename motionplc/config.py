@@ -911,6 +911,13 @@ def _parse_drive(
         if k in m and k not in MODBUS_DRIVE_KEYS:
             c.error(m.key_lines[k], join(dp, k), "not used on Modbus", ", ".join(MODBUS_DRIVE_KEYS))
     options = check_modbus_drive(c, m, dp, base_dir)
+    if bus.drives == "simulated" and m.get("register_map", "motionplc-v1") != "motionplc-v1":
+        c.error(
+            m.line_of("register_map"),
+            join(dp, "register_map"),
+            f"the simulated drives of bus {bus_name!r} speak the motionplc-v1 map only",
+            f"motionplc-v1, or drives: external on buses.{bus_name}",
+        )
     unit = options.pop("device_id", None)
     order = options.pop("word_order", None)
     return DriveSpec(

@@ -247,6 +247,20 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         ],
     ),
     (
+        "register map on a simulated Modbus bus",
+        _cfg(
+            "  x:\n    limits: {v_max: 1, a_max: 1}\n"
+            "    drive: {bus: mb, unit_id: 1, register_map: other.yaml}\n",
+            buses="  mb: {type: modbus}\n",
+        ),
+        [
+            "{f}:9: axes.x.drive.register_map: no such register map file 'other.yaml' (allowed: "
+            "a shipped map (motionplc-v1), a path to a map file, or an inline mapping)",
+            "{f}:9: axes.x.drive.register_map: the simulated drives of bus 'mb' speak the "
+            "motionplc-v1 map only (allowed: motionplc-v1, or drives: external on buses.mb)",
+        ],
+    ),
+    (
         "Modbus key on a CAN bus",
         _cfg(_X, buses="  can0: {type: can, port: 502}\n"),
         [
