@@ -1,0 +1,169 @@
+"""SYNC gaps on the bus while ``motionplc run --realtime`` runs a CAN axis (issue 13, finding 4).
+
+    python tools/rt_sync_gaps.py                 # 60 s, 1 ms cycle
+    python tools/rt_sync_gaps.py --seconds 10 --cycle 0.002
+
+The axis' drive is the independent CiA 402 servo of the interoperability tests
+(``tests/interop/canopen_servo.py``) in its own thread on a python-can ``virtual`` channel
+(``drives: external``); the CLI's ``run`` command itself (``motionplc.cli.main``) runs the
+machine in real time with a program moving the axis back and forth. A third bus object on the
+channel records every frame with python-can's send timestamp (taken in ``send``): the gaps
+between consecutive SYNC frames are the bus' view of the cycle. Printed: SYNC count, gap
+percentiles and maximum in cycles, the gaps above 1.5 cycles, the runtime's own lateness
+statistics and the collector's idle-slack collections. Exit code 1 if any gap exceeds
+``--limit`` cycles (default 1.5).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import textwrap
+import threading
+from pathlib import Path
+
+import can
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from motionplc.cli import main as cli_main  # noqa: E402
+from tests.interop.canopen_servo import CanopenServo  # noqa: E402
+
+NODE = 1
+
+PROGRAM = """\
+from motionplc.blocks import MC_MoveAbsolute, MC_Power
+
+TASK = "motion"
+TIMEOUT = 3600.0
+power = MC_Power()
+move = MC_MoveAbsolute()
+
+
+END = {end!r}  # [s] the program is done here (the run's --seconds)
+
+
+def setup(ctx):
+    ctx.vars["target"] = 0.1
+
+
+def program(ctx):
+    if ctx.t >= END:
+        ctx.done()
+        return
+    axis = ctx.axes["x"]
+    power(axis=axis, enable=True)
+    if not power.status:
+        return
+    move(axis=axis, position=ctx.vars["target"], velocity=0.2, acceleration=2.0,
+         deceleration=2.0, jerk=40.0, execute=True)
+    if move.done:
+        ctx.vars["target"] = 0.1 - ctx.vars["target"]
+        move(execute=False)
+"""
+
+
+def _config(d: Path, channel: str, cycle: float) -> Path:
+    path = d / "rt_can.yaml"
+    path.write_text(
+        textwrap.dedent(
+            f"""\
+            runtime:
+              tick: {cycle}
+              clock: realtime
+              tasks: {{motion: {{period: {cycle}}}}}
+            buses:
+              can0: {{type: can, interface: virtual, channel: {channel}, drives: external}}
+            axes:
+              x:
+                limits: {{v_max: 0.25, a_max: 2.0, j_max: 40.0}}
+                following_error: 0.005
+                drive:
+                  bus: can0
+                  node_id: {NODE}
+                  counts_per_unit: 1.0e6
+                  eds: servo.eds
+                  heartbeat: {{producer: 0.05}}
+            """
+        )
+    )
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=60.0, help="run length [s] (default 60)")
+    ap.add_argument("--cycle", type=float, default=0.001, help="task period [s] (default 1 ms)")
+    ap.add_argument("--limit", type=float, default=1.5, help="largest allowed gap [cycles]")
+    args = ap.parse_args(argv)
+    channel = f"rtgaps-{os.getpid()}"
+    stamps: list[float] = []
+    stop = threading.Event()
+    with tempfile.TemporaryDirectory() as tmp:
+        d = Path(tmp)
+        servo_bus = can.Bus(interface="virtual", channel=channel)
+        sniffer = can.Bus(interface="virtual", channel=channel)
+        servo = CanopenServo(servo_bus, NODE)
+        servo.write_eds(d / "servo.eds")
+        (d / "moves.py").write_text(PROGRAM.format(end=args.seconds - 0.05))
+        config = _config(d, channel, args.cycle)
+
+        def record() -> None:
+            while not stop.is_set():
+                msg = sniffer.recv(timeout=0.05)
+                if msg is not None and msg.arbitration_id == 0x80:
+                    stamps.append(msg.timestamp)
+
+        recorder = threading.Thread(target=record, name="sniffer", daemon=True)
+        recorder.start()
+        servo.start()
+        try:
+            code = cli_main(
+                [
+                    "run",
+                    str(config),
+                    str(d / "moves.py"),
+                    "--realtime",
+                    "--seconds",
+                    str(args.seconds),
+                ]
+            )
+        finally:
+            servo.stop()
+            stop.set()
+            recorder.join()
+            sniffer.shutdown()
+            servo_bus.shutdown()
+    t = np.asarray(stamps)
+    if t.size < 2:
+        print(f"rt_sync_gaps: only {t.size} SYNC frames seen (run exit code {code})")
+        return 1
+    gaps = np.diff(t) / args.cycle
+    over = gaps[gaps > args.limit]
+    print()
+    print(
+        f"SYNC frames on the bus: {t.size} in {t[-1] - t[0]:.3f} s "
+        f"(expected {round(args.seconds / args.cycle)}), run exit code {code}"
+    )
+    q = np.percentile(gaps, [50, 99, 99.9, 99.99])
+    print(
+        "gap between SYNCs [cycles]: median {:.3f}  p99 {:.3f}  p99.9 {:.3f}  p99.99 {:.3f}  "
+        "max {:.3f}  min {:.3f}".format(*q, gaps.max(), gaps.min())
+    )
+    print(
+        f"gaps above {args.limit} cycles: {over.size}"
+        + (
+            f" (largest: {', '.join(f'{g:.2f}' for g in np.sort(over)[::-1][:10])})"
+            if over.size
+            else ""
+        )
+    )
+    return 0 if over.size == 0 and code == 0 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
