@@ -601,6 +601,7 @@ class CanopenServo:
         self._v = 0.0  # actual velocity [inc/s]
         self._d0 = 0.0  # demand at the start of the current period [inc]
         self._d1 = 0.0  # demand at its end [inc]
+        self._demand = 0.0  # demand at the present servo time [inc]
         self._v_cmd_ff = 0.0
         self._fe_exceeded = False
         self._fe_time_us = 0
@@ -862,7 +863,7 @@ class CanopenServo:
         if index == 0x606C:
             return self._clamp_i32(self._vel_sign() * self._v / self._factor())
         if index == 0x60F4:
-            return self._clamp_i32(self._inc_to_pu(self._d1) - self._inc_to_pu(self._x))
+            return self._clamp_i32(self._inc_to_pu(self._demand) - self._inc_to_pu(self._x))
         if index == 0x6061:
             return self._mode_active
         if index == 0x603F:
@@ -948,9 +949,9 @@ class CanopenServo:
             can_id = value & 0x7FF
             old = entries[1].value
             assert isinstance(old, int)
+            if _restricted_cob_id(can_id):
+                raise _AbortError(ABORT_RANGE)
             if not value & _PDO_INVALID:
-                if _restricted_cob_id(can_id):
-                    raise _AbortError(ABORT_RANGE)
                 if not old & _PDO_INVALID and (old & 0x7FF) != can_id:
                     raise _AbortError(ABORT_RANGE)
             entries[1].value = value
@@ -1082,7 +1083,7 @@ class CanopenServo:
         old = self._state
         self._state = new
         if new is _S.OPERATION_ENABLED and old is not _S.OPERATION_ENABLED:
-            self._d0 = self._d1 = self._x
+            self._d0 = self._d1 = self._demand = self._x
             self._fe_time_us = 0
             self._fe_exceeded = False
         if new not in (
@@ -1091,13 +1092,13 @@ class CanopenServo:
             _S.FAULT_REACTION_ACTIVE,
         ):
             self._v = 0.0
-            self._d0 = self._d1 = self._x
+            self._d0 = self._d1 = self._demand = self._x
 
     def _activate_mode(self, mode: int) -> None:
         self._mode_delay = 0
         if mode != self._mode_active:
             self._mode_active = mode
-            self._d0 = self._d1 = self._x
+            self._d0 = self._d1 = self._demand = self._x
 
     def _mode_tick(self) -> None:
         if self._mode_delay > 0:
@@ -1148,8 +1149,10 @@ class CanopenServo:
                 v_target = self._vel_sign() * self._raw(0x60FF) * factor
             for i in range(1, m + 1):
                 if csp:
-                    d = self._d0 + (self._d1 - self._d0) * i / m
+                    d = self._d0 + (self._d1 - self._d0) * (i - 1) / m
                     v_cmd = p.kff * v_ff + p.kp * (d - self._x)
+                    d = self._d0 + (self._d1 - self._d0) * i / m
+                    self._demand = d
                 else:
                     v_cmd = v_target
                 self._v += (v_cmd - self._v) * alpha
@@ -1167,7 +1170,7 @@ class CanopenServo:
                 else:
                     self._fe_time_us = 0
             if not csp:
-                self._d0 = self._d1 = self._x
+                self._d0 = self._d1 = self._demand = self._x
         elif state in (_S.QUICK_STOP_ACTIVE, _S.FAULT_REACTION_ACTIVE) or (
             state is _S.OPERATION_ENABLED
         ):
@@ -1177,7 +1180,7 @@ class CanopenServo:
                 self._v = 0.0 if abs(self._v) <= step else self._v - math.copysign(step, self._v)
                 self._x += self._v * h
             if state is not _S.OPERATION_ENABLED or self._v == 0.0:
-                self._d0 = self._d1 = self._x
+                self._d0 = self._d1 = self._demand = self._x
 
     # ------------------------------------------------------------------ frames out
     def _send(self, can_id: int, data: bytes, *, remote: bool = False) -> None:
