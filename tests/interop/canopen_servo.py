@@ -56,7 +56,8 @@ Profile area (restored by reset node and ``reboot``)::
     0x6091      gear ratio RECORD: 1 motor revolutions, 2 shaft revolutions (U32, > 0)
     0x6092      feed constant RECORD: 1 feed, 2 shaft revolutions (U32, > 0)
     0x60B1      velocity offset I32 [rww] (CSP velocity feed-forward, position units / s)
-    0x60C2      interpolation time period RECORD: 1 value U8, 2 index I8 in -6..0 (factory 1, -3)
+    0x60C2      interpolation time period RECORD: 1 value U8, 2 index I8 in -6..0; factory:
+                the constructor's cycle_s (1, -3 for 1 ms), or (0, -3) if not representable
     0x60F4      following error actual value I32 [ro] (demand - actual, position units)
     0x60FF      target velocity I32 [rww] (CSV, position units / s)
     0x6502      supported drive modes U32 [ro] 0x180 (CSP, CSV; absent with has_6502=False)
@@ -308,6 +309,16 @@ def _error_class_bits(code: int) -> int:
     return 0x00
 
 
+def _interpolation_period(cycle_us: int) -> tuple[int, int]:
+    """0x60C2 (value, index) for a period in µs: the coarsest exact value·10^index with value
+    in 1..255 and index in -6..0, or (0, -3) when there is none."""
+    for index in range(0, -7, -1):
+        scale = 10 ** (index + 6)  # µs per unit
+        if cycle_us % scale == 0 and 1 <= cycle_us // scale <= 255:
+            return cycle_us // scale, index
+    return 0, -3
+
+
 @dataclass(frozen=True, slots=True)
 class ServoQuirks:
     """Standard-conforming behaviours a real drive may have; the factory default is the plain one.
@@ -540,7 +551,9 @@ class CanopenServo:
         node_id: 1..127.
         quirks: behaviours of this drive model.
         vendor_id, product_code, revision, serial: 0x1018 subs 1..4 (U32).
-        cycle_s: communication cycle period used when 0x1006 and 0x60C2 are both 0 (1e-5..1 s).
+        cycle_s: communication cycle period (1e-5..1 s): the factory 0x60C2 when it can be
+            written as value·10^index (value 1..255, index -6..0), and the period used when
+            0x1006 and 0x60C2 are both 0.
         plant: the position/velocity loop.
         position: initial position actual value in position units (the shaft's place at power-on).
         device_name: 0x1008.
@@ -650,6 +663,7 @@ class CanopenServo:
     def _build_od(self) -> None:
         q = self._quirks
         n = self._node_id
+        ip_value, ip_index = _interpolation_period(self._default_cycle_us)
         U8, U16, U32, I8, I16, I32 = (
             UNSIGNED8,
             UNSIGNED16,
@@ -765,8 +779,8 @@ class CanopenServo:
             0x60C2,
             "Interpolation time period",
             {
-                1: _Entry("Interpolation time period value", U8, "rw", 1),
-                2: _Entry("Interpolation time index", I8, "rw", -3, low=-6, high=0),
+                1: _Entry("Interpolation time period value", U8, "rw", ip_value),
+                2: _Entry("Interpolation time index", I8, "rw", ip_index, low=-6, high=0),
             },
         )
         self._var(0x60F4, "Following error actual value", I32, "ro", 0, pdo=True)
@@ -1010,9 +1024,12 @@ class CanopenServo:
     def _w_mode(self, index: int, sub: int, value: int) -> None:
         if value not in _MODES_ALLOWED:
             raise _AbortError(ABORT_RANGE)
-        self._od[index].entries[sub].value = value
+        entry = self._od[index].entries[sub]
+        requested, entry.value = entry.value, value
         if value == self._mode_active:
             self._mode_delay = 0
+        elif value == requested and self._mode_delay > 0:
+            pass  # the same mode again (e.g. an RPDO every cycle): the delay runs on
         elif self._quirks.mode_display_delay == 0:
             self._activate_mode(value)
         else:

@@ -173,6 +173,8 @@ class Peer:
         self.servo = CanopenServo(self.servo_bus, node_id, **kwargs)  # type: ignore[arg-type]
         self.eds = self.servo.write_eds(tmp_path / f"servo_{node_id}.eds")
         self.node = self.network.add_node(node_id, str(self.eds))
+        # generous: a loaded CI host may delay the servo thread (a retry would repeat a request)
+        self.node.sdo.RESPONSE_TIMEOUT = TIMEOUT
         self.servo.start(poll_s=0.005)
 
     def close(self) -> None:
@@ -1096,3 +1098,70 @@ def test_bad_constructor_arguments() -> None:
         ServoQuirks(mode_display_delay=-1)
     with pytest.raises(ValueError, match="kff"):
         PlantParams(kff=2.0)
+
+
+def test_tpdo_on_rtr_and_sync_cob_id(rig: Rig) -> None:
+    n = rig.n
+    # factory TPDO2 maps 6041 + 6061, TPDO3 6041 + 6064
+    rig.ok(0x1801, 2, 253, 1)
+    rig.ok(0x1801, 1, 0x280 + n, 4)  # valid, RTR allowed (bit 30 clear)
+    rig.ok(0x1802, 2, 253, 1)
+    rig.ok(0x1802, 1, 0x40000380 + n, 4)  # valid, no RTR
+    rig.nmt(0x01)
+    rig.drain()
+    frames = rig.send(0x280 + n, remote=True)
+    assert [(m.arbitration_id, bytes(m.data)) for m in frames] == [(0x280 + n, b"\x50\x02\x00")]
+    assert rig.send(0x380 + n, remote=True) == []
+    # a SYNC on another COB-ID
+    rig.nmt(0x80)
+    rig.ok(0x1005, 0, 0x081, 4)
+    rig.sync()
+    assert rig.servo.sync_count == 0
+    rig.send(0x081)
+    assert rig.servo.sync_count == 1
+
+
+def test_thread_api_misuse(rig: Rig) -> None:
+    rig.servo.start(poll_s=0.005)
+    try:
+        with pytest.raises(RuntimeError, match="already runs"):
+            rig.servo.start()
+        with pytest.raises(RuntimeError, match="process_pending"):
+            rig.servo.process_pending()
+    finally:
+        rig.servo.stop()
+    rig.servo.stop()  # a second stop does nothing
+    with pytest.raises(ValueError, match="kind"):
+        rig.servo.mapping("xpdo", 1)
+    with pytest.raises(ValueError, match="code"):
+        rig.servo.inject_fault(0)
+
+
+@pytest.mark.parametrize(
+    ("cycle_s", "factory"),
+    [(0.001, (1, -3)), (0.004, (4, -3)), (0.0025, (25, -4)), (0.5, (5, -1))],
+)
+def test_constructor_cycle_is_the_factory_interpolation_period(
+    rig_factory: Callable[..., Rig], cycle_s: float, factory: tuple[int, int]
+) -> None:
+    rig = rig_factory(cycle_s=cycle_s)
+    assert (rig.read(0x60C2, 1), rig.read(0x60C2, 2, signed=True)) == factory
+    for _ in range(4):
+        rig.sync()
+    assert rig.servo.time_s == pytest.approx(4 * cycle_s)
+
+
+def test_mode_written_again_does_not_restart_the_delay(rig_factory: Callable[..., Rig]) -> None:
+    rig = rig_factory(quirks=ServoQuirks(mode_display_delay=3))
+    rig.ok(0x6060, 0, 8, 1)
+    for _ in range(2):
+        rig.sync()
+        rig.ok(0x6060, 0, 8, 1)  # a master that sends the mode every cycle
+    assert rig.servo.mode_display == 0
+    rig.sync()
+    assert rig.servo.mode_display == 8
+    rig.ok(0x6060, 0, 9, 1)
+    rig.ok(0x6060, 0, 8, 1)  # back to the active mode: nothing pending
+    for _ in range(3):
+        rig.sync()
+    assert rig.servo.mode_display == 8
