@@ -141,6 +141,15 @@ Behaviour
 * Modes: 0x6060 accepts 0, 8, 9. After a write the old mode stays active and displayed
   (0x6061, TPDOs) for ``mode_display_delay`` SDO reads of 0x6061 or SYNCs, counted together.
 
+Public API: ``CanopenServo(bus, node_id, *, quirks, vendor_id, product_code, revision, serial,
+cycle_s, plant, position, device_name)``; ``start(poll_s)``, ``stop()``, ``process_pending()``;
+``write_eds(path)``; fault injection ``reboot()``, ``inject_fault(code)``, ``warn(code)``,
+``clear_warning()``, ``stop_heartbeat(stopped)``; views ``nmt_state`` (``NmtState``),
+``cia402_state`` (``Cia402State``), ``statusword``, ``position`` / ``velocity`` (position units,
+unrounded), ``mode_display``, ``error_code``, ``time_s``, ``sync_count``, ``mapping(kind, n)``,
+``pdo_config(kind, n)`` (``PdoConfig``), ``od_value(index, sub)``, ``sdo_log``
+(``SdoLogEntry``), ``malformed_frames``, ``pdo_rejects``. ``PlantParams`` sets the loop.
+
 Quirks (``ServoQuirks``): see the field docs. Time: nothing reads a clock; servo time (integer
 µs) advances only by SYNCs, so a run is a function of the frames received. Threads: ``start()``
 runs a ``bus.recv`` loop in a thread (every frame in arrival order; a SYNC's TPDOs are sent

@@ -179,9 +179,11 @@ class Peer:
 
     def close(self) -> None:
         self.network.sync.stop()
-        self.servo.stop()
-        self.network.disconnect()
-        self.servo_bus.shutdown()
+        try:
+            self.servo.stop()
+        finally:
+            self.network.disconnect()
+            self.servo_bus.shutdown()
 
     def abort_of(self, action: Callable[[], object]) -> int:
         with pytest.raises(canopen.SdoAbortedError) as info:
