@@ -868,6 +868,7 @@ def _parse_drive(
 ) -> DriveSpec | None:
     from motionplc.fieldbus.canopen_options import CANOPEN_DRIVE_KEYS, check_canopen_drive
     from motionplc.fieldbus.modbus_options import MODBUS_DRIVE_KEYS, check_modbus_drive
+    from motionplc.fieldbus.modbus_regmap import DEFAULT_MAP
 
     dp = join(path, "drive")
     m = c.mapping(axis["drive"], axis.line_of("drive"), dp, None)
@@ -911,12 +912,12 @@ def _parse_drive(
         if k in m and k not in MODBUS_DRIVE_KEYS:
             c.error(m.key_lines[k], join(dp, k), "not used on Modbus", ", ".join(MODBUS_DRIVE_KEYS))
     options = check_modbus_drive(c, m, dp, base_dir)
-    if bus.drives == "simulated" and m.get("register_map", "motionplc-v1") != "motionplc-v1":
+    if bus.drives == "simulated" and m.get("register_map", DEFAULT_MAP) != DEFAULT_MAP:
         c.error(
             m.line_of("register_map"),
             join(dp, "register_map"),
-            f"the simulated drives of bus {bus_name!r} speak the motionplc-v1 map only",
-            f"motionplc-v1, or drives: external on buses.{bus_name}",
+            f"the simulated drives of bus {bus_name!r} speak the {DEFAULT_MAP} map only",
+            f"{DEFAULT_MAP}, or drives: external on buses.{bus_name}",
         )
     unit = options.pop("device_id", None)
     order = options.pop("word_order", None)

@@ -1183,10 +1183,9 @@ class CanopenDrive(Drive):
                     self._start_reconfigure(t)
             else:
                 self._reset_until = t + self.config.reset_timeout
-                if bus_recovered:
-                    self._restart_node()
-                elif self.node.nmt.timestamp is not None and self.node.nmt.state != "OPERATIONAL":
-                    self._restart_node()  # the node left OPERATIONAL: NMT start again
+                nmt = self.node.nmt
+                if bus_recovered or (nmt.timestamp is not None and nmt.state != "OPERATIONAL"):
+                    self._restart_node()  # after bus-off, or the node left OPERATIONAL: start
         if self._setup is not None:
             self._advance_setup(t)
         if not self._configured and self._verify_deadline is None:

@@ -41,6 +41,7 @@ from collections.abc import Generator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from motionplc.fieldbus.cia402 import SUPPORTED_MODE_BIT, OperationMode
 from motionplc.fieldbus.sdo import (
     ABORT_NOT_MAPPABLE,
     ABORT_VALUE_RANGE,
@@ -68,7 +69,7 @@ __all__ = [
     "startup_script",
 ]
 
-CSP = 8
+CSP = int(OperationMode.CYCLIC_SYNCHRONOUS_POSITION)
 PROFILE_402 = 402
 DEFAULT_SYNC_COB_ID = 0x80
 COB_INVALID = 0x80000000  # bit 31: PDO does not exist / is not valid
@@ -425,7 +426,7 @@ def startup_script(inp: StartupInputs, rec: StartupRecord, now: Any) -> Generato
         )
 
     supported = yield Read(0x6502, optional=True)
-    if supported is not ABSENT and not _u(supported) >> 7 & 1:
+    if supported is not ABSENT and not _u(supported) >> SUPPORTED_MODE_BIT[CSP] & 1:
         raise StartupError(
             f"0x6502:00 supported drive modes 0x{_u(supported):08X}: no cyclic synchronous "
             "position (bit 7)"

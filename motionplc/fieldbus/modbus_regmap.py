@@ -667,15 +667,22 @@ def _check_entry(c: Checker, m: YamlMap, key: str, path: str, base: int) -> Regi
         )
     if address is None or kind is None or table is None or scale is None:
         return None
-    if address - base + type_size(kind) > 0x10000:
-        c.error(
-            e.line_of("address"),
-            join(p, "address"),
-            f"a {kind} needs 2 registers, 0x{address:X} is the last one",
-            f"an integer in {base}..{0xFFFE + base}",
-        )
+    if not _fits(c, e, p, address, base, kind):
         return None
     return Register(key, address, address - base, kind, table, scale, order, e.line_of("address"))
+
+
+def _fits(c: Checker, e: YamlMap, p: str, address: int, base: int, kind: str) -> bool:
+    """A 32-bit entry needs its second register inside the address space (else an error)."""
+    if address - base + type_size(kind) <= 0x10000:
+        return True
+    c.error(
+        e.line_of("address"),
+        join(p, "address"),
+        f"a {kind} needs 2 registers, 0x{address:X} is the last one",
+        f"an integer in {base}..{0xFFFE + base}",
+    )
+    return False
 
 
 def _check_ident(c: Checker, seq: YamlList, i: int, path: str, base: int) -> Identification | None:
@@ -713,13 +720,7 @@ def _check_ident(c: Checker, seq: YamlList, i: int, path: str, base: int) -> Ide
             )
     if address is None or kind is None or table is None or expect is None:
         return None
-    if address - base + type_size(kind) > 0x10000:
-        c.error(
-            e.line_of("address"),
-            join(p, "address"),
-            f"a {kind} needs 2 registers, 0x{address:X} is the last one",
-            f"an integer in {base}..{0xFFFE + base}",
-        )
+    if not _fits(c, e, p, address, base, kind):
         return None
     return Identification(name, address, address - base, kind, expect, table, order)
 

@@ -352,11 +352,11 @@ class Runtime:
             gc.unfreeze()
 
     def _idle_gc(self, now: int, next_deadline: int) -> None:
-        """Real time: collect the youngest generation (what the cycles allocated since the
-        last one; reference cycles would otherwise pile up while the collector is off) at
-        most once per second, only when at least half a tick of slack is left before the
-        next deadline. Its cost is recorded in :attr:`gc_stats`."""
-        if self.tick - self._gc_tick < self._gc_every or next_deadline - now < self.tick_ns // 2:
+        """Real time, called once ``_gc_every`` ticks (one second) have passed since the last
+        collection: collect the youngest generation (what the cycles allocated since; reference
+        cycles would otherwise pile up while the collector is off), only when at least half a
+        tick of slack is left before the next deadline. Its cost is in :attr:`gc_stats`."""
+        if next_deadline - now < self.tick_ns // 2:
             return
         self._gc_tick = self.tick
         freed = gc.collect(0)
@@ -391,7 +391,7 @@ class Runtime:
                         skipped = (k_new - 1) // pt - (self.tick - 1) // pt
                         task.omitted_cycles += max(0, skipped)
                     self.tick = min(k_new, end_tick)
-                elif clock.realtime:
+                elif clock.realtime and self.tick - self._gc_tick >= self._gc_every:
                     self._idle_gc(now, nxt)
             if self._failed_tasks:  # a program raised: run on until its axes are at rest
                 if self._failed_tasks_at_rest():
