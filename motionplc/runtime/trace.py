@@ -22,15 +22,22 @@ Values are stored exactly: the float columns stay float64, and a small-integer c
 checked to convert without loss (anything else raises ``ValueError`` naming the column), so
 ``array()``, ``column()``, ``digest()`` and ``to_csv()`` give the same numbers (and bytes) as a
 trace of plain float64 rows.
+
+Units: :meth:`Trace.set_units` records the SI unit of columns (:func:`axis_units` gives those of
+an axis in m or rad). ``to_csv`` writes them to a sidecar ``<stem>.units.json`` next to the CSV
+(the CSV itself stays plain: old readers are not affected), ``to_parquet`` into the Parquet
+schema (per field ``unit`` and the schema key ``motionplc``). A trace without units writes no
+sidecar; readers then label axes with "m or rad".
 """
 
 from __future__ import annotations
 
 import csv
 import hashlib
-from collections.abc import Callable, Iterator, Sequence
+import json
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -66,6 +73,42 @@ EVENT_BYTES = 15
 
 EVENT_CAPACITY = 200_000
 """Default number of FB edges kept (fewer if they would take more than 1/8 of the budget)."""
+
+UNITS_SUFFIX = ".units.json"
+"""Suffix of the units sidecar of a trace CSV (``out/demo.csv`` -> ``out/demo.units.json``)."""
+
+PARQUET_META_KEY = b"motionplc"
+"""Parquet schema metadata key: JSON ``{"format": 1, "units": {...}, "enums": {...}}``."""
+
+_DERIVATIVE_SUFFIXES = ("", "/s", "/s²", "/s³")
+
+
+def axis_units(axis: str, length_unit: str = "m") -> dict[str, str]:
+    """The units of the trace columns of ``axis`` when its positions are in ``length_unit``.
+
+    ``length_unit`` is ``"m"`` or ``"rad"`` (the YAML ``units`` of the axis); otherwise
+    ``ValueError`` names it. Positions and the following error get ``length_unit``, velocities
+    ``length_unit/s``, acceleration ``/s²``, jerk ``/s³``; the state has no unit.
+    """
+    if length_unit not in ("m", "rad"):
+        raise ValueError(f"axis {axis!r}: units: {length_unit!r} (allowed: m, rad)")
+    u = length_unit
+    d = [u + s for s in _DERIVATIVE_SUFFIXES]
+    return {
+        f"{axis}.position": d[0],
+        f"{axis}.velocity": d[1],
+        f"{axis}.acceleration": d[2],
+        f"{axis}.jerk": d[3],
+        f"{axis}.actual_position": d[0],
+        f"{axis}.actual_velocity": d[1],
+        f"{axis}.following_error": d[0],
+    }
+
+
+def units_sidecar_path(csv_path: str | Path) -> Path:
+    """The units sidecar of a trace CSV: ``<trace stem>.units.json`` in the same directory."""
+    return Path(csv_path).with_suffix(UNITS_SUFFIX)
+
 
 _STAGING_ROWS = 256
 _CHUNK_BYTES = 2 * 2**20  # ring chunks stay below numpy's huge-page threshold (4 MiB)
@@ -138,6 +181,7 @@ class Trace:
         self._dtypes: list[np.dtype] = [np.dtype(np.int64), np.dtype(np.float64)]
         self._index: dict[str, int] = {"cycle": 0, "t": 1}
         self._formatters = dict(formatters or {})
+        self._units: dict[str, str] = {}
         self._frozen = False
         # row storage (allocated by _freeze): float64 staging block + one 2-D ring per dtype
         self._stage = np.empty((0, 0))
@@ -195,6 +239,28 @@ class Trace:
     def set_formatter(self, column: str, fmt: Callable[[float], str]) -> None:
         """How a column is written to CSV (e.g. state code -> state name)."""
         self._formatters[column] = fmt
+
+    def set_units(self, units: Mapping[str, str]) -> None:
+        """Record the unit of declared columns (``{"x.position": "m", ...}``; any time).
+
+        A column that is not declared or a unit that is not a non-empty one-line string raises
+        ``ValueError`` naming it; nothing is recorded then.
+        """
+        checked = {}
+        for column, unit in units.items():
+            if column not in self._index:
+                raise ValueError(
+                    f"set_units: no trace column {column!r}; columns: {', '.join(self._columns)}"
+                )
+            if not isinstance(unit, str) or not unit.strip() or "\n" in unit:
+                raise ValueError(f"set_units: {column}: not a unit: {unit!r}")
+            checked[column] = unit.strip()
+        self._units.update(checked)
+
+    @property
+    def units(self) -> dict[str, str]:
+        """The recorded units, column -> unit (a copy; columns without a unit are absent)."""
+        return dict(self._units)
 
     @property
     def columns(self) -> tuple[str, ...]:
@@ -418,7 +484,8 @@ class Trace:
         """Write the rows (and, optionally, the FB edges) as CSV files.
 
         Rows are converted ``block_rows`` at a time, so writing needs little memory beyond
-        the trace itself.
+        the trace itself. A trace with units (:meth:`set_units`) also writes them to
+        ``<stem>.units.json`` next to ``path`` (``{"units": {column: unit}}``).
         """
         fmts = [self._formatters.get(c) for c in self._columns]
         n = len(self)
@@ -438,3 +505,84 @@ class Trace:
                 w = csv.writer(f)
                 w.writerow(TraceEvent._fields)
                 w.writerows(self.events)
+        if self._units:
+            units_sidecar_path(path).write_text(
+                json.dumps({"units": self._units}, indent=2, ensure_ascii=False) + "\n",
+                encoding="utf-8",
+            )
+
+    def to_parquet(
+        self, path: str | Path, events_path: str | Path | None = None, block_rows: int = 65_536
+    ) -> None:
+        """Write the rows (and, optionally, the FB edges) as Parquet files (needs pyarrow).
+
+        Column names are those of the CSV. Numbers keep their storage type (float64 exactly,
+        ``cycle`` int64, small-integer columns their integer type); a column with a formatter
+        (the axis and group states) is stored dictionary-encoded by name, as in the CSV, and
+        its name -> value table is kept in the schema metadata. Units go into each field's
+        metadata (``unit``) and, with the enums, into the schema metadata key ``motionplc``
+        (JSON). Rows are written ``block_rows`` at a time (one row group each). Events: columns
+        ``cycle``, ``fb``, ``output``, ``value``. Without pyarrow raises
+        :class:`motionplc.scope.PlotDependencyError` naming the pip extra.
+        """
+        pa, pq = _pyarrow()
+        n = len(self)
+        names = self._columns
+        enums: dict[str, dict[str, int]] = {}
+        fields = []
+        for i, (c, d) in enumerate(zip(names, self._dtypes, strict=True)):
+            meta = {b"unit": self._units[c].encode()} if c in self._units else None
+            fm = self._formatters.get(c)
+            if fm is not None:
+                codes = np.unique(self.column(c)).astype(np.int64) if n else np.empty(0, np.int64)
+                enums[c] = {fm(float(k)): int(k) for k in codes}
+                typ = pa.dictionary(pa.int32(), pa.string())
+            else:
+                typ = pa.from_numpy_dtype(np.dtype(np.int64) if i == 0 else d)
+            fields.append(pa.field(c, typ, metadata=meta))
+        info = {"format": 1, "units": self._units, "enums": enums}
+        schema = pa.schema(fields, metadata={PARQUET_META_KEY: json.dumps(info).encode()})
+        dictionaries = {c: pa.array(list(e), pa.string()) for c, e in enums.items()}
+        lookup = {c: np.array(list(e.values()), np.int64) for c, e in enums.items()}
+        with pq.ParquetWriter(str(path), schema) as writer:
+            for start in range(0, max(n, 1), block_rows):
+                rows = self._rows(start, min(n, start + block_rows))
+                arrays = []
+                for i, (c, d) in enumerate(zip(names, self._dtypes, strict=True)):
+                    col = rows[:, i]
+                    if c in lookup:
+                        order = np.argsort(lookup[c])
+                        pos = order[np.searchsorted(lookup[c], col.astype(np.int64), sorter=order)]
+                        arrays.append(
+                            pa.DictionaryArray.from_arrays(
+                                pa.array(pos.astype(np.int32)), dictionaries[c]
+                            )
+                        )
+                    else:
+                        arrays.append(pa.array(col.astype(np.int64 if i == 0 else d)))
+                writer.write_table(pa.Table.from_arrays(arrays, schema=schema))
+        if events_path is not None:
+            evs = self.events
+            table = pa.table(
+                {
+                    "cycle": pa.array([e.cycle for e in evs], pa.int64()),
+                    "fb": pa.array([e.fb for e in evs], pa.string()).dictionary_encode(),
+                    "output": pa.array([e.output for e in evs], pa.string()).dictionary_encode(),
+                    "value": pa.array([e.value for e in evs], pa.bool_()),
+                }
+            )
+            pq.write_table(table, str(events_path))
+
+
+def _pyarrow() -> tuple[Any, Any]:
+    """``(pyarrow, pyarrow.parquet)``; a missing pyarrow is a one-line error naming the extra."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        from motionplc.scope import PlotDependencyError
+
+        raise PlotDependencyError(
+            "Parquet traces need pyarrow: pip install 'motionplc[parquet]' (or write a .csv trace)"
+        ) from None
+    return pa, pq
