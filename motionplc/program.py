@@ -23,12 +23,20 @@
 ``expect(name, actual, expected, within)``. A module may also define ``setup(ctx)``, called
 once before the first cycle. An exception raised by the program fails the run with the file
 and line where it happened (the runtime keeps its state).
+
+Every message about a program names its file as given (relative paths stay relative) and the
+line in it: an exception at import or in ``program``/``setup`` the program's own line where it
+happened (the last frame in the file, whatever the working directory), a failed
+``ctx.expect``/``ctx.fail`` the line that called it, a bad ``TASK``/``TIMEOUT`` the line that
+assigns it.
 """
 
 from __future__ import annotations
 
+import ast
 import importlib.util
 import inspect
+import sys
 import traceback
 import uuid
 from collections.abc import Callable, Mapping
@@ -75,7 +83,11 @@ def load_program(path: str | Path) -> Program:
         raise ConfigError(f"{p}:{line}: import failed: {type(exc).__name__}: {exc}") from None
     prog = getattr(module, "program", None)
     if not callable(prog):
-        raise ConfigError(f"{p}:1: program: missing (allowed: a function program(ctx))")
+        raise ConfigError(
+            f"{p}:{_assign_line(p, 'program')}: program: "
+            f"{'missing' if prog is None else f'not a function: {type(prog).__name__}'} "
+            "(allowed: a function program(ctx))"
+        )
     try:
         nparams = len(inspect.signature(prog).parameters)
     except (TypeError, ValueError):
@@ -89,13 +101,58 @@ def load_program(path: str | Path) -> Program:
     task = getattr(module, "TASK", None)
     timeout = getattr(module, "TIMEOUT", 600.0)
     if task is not None and not isinstance(task, str):
-        raise ConfigError(f"{p}:1: TASK: got {task!r} (allowed: a task name)")
+        raise ConfigError(
+            f"{p}:{_assign_line(p, 'TASK')}: TASK: got {task!r} (allowed: a task name)"
+        )
     if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
-        raise ConfigError(f"{p}:1: TIMEOUT: got {timeout!r} (allowed: a number > 0)")
+        raise ConfigError(
+            f"{p}:{_assign_line(p, 'TIMEOUT')}: TIMEOUT: got {timeout!r} (allowed: a number > 0)"
+        )
     return Program(str(p), module, prog, setup if callable(setup) else None, task, float(timeout))
 
 
+def _assign_line(path: Path, name: str) -> int:
+    """The line of the last top-level statement of ``path`` that binds ``name`` (an assignment,
+    ``def``, ``class`` or import), else 1."""
+    try:
+        tree = ast.parse(path.read_text(), str(path))
+    except (OSError, SyntaxError, ValueError):
+        return 1
+    line = 1
+    for node in tree.body:
+        targets: list[ast.expr] = []
+        if isinstance(node, ast.Assign):
+            targets = list(node.targets)
+        elif isinstance(node, (ast.AnnAssign, ast.AugAssign)):
+            targets = [node.target]
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            if node.name == name:
+                line = node.lineno
+            continue
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            if any((a.asname or a.name.split(".")[0]) == name for a in node.names):
+                line = node.lineno
+            continue
+        for t in targets:
+            if any(isinstance(n, ast.Name) and n.id == name for n in ast.walk(t)):
+                line = node.lineno
+    return line
+
+
+def _caller_line(path: Path) -> int | None:
+    """The line of the innermost frame of the call stack that runs code of ``path``."""
+    path = path.resolve()
+    frame = sys._getframe(1)
+    while frame is not None:
+        if Path(frame.f_code.co_filename).resolve() == path:
+            return frame.f_lineno
+        frame = frame.f_back
+    return None
+
+
 def _user_line(exc: BaseException, path: Path) -> int:
+    """The line of the last traceback frame in ``path`` (compared as resolved paths: a
+    program loaded by a relative path has relative code file names), else 1."""
     path = path.resolve()
     frames = [
         f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename).resolve() == path
@@ -141,8 +198,8 @@ class ProgramContext:
         self._runner.finish()
 
     def fail(self, message: str) -> None:
-        """Fail the run with ``message``."""
-        self._runner.fail(message)
+        """Fail the run with ``message`` (located at the program line that called this)."""
+        self._runner.fail(message, _caller_line(Path(self._runner.program.path)))
 
     def expect(self, name: str, actual: Any, expected: Any, within: float = 1e-6) -> bool:
         """Check a value; a mismatch fails the run. Returns whether it matched."""
@@ -154,7 +211,8 @@ class ProgramContext:
             want = f"{expected:g} within {within:g}"
         if not ok:
             self._runner.fail(
-                f"expectation failed at t = {self.t:.3f} s: {name} = {actual!r}, expected {want}"
+                f"expectation failed at t = {self.t:.3f} s: {name} = {actual!r}, expected {want}",
+                _caller_line(Path(self._runner.program.path)),
             )
         return ok
 
@@ -185,8 +243,10 @@ class ProgramRunner:
             self.finished = True
             self.t_finished = self.ctx.t
 
-    def fail(self, message: str) -> None:
-        self.failures.append(f"{self.program.path}: {message}")
+    def fail(self, message: str, line: int | None = None) -> None:
+        """Record a failure ``FILE:LINE: message`` (``FILE: message`` without a line)."""
+        where = self.program.path if line is None else f"{self.program.path}:{line}"
+        self.failures.append(f"{where}: {message}")
 
     def __call__(self, ctx: CycleContext) -> None:
         self.ctx.cycle_ctx = ctx

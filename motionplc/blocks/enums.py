@@ -1,11 +1,39 @@
-"""PLCopen vocabulary: axis states, BufferMode, Direction, ErrorID values."""
+"""PLCopen vocabulary: axis states, BufferMode, Direction, ErrorID values.
+
+The integer enums keep their PLCopen values (``int(AxisState.STANDSTILL) == 1``, traces store
+them as numbers) but print by name: ``print(axis.state)`` shows ``AxisState.STANDSTILL`` and
+``f"{fb.error_id}"`` shows ``ErrorID.INVALID_VELOCITY`` (a numeric format spec such as
+``f"{fb.error_id:#06x}"`` still formats the number, see :class:`NamedIntEnum`).
+"""
 
 from __future__ import annotations
 
 from enum import Enum, IntEnum
 
+# format-spec presentation types that format a number (everything else formats the name)
+_NUMERIC_TYPES = frozenset("bcdeEfFgGnoxX%")
 
-class AxisState(IntEnum):
+
+class NamedIntEnum(IntEnum):
+    """An IntEnum that prints as ``Class.MEMBER`` (``str``, ``format``, f-strings).
+
+    Python 3.11 made ``str()`` and ``format()`` of an IntEnum the bare number, so
+    ``print(axis.state)`` showed ``1``. Here ``str(x)`` is ``"AxisState.STANDSTILL"``; a format
+    spec without a numeric presentation type (``""``, ``">20"``, ``"<12s"``) pads that name,
+    one with a numeric type (``"d"``, ``"04X"``, ``"#06x"``) formats ``int(x)``. Comparisons,
+    arithmetic, ``int()``, ``repr()`` and ``.name``/``.value`` are those of IntEnum.
+    """
+
+    def __str__(self) -> str:
+        return f"{type(self).__name__}.{self.name}"
+
+    def __format__(self, format_spec: str) -> str:
+        if format_spec and format_spec[-1] in _NUMERIC_TYPES:
+            return format(int(self), format_spec)
+        return format(str(self), format_spec)
+
+
+class AxisState(NamedIntEnum):
     """The eight states of the PLCopen single-axis diagram (values used in traces)."""
 
     DISABLED = 0
@@ -18,7 +46,7 @@ class AxisState(IntEnum):
     ERROR_STOP = 7
 
 
-class GroupState(IntEnum):
+class GroupState(NamedIntEnum):
     """The six states of the PLCopen Part 4 axes-group diagram (values used in traces)."""
 
     GROUP_DISABLED = 0
@@ -29,7 +57,7 @@ class GroupState(IntEnum):
     GROUP_ERROR_STOP = 5
 
 
-class TransitionMode(IntEnum):
+class TransitionMode(NamedIntEnum):
     """MC_TRANSITION_MODE (PLCopen Part 4 values 0-4; >= 10 would be supplier specific)."""
 
     TM_NONE = 0
@@ -54,7 +82,7 @@ class PathChoice(Enum):
     COUNTER_CLOCKWISE = "counter_clockwise"
 
 
-class BufferMode(IntEnum):
+class BufferMode(NamedIntEnum):
     """MC_BUFFER_MODE with the spec's values (Table 3)."""
 
     ABORTING = 0
@@ -89,7 +117,7 @@ class Source(Enum):
     ACTUAL_VALUE = "actual"
 
 
-class ErrorID(IntEnum):
+class ErrorID(NamedIntEnum):
     """FB ErrorID values (WORD compatible), grouped as in the spec notes 5.6.
 
     0x1xxx parameter errors (one per input), 0x2xxx state-machine violations (0x2000 + the axis
