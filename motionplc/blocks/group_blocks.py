@@ -41,6 +41,7 @@ from motionplc.blocks.enums import (
     TransitionMode,
 )
 from motionplc.blocks.group import AxesGroup, GroupCommand
+from motionplc.blocks.motion import InputChecks
 
 POSITION_MAX = 1e12
 _DYN_MAX = 1e12
@@ -169,23 +170,32 @@ def _mode(value: Any) -> BufferMode:
         ) from None
 
 
-def _transition(fb: Any, mode: BufferMode) -> tuple[TransitionMode, float]:
+def _tm(fb: Any) -> TransitionMode:
     try:
-        tm = TransitionMode(fb.transition_mode)
+        return TransitionMode(fb.transition_mode)
     except ValueError:
         raise InputError(
             ErrorID.INVALID_TRANSITION_MODE,
             f"transition_mode must be a TransitionMode (0..4), got {fb.transition_mode!r}",
         ) from None
-    par = check_number(
+
+
+def _tm_par(fb: Any) -> float:
+    return check_number(
         "transition_parameter", fb.transition_parameter, ErrorID.INVALID_TRANSITION_MODE, 0.0, 1e12
     )
+
+
+def _tm_needs_blending(tm: TransitionMode, mode: BufferMode) -> None:
     if tm is not TransitionMode.TM_NONE and mode < BufferMode.BLENDING_LOW:
         raise InputError(
             ErrorID.INVALID_TRANSITION_MODE,
             f"transition_mode {tm.name} needs a blending buffer_mode, got {mode.name} "
             "(ABORTING and BUFFERED take TM_NONE)",
         )
+
+
+def _tm_par_positive(fb: Any, tm: TransitionMode, par: float) -> None:
     if (
         tm
         in (
@@ -199,6 +209,13 @@ def _transition(fb: Any, mode: BufferMode) -> tuple[TransitionMode, float]:
             ErrorID.INVALID_TRANSITION_MODE,
             f"transition_parameter must be > 0 for {tm.name}, got {fb.transition_parameter!r}",
         )
+
+
+def _transition(fb: Any, mode: BufferMode) -> tuple[TransitionMode, float]:
+    tm = _tm(fb)
+    par = _tm_par(fb)
+    _tm_needs_blending(tm, mode)
+    _tm_par_positive(fb, tm, par)
     return tm, par
 
 
@@ -344,7 +361,7 @@ class MC_GroupReadActualVelocity(_GroupEnable):
         self.path_velocity = 0.0
 
 
-class MC_GroupSetOverride(_GroupEnable):
+class MC_GroupSetOverride(InputChecks, _GroupEnable):
     """Velocity factor in [0.001, 1] for the path speed of moves planned while enabled
     (``enabled`` output; the running piece keeps its profile)."""
 
@@ -356,8 +373,11 @@ class MC_GroupSetOverride(_GroupEnable):
         self.enabled = False
         super().__init__(name, **inputs)
 
+    def _in_vel_factor(self, group: Any) -> float:
+        return check_number("vel_factor", self.vel_factor, ErrorID.INVALID_OVERRIDE, 1e-3, 1.0)
+
     def _update(self, group: Any) -> None:
-        f = check_number("vel_factor", self.vel_factor, ErrorID.INVALID_OVERRIDE, 1e-3, 1.0)
+        f = self._in_vel_factor(group)
         group.set_override(f)
         self.enabled = True
 
@@ -366,7 +386,7 @@ class MC_GroupSetOverride(_GroupEnable):
 
 
 # ----------------------------------------------------------------------------------- motion
-class _GroupMove(_GroupMotion):
+class _GroupMove(InputChecks, _GroupMotion):
     """Common pins of the path moves."""
 
     INPUTS = (
@@ -391,15 +411,49 @@ class _GroupMove(_GroupMotion):
         self.transition_parameter = 0.0
         super().__init__(name, **inputs)
 
+    # the input checks, one input at a time (InputChecks); _common makes them in its order
+    def _in_buffer_mode(self, group: Any) -> BufferMode:
+        return _mode(self.buffer_mode)
+
+    def _in_transition_mode(self, group: Any) -> TransitionMode:
+        tm = _tm(self)
+        try:
+            mode = _mode(self.buffer_mode)
+        except InputError:
+            return tm  # (buffer_mode's own problem)
+        _tm_needs_blending(tm, mode)
+        return tm
+
+    def _in_transition_parameter(self, group: Any) -> float:
+        par = _tm_par(self)
+        try:
+            tm = _tm(self)
+        except InputError:
+            return par  # (transition_mode's own problem)
+        _tm_par_positive(self, tm, par)
+        return par
+
+    def _in_velocity(self, group: Any) -> float:
+        return _velocity(self)
+
+    def _in_acceleration(self, group: Any) -> float:
+        return _dyn("acceleration", self.acceleration, ErrorID.INVALID_ACCELERATION)
+
+    def _in_deceleration(self, group: Any) -> float:
+        return _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION)
+
+    def _in_jerk(self, group: Any) -> float:
+        return _dyn("jerk", self.jerk, ErrorID.INVALID_JERK)
+
     def _common(self) -> dict[str, Any]:
         mode = _mode(self.buffer_mode)
         tm, par = _transition(self, mode)
         return {
             "mode": mode,
-            "velocity": _velocity(self),
-            "acceleration": _dyn("acceleration", self.acceleration, ErrorID.INVALID_ACCELERATION),
-            "deceleration": _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION),
-            "jerk": _dyn("jerk", self.jerk, ErrorID.INVALID_JERK),
+            "velocity": self._in_velocity(None),
+            "acceleration": self._in_acceleration(None),
+            "deceleration": self._in_deceleration(None),
+            "jerk": self._in_jerk(None),
             "transition_mode": tm,
             "transition_parameter": par,
         }
@@ -417,11 +471,16 @@ class MC_MoveLinearAbsolute(_GroupMove):
         setattr(self, self._TARGET, ())
         super().__init__(name, **inputs)
 
-    def _start_group(self, group: AxesGroup) -> Handle:
-        common = self._common()
-        target = _point(
+    def _in_position(self, group: Any) -> tuple[float, ...]:
+        return _point(
             self._TARGET, getattr(self, self._TARGET), group.dim, ErrorID.INVALID_POSITION
         )
+
+    _in_distance = _in_position
+
+    def _start_group(self, group: AxesGroup) -> Handle:
+        common = self._common()
+        target = self._in_position(group)
         return group.submit(
             GroupCommand(kind=self._KIND, position=target, relative=self._RELATIVE, **common)
         )
@@ -470,23 +529,31 @@ class MC_MoveCircularAbsolute(_GroupMove):
         self.path_choice = PathChoice.COUNTER_CLOCKWISE
         super().__init__(name, **inputs)
 
-    def _start_group(self, group: AxesGroup) -> Handle:
-        common = self._common()
+    def _in_circ_mode(self, group: Any) -> CircMode:
         try:
-            circ = CircMode(self.circ_mode)
+            return CircMode(self.circ_mode)
         except ValueError:
             raise InputError(
                 ErrorID.INVALID_CIRCLE, f"circ_mode must be a CircMode, got {self.circ_mode!r}"
             ) from None
+
+    def _in_path_choice(self, group: Any) -> PathChoice:
         try:
-            choice = PathChoice(self.path_choice)
+            return PathChoice(self.path_choice)
         except ValueError:
             raise InputError(
                 ErrorID.INVALID_CIRCLE,
                 f"path_choice must be a PathChoice, got {self.path_choice!r}",
             ) from None
-        n = group.dim
-        end = _point("end_point", self.end_point, n, ErrorID.INVALID_POSITION)
+
+    def _in_end_point(self, group: Any) -> tuple[float, ...]:
+        return _point("end_point", self.end_point, group.dim, ErrorID.INVALID_POSITION)
+
+    def _in_aux_point(self, group: Any) -> tuple[float, ...]:
+        try:
+            circ = self._in_circ_mode(group)
+        except InputError:
+            circ = CircMode.BORDER  # (circ_mode's own problem): a point is checked
         if circ is CircMode.RADIUS:
             aux = self.aux_point
             if not isinstance(aux, Sequence) or not aux:
@@ -496,9 +563,15 @@ class MC_MoveCircularAbsolute(_GroupMove):
             )
             if r == 0.0:
                 raise InputError(ErrorID.INVALID_CIRCLE, "aux_point[0] (the radius) must not be 0")
-            auxp: tuple[float, ...] = (r,)
-        else:
-            auxp = _point("aux_point", self.aux_point, n, ErrorID.INVALID_CIRCLE)
+            return (r,)
+        return _point("aux_point", self.aux_point, group.dim, ErrorID.INVALID_CIRCLE)
+
+    def _start_group(self, group: AxesGroup) -> Handle:
+        common = self._common()
+        circ = self._in_circ_mode(group)
+        choice = self._in_path_choice(group)
+        end = self._in_end_point(group)
+        auxp = self._in_aux_point(group)
         return group.submit(
             GroupCommand(
                 kind="circular",
@@ -535,14 +608,22 @@ class MC_MovePassingPoints(_GroupMove):
             self.velocity = 1e9  # not given: the axes' limits
         return super()._common()
 
-    def _start_group(self, group: AxesGroup) -> Handle:
-        common = self._common()
+    def _in_velocity(self, group: Any) -> float:
+        if not self.velocity:
+            return 1e9  # not given: the axes' limits
+        return _velocity(self)
+
+    def _in_points(self, group: Any) -> tuple[tuple[float, ...], ...]:
         pts = self.points
         if isinstance(pts, (str, bytes)) or not isinstance(pts, Sequence) or not pts:
             raise InputError(ErrorID.INVALID_POINTS, "points must be a non-empty list of points")
-        points = tuple(
+        return tuple(
             _point(f"points[{i}]", p, group.dim, ErrorID.INVALID_POINTS) for i, p in enumerate(pts)
         )
+
+    def _start_group(self, group: AxesGroup) -> Handle:
+        common = self._common()
+        points = self._in_points(group)
         return group.submit(
             GroupCommand(
                 kind="curve",
@@ -560,7 +641,7 @@ class MC_MoveBSpline(MC_MovePassingPoints):
     _CURVE = "bspline"
 
 
-class MC_GroupHalt(_GroupMotion):
+class MC_GroupHalt(InputChecks, _GroupMotion):
     """Brake along the path to rest (the fastest stop the limits allow; ``deceleration`` caps
     the path deceleration); the queued moves are aborted. GroupMoving until at rest."""
 
@@ -572,9 +653,15 @@ class MC_GroupHalt(_GroupMotion):
         self.buffer_mode = BufferMode.ABORTING
         super().__init__(name, **inputs)
 
+    def _in_deceleration(self, group: Any) -> float:
+        return _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION)
+
+    def _in_buffer_mode(self, group: Any) -> BufferMode:
+        return _mode(self.buffer_mode)
+
     def _start_group(self, group: AxesGroup) -> Handle:
-        dec = _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION)
-        _mode(self.buffer_mode)
+        dec = self._in_deceleration(group)
+        self._in_buffer_mode(group)
         return group.submit(GroupCommand(kind="halt", deceleration=dec))
 
 
@@ -585,7 +672,7 @@ class MC_GroupInterrupt(MC_GroupHalt):
     INPUTS = ("axes_group", "execute", "deceleration", "jerk")
 
     def _start_group(self, group: AxesGroup) -> Handle:
-        dec = _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION)
+        dec = self._in_deceleration(group)
         return group.submit(GroupCommand(kind="interrupt", deceleration=dec))
 
 
@@ -596,7 +683,7 @@ class MC_GroupContinue(_GroupExecute):
         return group.continue_()
 
 
-class MC_GroupStop(_GroupMotion):
+class MC_GroupStop(InputChecks, _GroupMotion):
     """Stop along the path; the group stays GroupStopping while ``execute`` is TRUE, then
     GroupStandby. Every move is aborted."""
 
@@ -609,8 +696,10 @@ class MC_GroupStop(_GroupMotion):
         self.jerk = 0.0
         super().__init__(name, **inputs)
 
+    _in_deceleration = MC_GroupHalt._in_deceleration
+
     def _start_group(self, group: AxesGroup) -> Handle:
-        dec = _dyn("deceleration", self.deceleration, ErrorID.INVALID_DECELERATION)
+        dec = self._in_deceleration(group)
         return group.submit(GroupCommand(kind="stop", deceleration=dec))
 
     def _before_outputs(self, execute: bool) -> None:

@@ -52,6 +52,7 @@ from operator import attrgetter
 from typing import Any, ClassVar
 
 from motionplc.blocks.axis import POSITION_MAX, VELOCITY_RATIO_MIN, Axis, Command, Handle
+from motionplc.blocks.axis_config import AxisConfig
 from motionplc.blocks.base import InputError, MotionFB, check_dynamic, check_number
 from motionplc.blocks.enums import BufferMode, Direction, ErrorID
 
@@ -79,16 +80,56 @@ def _dynamics(fb: Any, axis: Axis) -> tuple[float, float, float]:
     """Acceleration, Deceleration, Jerk: 0 (the axis' limit) or within the axis' ranges
     (``AxisConfig.acceleration_range`` / ``jerk_range``; asymmetric limits: the input caps
     each side, see ``Axis._limits``)."""
-    lo, hi = axis.cfg.acceleration_range()
-    acc = check_dynamic("acceleration", fb.acceleration, ErrorID.INVALID_ACCELERATION, lo, hi)
-    return acc, _decel(fb, axis), _jerk(fb, axis)
+    return fb._in_acceleration(axis), _decel(fb, axis), _jerk(fb, axis)
 
 
 def _position(name: str, value: Any, error_id: ErrorID) -> float:
     return check_number(name, value, error_id, -POSITION_MAX, POSITION_MAX)
 
 
-class _ContinuousUpdate(MotionFB):
+class StaticAxis:
+    """What the input checks of an FB read of its axis, without a running axis: the axis'
+    configuration and its set velocity ``v`` (MC_MoveVelocity's Direction CURRENT takes its
+    sign). Used to check inputs before anything runs (``motionplc.sequence_check``)."""
+
+    __slots__ = ("cfg", "v")
+
+    def __init__(self, cfg: AxisConfig, v: float = 0.0) -> None:
+        self.cfg = cfg
+        self.v = v
+
+
+class InputChecks:
+    """The input checks an FB makes at Execute, callable one input at a time.
+
+    Each checked input ``pin`` has a method ``_in_<pin>(axis)`` returning the validated value
+    or raising :class:`InputError`; the FB's own Execute path calls the very same methods (in
+    the order the FB always checked them), so a check made before the run and the FB at
+    Execute cannot disagree. Checks that depend on another input (MC_MoveVelocity's Velocity
+    after Direction, a group's TransitionMode after BufferMode) read that input's current value
+    and skip the dependent part while the other input is itself invalid.
+    """
+
+    INPUTS: ClassVar[tuple[str, ...]]
+
+    def input_problems(self, axis: Any) -> dict[str, InputError]:
+        """Every checked input on its own: input name -> its InputError (empty: all valid).
+
+        ``axis``: an Axis, a :class:`StaticAxis` (single-axis FBs) or anything with the
+        group's ``dim`` (group FBs)."""
+        out: dict[str, InputError] = {}
+        for pin in self.INPUTS:
+            check = getattr(self, f"_in_{pin}", None)
+            if check is None:
+                continue
+            try:
+                check(axis)
+            except InputError as exc:
+                out[pin] = exc
+        return out
+
+
+class _ContinuousUpdate(InputChecks, MotionFB):
     """ContinuousUpdate for the motion FBs: ``_command`` builds the (validated) command from the
     current inputs; ``_CU_INPUTS`` are the inputs that are watched while Busy."""
 
@@ -159,9 +200,7 @@ class _MoveFB(_ContinuousUpdate):
             self._continuous_update(h)
         self.end_velocity = h.end_velocity
 
-    def _move_command(
-        self, axis: Axis, kind: str, position: float, direction: Direction
-    ) -> Command:
+    def _in_velocity(self, axis: Any) -> float:
         # Velocity caps the speed of both directions (each within its own axis limit)
         v_lo, v_top = axis.cfg.velocity_range()
         v = check_number(
@@ -173,6 +212,27 @@ class _MoveFB(_ContinuousUpdate):
                 f"velocity must be a finite number in (0, {v_top:g}] and at least {v_lo:g} "
                 f"({VELOCITY_RATIO_MIN:g} x the axis' speed limit), got {self.velocity!r}",
             )
+        return v
+
+    def _in_acceleration(self, axis: Any) -> float:
+        lo, hi = axis.cfg.acceleration_range()
+        return check_dynamic(
+            "acceleration", self.acceleration, ErrorID.INVALID_ACCELERATION, lo, hi
+        )
+
+    def _in_deceleration(self, axis: Any) -> float:
+        return _decel(self, axis)
+
+    def _in_jerk(self, axis: Any) -> float:
+        return _jerk(self, axis)
+
+    def _in_buffer_mode(self, axis: Any) -> BufferMode:
+        return _buffer_mode(self.buffer_mode)
+
+    def _move_command(
+        self, axis: Axis, kind: str, position: float, direction: Direction
+    ) -> Command:
+        v = self._in_velocity(axis)
         acc, dec, jerk = _dynamics(self, axis)
         mode = _buffer_mode(self.buffer_mode)
         return Command(
@@ -210,21 +270,27 @@ class MC_MoveAbsolute(_MoveFB):
         self.direction = Direction.SHORTEST
         super().__init__(name, **inputs)
 
-    def _command(self, axis: Axis) -> Command:
+    def _in_position(self, axis: Any) -> float:
         m = axis.cfg.modulo
         if m is None:
-            pos = _position("position", self.position, ErrorID.INVALID_POSITION)
-        else:
-            pos = check_number("position", self.position, ErrorID.INVALID_POSITION, 0.0, m)
-            if pos >= m:
-                raise InputError(
-                    ErrorID.INVALID_POSITION, f"position must be in [0, {m:g}) on a modulo axis"
-                )
+            return _position("position", self.position, ErrorID.INVALID_POSITION)
+        pos = check_number("position", self.position, ErrorID.INVALID_POSITION, 0.0, m)
+        if pos >= m:
+            raise InputError(
+                ErrorID.INVALID_POSITION, f"position must be in [0, {m:g}) on a modulo axis"
+            )
+        return pos
+
+    def _in_direction(self, axis: Any) -> Direction:
         if not isinstance(self.direction, Direction):
             raise InputError(
                 ErrorID.INVALID_DIRECTION, f"direction must be a Direction, got {self.direction!r}"
             )
-        return self._move_command(axis, "absolute", pos, self.direction)
+        return self.direction
+
+    def _command(self, axis: Axis) -> Command:
+        pos = self._in_position(axis)
+        return self._move_command(axis, "absolute", pos, self._in_direction(axis))
 
 
 class MC_MoveRelative(_MoveFB):
@@ -249,8 +315,11 @@ class MC_MoveRelative(_MoveFB):
         self.distance = 0.0
         super().__init__(name, **inputs)
 
+    def _in_distance(self, axis: Any) -> float:
+        return _position("distance", self.distance, ErrorID.INVALID_DISTANCE)
+
     def _command(self, axis: Axis) -> Command:
-        d = _position("distance", self.distance, ErrorID.INVALID_DISTANCE)
+        d = self._in_distance(axis)
         return self._move_command(axis, self._KIND, d, Direction.POSITIVE)
 
 
@@ -290,7 +359,10 @@ class MC_MoveVelocity(_ContinuousUpdate):
         self.in_velocity = False
         super().__init__(name, **inputs)
 
-    def _command(self, axis: Axis) -> Command:
+    def _in_velocity(self, axis: Any) -> float:
+        """The signed set velocity after Direction, within the axis limits of its direction
+        (the direction's own check is :meth:`_in_direction`; while Direction is invalid only
+        the range of both directions is checked here)."""
         cfg = axis.cfg
         vm = max(cfg.v_max, cfg.v_neg)
         v = check_number("velocity", self.velocity, ErrorID.INVALID_VELOCITY, -vm, vm)
@@ -302,16 +374,35 @@ class MC_MoveVelocity(_ContinuousUpdate):
         elif d is Direction.CURRENT:
             v = abs(v) * (-1.0 if axis.v < 0.0 else 1.0)
         else:
-            raise InputError(
-                ErrorID.INVALID_DIRECTION,
-                f"direction must be POSITIVE, NEGATIVE or CURRENT for MC_MoveVelocity, got {d!r}",
-            )
+            return v
         if not -cfg.v_neg <= v <= cfg.v_max:  # asymmetric limits: the direction's own one
             raise InputError(
                 ErrorID.INVALID_VELOCITY,
                 f"velocity {v!r} in direction {d.name} outside the axis limits "
                 f"[{-cfg.v_neg:g}, {cfg.v_max:g}]",
             )
+        return v
+
+    def _in_direction(self, axis: Any) -> Direction:
+        d = self.direction
+        if d not in (Direction.POSITIVE, Direction.NEGATIVE, Direction.CURRENT):
+            raise InputError(
+                ErrorID.INVALID_DIRECTION,
+                f"direction must be POSITIVE, NEGATIVE or CURRENT for MC_MoveVelocity, got {d!r}",
+            )
+        return d
+
+    _in_acceleration = _MoveFB._in_acceleration
+    _in_deceleration = _MoveFB._in_deceleration
+    _in_jerk = _MoveFB._in_jerk
+    _in_buffer_mode = _MoveFB._in_buffer_mode
+
+    def _command(self, axis: Axis) -> Command:
+        cfg = axis.cfg
+        vm = max(cfg.v_max, cfg.v_neg)
+        check_number("velocity", self.velocity, ErrorID.INVALID_VELOCITY, -vm, vm)
+        self._in_direction(axis)
+        v = self._in_velocity(axis)
         acc, dec, jerk = _dynamics(self, axis)
         return Command(
             kind="velocity",
@@ -338,7 +429,7 @@ class MC_MoveVelocity(_ContinuousUpdate):
             self._dirty = True
 
 
-class MC_Halt(MotionFB):
+class MC_Halt(InputChecks, MotionFB):
     """Stop for normal operation (DiscreteMotion until v = 0); can be aborted."""
 
     INPUTS = ("axis", "execute", "deceleration", "jerk", "buffer_mode")
@@ -349,14 +440,18 @@ class MC_Halt(MotionFB):
         self.buffer_mode = BufferMode.ABORTING
         super().__init__(name, **inputs)
 
+    _in_deceleration = _MoveFB._in_deceleration
+    _in_jerk = _MoveFB._in_jerk
+    _in_buffer_mode = _MoveFB._in_buffer_mode
+
     def _start(self, axis: Axis) -> Handle:
-        dec, jerk = _decel(self, axis), _jerk(self, axis)
+        dec, jerk = self._in_deceleration(axis), self._in_jerk(axis)
         return axis.submit(
-            Command(kind="halt", mode=_buffer_mode(self.buffer_mode), deceleration=dec, jerk=jerk)
+            Command(kind="halt", mode=self._in_buffer_mode(axis), deceleration=dec, jerk=jerk)
         )
 
 
-class MC_Stop(MotionFB):
+class MC_Stop(InputChecks, MotionFB):
     """Controlled stop; the axis stays in Stopping while ``execute`` is TRUE.
 
     Aborted only by switching the power off. Has no ``active`` output (always FALSE).
@@ -371,8 +466,11 @@ class MC_Stop(MotionFB):
         self.jerk = 0.0
         super().__init__(name, **inputs)
 
+    _in_deceleration = _MoveFB._in_deceleration
+    _in_jerk = _MoveFB._in_jerk
+
     def _start(self, axis: Axis) -> Handle:
-        dec, jerk = _decel(self, axis), _jerk(self, axis)
+        dec, jerk = self._in_deceleration(axis), self._in_jerk(axis)
         return axis.submit(Command(kind="stop", deceleration=dec, jerk=jerk))
 
     def _before_outputs(self, execute: bool) -> None:
@@ -383,7 +481,7 @@ class MC_Stop(MotionFB):
         self.active = False
 
 
-class MC_Home(MotionFB):
+class MC_Home(InputChecks, MotionFB):
     """Homing: set-position homing (no reference switch configured) or a homing move to the
     axis' virtual reference switch, then the switch position becomes ``position``."""
 
@@ -394,17 +492,24 @@ class MC_Home(MotionFB):
         self.buffer_mode = BufferMode.ABORTING
         super().__init__(name, **inputs)
 
-    def _start(self, axis: Axis) -> Handle:
+    def _in_position(self, axis: Any) -> float:
         pos = _position("position", self.position, ErrorID.INVALID_POSITION)
         m = axis.cfg.modulo
         if m is not None and not 0.0 <= pos < m:
             raise InputError(
                 ErrorID.INVALID_POSITION, f"position must be in [0, {m:g}) on a modulo axis"
             )
-        return axis.submit(Command(kind="home", mode=_buffer_mode(self.buffer_mode), position=pos))
+        return pos
+
+    _in_buffer_mode = _MoveFB._in_buffer_mode
+
+    def _start(self, axis: Axis) -> Handle:
+        pos = self._in_position(axis)
+        return axis.submit(Command(kind="home", mode=self._in_buffer_mode(axis), position=pos))
 
 
 __all__ = [
+    "InputChecks",
     "MC_Halt",
     "MC_Home",
     "MC_MoveAbsolute",
@@ -412,4 +517,5 @@ __all__ = [
     "MC_MoveRelative",
     "MC_MoveVelocity",
     "MC_Stop",
+    "StaticAxis",
 ]
