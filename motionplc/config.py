@@ -53,6 +53,17 @@ from typing import TYPE_CHECKING, Any
 import yaml
 
 from motionplc.errors import ConfigError
+from motionplc.schema import config as S  # noqa: N812 - the schema, as S.RUNTIME etc.
+from motionplc.schema.nodes import (
+    NO_DEFAULT,
+    Bool,
+    Choice,
+    Integer,
+    ListOf,
+    Node,
+    Number,
+    String,
+)
 
 if TYPE_CHECKING:
     from motionplc.blocks.axis import Axis
@@ -76,41 +87,15 @@ __all__ = [
     "parse_config",
 ]
 
-CLOCKS = ("simulated", "realtime")
-OVERRUN = ("skip", "catch_up")
-BUS_TYPES = ("can", "modbus")
-# python-can 4.6's interfaces (can.interfaces.VALID_INTERFACES; a test keeps the two equal) but
-# udp_multicast: multicast leaves this machine. A literal, so that loading a configuration does
-# not import python-can.
-CAN_INTERFACES = (
-    "virtual",
-    "socketcan",
-    "socketcand",
-    "pcan",
-    "kvaser",
-    "ixxat",
-    "vector",
-    "slcan",
-    "gs_usb",
-    "serial",
-    "canalystii",
-    "cantact",
-    "etas",
-    "iscan",
-    "neousys",
-    "neovi",
-    "nican",
-    "nixnet",
-    "robotell",
-    "seeedstudio",
-    "systec",
-    "usb2can",
-)
-CAN_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)
-BUS_DRIVES = ("simulated", "external")
-UNITS = ("m", "rad")
-HOMING = ("set_position", "switch")
-WORD_ORDERS = ("big", "little")
+CLOCKS = S.CLOCKS
+OVERRUN = S.OVERRUN
+BUS_TYPES = S.BUS_TYPES
+CAN_INTERFACES = S.CAN_INTERFACES
+CAN_BITRATES = S.CAN_BITRATES
+BUS_DRIVES = S.BUS_DRIVES
+UNITS = S.UNITS
+HOMING = S.HOMING_METHODS
+WORD_ORDERS = S.WORD_ORDERS
 NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
@@ -324,7 +309,9 @@ class Checker:
             self.error(m.line_of(key), p, f"got {_tname(x)}", allowed)
             return default
         xf = float(x)
-        bad = math.isnan(xf) or (math.isinf(xf) and not (inf_ok and xf > 0))
+        if inf_ok and xf == math.inf:
+            return xf
+        bad = math.isnan(xf) or math.isinf(xf)
         bad = bad or (gt is not None and not xf > gt) or (ge is not None and not xf >= ge)
         bad = bad or (le is not None and not xf <= le)
         if bad:
@@ -381,6 +368,23 @@ class Checker:
             return default
         return x
 
+    def field(self, m: YamlMap, key: str, path: str, node: Node, default: Any = NO_DEFAULT) -> Any:
+        """The value of ``key`` checked against its schema ``node`` (range, options); the
+        node's default when absent (``default`` overrides it; None when neither)."""
+        if default is NO_DEFAULT:
+            default = node.default if node.has_default else None
+        if isinstance(node, Number):
+            return self.number(m, key, path, default, **node.bounds())
+        if isinstance(node, Integer):
+            return self.integer(m, key, path, default, **node.bounds())
+        if isinstance(node, Choice):
+            return self.choice(m, key, path, node.options, default)
+        if isinstance(node, String):
+            return self.string(m, key, path, default)
+        if isinstance(node, Bool):
+            return self.boolean(m, key, path, bool(default))
+        raise TypeError(f"{type(node).__name__} is not a scalar schema node")
+
     def boolean(self, m: YamlMap, key: str, path: str, default: bool = False) -> bool:
         if key not in m or m[key] is None:
             return default
@@ -405,6 +409,8 @@ class TaskSpec:
 
 @dataclass(frozen=True, slots=True)
 class RuntimeSpec:
+    """The ``runtime:`` section (keys, ranges and defaults: ``motionplc.schema.config``)."""
+
     tick: float
     clock: str
     tasks: tuple[TaskSpec, ...]
@@ -412,6 +418,12 @@ class RuntimeSpec:
     trace_capacity: int = 500_000
     blend_replans_per_cycle: int = 2
     trace_bytes: int = 32 * 1024 * 1024
+    # runtime.realtime: SCHED_FIFO priority (None: normal scheduler), CPUs to pin the process
+    # to (empty: no pinning), mlockall; used on the real-time clock
+    rt_priority: int | None = None
+    rt_cpus: tuple[int, ...] = ()
+    rt_lock_memory: bool = False
+    max_overruns: int | None = None  # overruns a run may have and pass; None: no limit
 
     def task(self, name: str) -> TaskSpec:
         return next(t for t in self.tasks if t.name == name)
@@ -554,56 +566,27 @@ class Config:
 
 
 # ------------------------------------------------------------------------ parsing
-_TOP = {"runtime": True, "buses": False, "axes": True, "groups": False}
-_RUNTIME = {
-    "tick": False,
-    "clock": False,
-    "overrun": False,
-    "trace_capacity": False,
-    "trace_bytes": False,
-    "blend_replans_per_cycle": False,
-    "tasks": True,
-}
-_TASK = {"period": False, "priority": False, "watchdog": False}
-_WATCHDOG = {"time": True, "sensitivity": False}
-_BUS = {"type": True, "drives": False}
-_CAN = {
-    "interface": False,
-    "channel": False,
-    "bitrate": False,
-    "max_frames_per_cycle": False,
-    "options": False,
-    "master_node_id": False,
-    "master_heartbeat": False,
-    "sync_cob_id": False,
-    "sdo_timeout": False,
-}
+_TOP = S.TOP.table()
+_RUNTIME = S.RUNTIME.table()
+_TASK = S.TASK.table()
+_WATCHDOG = S.WATCHDOG.table()
+_REALTIME = S.REALTIME.table()
+_BUS = {k: r for k, r in S.CAN_BUS.table().items() if k in S.MODBUS_BUS}  # type, drives
+_CAN = {k: r for k, r in S.CAN_BUS.table().items() if k not in _BUS}
 _CAN_RESERVED = ("interface", "channel", "bitrate")  # not settable through options
-_MODBUS = {"host": False, "port": False, "timeout": False}
-_AXIS = {
-    "units": False,
-    "task": False,
-    "limits": True,
-    "software_limits": False,
-    "modulo": False,
-    "following_error": False,
-    "homing": False,
-    "drive": False,
-    "queue_depth": False,
-}
+_MODBUS = {k: r for k, r in S.MODBUS_BUS.table().items() if k not in _BUS}
+_AXIS = S.AXIS.table()
 # supported ranges, the same as motionplc.blocks.axis (AXIS_LIMIT_MIN, AXIS_LIMIT_MAX,
-# POSITION_MAX); kept as literals so that loading a configuration does not import the kernel
-_LIMIT_LO = 1e-6
-_LIMIT_HI = 1e9
-_POSITION_MAX = 1e12
-_LIMITS = {"v_max": True, "a_max": True, "j_max": False, "v_min": False, "a_min": False}
-_SWLIM = {"min": False, "max": False}
-_HOMING = {"method": False, "switch": False, "velocity": False}
-_DRIVE_KEYS = {  # the bus-specific keys: canopen_options / modbus_options
-    "type": False,
-    "bus": False,
-    "node_id": False,
-    "counts_per_unit": False,
+# POSITION_MAX; the schema's, kept as literals there so that loading a configuration does not
+# import the kernel)
+_LIMIT_LO = S.LIMIT_LO
+_LIMIT_HI = S.LIMIT_HI
+_POSITION_MAX = S.POSITION_MAX
+_LIMITS = S.LIMITS.table()
+_SWLIM = S.SOFTWARE_LIMITS.table()
+_HOMING = S.HOMING.table()
+_DRIVE_KEYS = {  # the keys of every bus drive; the bus-specific ones: canopen/modbus_options
+    k: False for k in ("type", "bus", "node_id", "counts_per_unit")
 }
 
 
@@ -614,16 +597,28 @@ def _is_multiple(period: float, tick: float) -> bool:
 
 def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
     path = "runtime"
-    tick = c.number(m, "tick", path, 0.001, gt=0.0)
-    tick = tick if tick is not None else 0.001
-    if tick < 1e-6:
-        c.error(m.line_of("tick"), "runtime.tick", f"got {_fmt(tick)}", "a number >= 1e-06")
-        tick = 0.001
-    clock = c.choice(m, "clock", path, CLOCKS, "simulated")
-    overrun = c.choice(m, "overrun", path, OVERRUN, "skip")
-    cap = c.integer(m, "trace_capacity", path, 500_000, lo=1)
-    trace_bytes = c.integer(m, "trace_bytes", path, 32 * 1024 * 1024, lo=64 * 1024)
-    budget = c.integer(m, "blend_replans_per_cycle", path, 2, lo=1, hi=1000)
+    R = S.RUNTIME  # noqa: N806
+    tick_default = R["tick"].default
+    # a sign error first (the friendlier message), then the supported range of the schema
+    tick = c.number(m, "tick", path, tick_default, gt=0.0)
+    tick = tick if tick is not None else tick_default
+    if not R["tick"].accepts(tick):
+        c.error(m.line_of("tick"), "runtime.tick", f"got {_fmt(tick)}", _allowed(R["tick"]))
+        tick = tick_default
+    clock = c.field(m, "clock", path, R["clock"])
+    overrun = c.field(m, "overrun", path, R["overrun"])
+    cap = c.field(m, "trace_capacity", path, R["trace_capacity"])
+    trace_bytes = c.field(m, "trace_bytes", path, R["trace_bytes"])
+    budget = c.field(m, "blend_replans_per_cycle", path, R["blend_replans_per_cycle"])
+    max_overruns = c.field(m, "max_overruns", path, R["max_overruns"])
+    rt_priority, rt_cpus, rt_lock = None, (), False
+    if m.get("realtime") is not None:
+        rp = join(path, "realtime")
+        rtm = c.mapping(m["realtime"], m.line_of("realtime"), rp, _REALTIME)
+        if rtm is not None:
+            rt_priority = c.field(rtm, "priority", rp, S.REALTIME["priority"])
+            rt_lock = c.field(rtm, "lock_memory", rp, S.REALTIME["lock_memory"])
+            rt_cpus = _cpus(c, rtm, rp)
     tasks: list[TaskSpec] = []
     tm = c.mapping(m["tasks"], m.line_of("tasks"), "runtime.tasks", None) if "tasks" in m else None
     if tm is not None:
@@ -639,7 +634,7 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
             tb = c.mapping(body, tm.line_of(name), tp, _TASK)
             if tb is None:
                 continue
-            period = c.number(tb, "period", tp, tick, gt=0.0)
+            period = c.field(tb, "period", tp, S.TASK["period"], tick)
             if period is not None and "period" in tb and not _is_multiple(period, tick):
                 c.error(
                     tb.line_of("period"),
@@ -647,14 +642,14 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
                     f"{_fmt(period)} s is not a multiple of the tick {_fmt(tick)} s",
                     f"k * {_fmt(tick)} s with k = 1, 2, ...",
                 )
-            prio = c.integer(tb, "priority", tp, 0, lo=0, hi=31)
+            prio = c.field(tb, "priority", tp, S.TASK["priority"])
             wd_time, wd_sens = None, 1
             if "watchdog" in tb and tb["watchdog"] is not None:
                 wp = join(tp, "watchdog")
                 wd = c.mapping(tb["watchdog"], tb.line_of("watchdog"), wp, _WATCHDOG)
                 if wd is not None:
-                    wd_time = c.number(wd, "time", wp, None, gt=0.0)
-                    wd_sens = c.integer(wd, "sensitivity", wp, 1, lo=1) or 1
+                    wd_time = c.field(wd, "time", wp, S.WATCHDOG["time"])
+                    wd_sens = c.field(wd, "sensitivity", wp, S.WATCHDOG["sensitivity"]) or 1
             tasks.append(
                 TaskSpec(name, period or tick, prio if prio is not None else 0, wd_time, wd_sens)
             )
@@ -663,10 +658,50 @@ def _parse_runtime(c: Checker, m: YamlMap) -> RuntimeSpec | None:
         clock,
         tuple(tasks),
         overrun,
-        cap or 500_000,
-        budget or 2,
-        trace_bytes or 32 * 1024 * 1024,
+        cap or R["trace_capacity"].default,
+        budget or R["blend_replans_per_cycle"].default,
+        trace_bytes or R["trace_bytes"].default,
+        rt_priority=rt_priority,
+        rt_cpus=rt_cpus,
+        rt_lock_memory=rt_lock,
+        max_overruns=max_overruns,
     )
+
+
+def _allowed(node: Number) -> str:
+    """``a number in [lo, hi]`` (and ``, or .inf``) of a range node."""
+    text = f"a number in [{_fmt(node.ge)}, {_fmt(node.le)}]" if node.le is not None else ""
+    if node.le is None:
+        text = f"a number >= {_fmt(node.ge)}"
+    return text + (", or .inf" if node.inf_ok else "")
+
+
+def _cpus(c: Checker, m: YamlMap, path: str) -> tuple[int, ...]:
+    """``realtime.cpus``: a non-empty list of CPU numbers (the schema's range)."""
+    node = S.REALTIME["cpus"]
+    assert isinstance(node, ListOf) and isinstance(node.item, Integer)
+    item = node.item
+    value = m.get("cpus")
+    p = join(path, "cpus")
+    allowed = f"a non-empty list of CPU numbers {item.range_text()}"
+    if value is None:
+        return ()
+    if not isinstance(value, YamlList) or len(value) < node.min_items:
+        c.error(m.line_of("cpus"), p, f"got {_tname(value)}", allowed)
+        return ()
+    out: list[int] = []
+    for i, x in enumerate(value):
+        ok = isinstance(x, int) and not isinstance(x, bool)
+        if not ok or not (item.lo is None or x >= item.lo) or not (item.hi is None or x <= item.hi):
+            c.error(
+                value.line_of(i),
+                join(p, i),
+                f"got {_tname(x)}",
+                f"an integer in {item.range_text()}",
+            )
+        elif x not in out:
+            out.append(x)
+    return tuple(out)
 
 
 def _is_loopback(host: str) -> bool:
@@ -691,7 +726,7 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
         return None
     keys = {**_BUS, **(_CAN if kind == "can" else _MODBUS)}
     c.keys(m, path, keys)
-    drives = c.choice(m, "drives", path, BUS_DRIVES, "simulated")
+    drives = c.field(m, "drives", path, S.CAN_BUS["drives"])
     if kind == "can":
         if m.get("interface") == "udp_multicast":
             c.error(
@@ -702,13 +737,13 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             )
             interface = None
         else:
-            interface = c.choice(m, "interface", path, CAN_INTERFACES, "virtual")
+            interface = c.field(m, "interface", path, S.CAN_BUS["interface"])
         default_channel = {"virtual": name, "socketcan": "vcan0"}.get(interface or "")
         if default_channel is None and "channel" not in m and interface is not None:
             c.error(m.line, join(path, "channel"), f"missing (interface {interface})", "a channel")
         channel = c.string(m, "channel", path, default_channel)
-        bitrate = c.choice(m, "bitrate", path, CAN_BITRATES, 1_000_000)
-        max_frames = c.integer(m, "max_frames_per_cycle", path, 256, lo=1, hi=100_000)
+        bitrate = c.field(m, "bitrate", path, S.CAN_BUS["bitrate"])
+        max_frames = c.field(m, "max_frames_per_cycle", path, S.CAN_BUS["max_frames_per_cycle"])
         options: list[tuple[str, Any]] = []
         if "options" in m:
             om = c.mapping(m["options"], m.line_of("options"), join(path, "options"), None)
@@ -720,10 +755,10 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
                     c.error(om.line_of(key), op, f"got {_tname(value)}", "a scalar value")
                 else:
                     options.append((key, value))
-        master_id = c.integer(m, "master_node_id", path, 0x7F, lo=1, hi=127)
-        master_hb = c.number(m, "master_heartbeat", path, None, ge=0.0, le=65.535)
-        sync_id = c.integer(m, "sync_cob_id", path, 0x80, lo=1, hi=0x7FF)
-        sdo_timeout = c.number(m, "sdo_timeout", path, 0.3, gt=0.0, le=60.0)
+        master_id = c.field(m, "master_node_id", path, S.CAN_BUS["master_node_id"])
+        master_hb = c.field(m, "master_heartbeat", path, S.CAN_BUS["master_heartbeat"])
+        sync_id = c.field(m, "sync_cob_id", path, S.CAN_BUS["sync_cob_id"])
+        sdo_timeout = c.field(m, "sdo_timeout", path, S.CAN_BUS["sdo_timeout"])
         return BusSpec(
             name,
             kind,
@@ -738,7 +773,7 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             sdo_timeout=sdo_timeout or 0.3,
             options=tuple(options),
         )
-    host = c.string(m, "host", path, "127.0.0.1") or "127.0.0.1"
+    host = c.field(m, "host", path, S.MODBUS_BUS["host"]) or S.MODBUS_BUS["host"].default
     if drives == "simulated" and not _is_loopback(host):
         c.error(
             m.line_of("host"),
@@ -746,7 +781,7 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             f"simulated drives listen on loopback only, got {host!r}",
             "127.0.0.1, ::1, localhost",
         )
-    port = c.integer(m, "port", path, 0, lo=0, hi=65535)
+    port = c.field(m, "port", path, S.MODBUS_BUS["port"])
     if drives == "external" and port == 0:
         c.error(
             m.line_of("port"),
@@ -754,8 +789,15 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             "external drives need the server's port",
             "an integer in 1..65535",
         )
-    timeout = c.number(m, "timeout", path, 0.1, gt=0.0)
-    return BusSpec(name, kind, drives, host=host, port=port or 0, timeout=timeout or 0.1)
+    timeout = c.field(m, "timeout", path, S.MODBUS_BUS["timeout"])
+    return BusSpec(
+        name,
+        kind,
+        drives,
+        host=host,
+        port=port or 0,
+        timeout=timeout or S.MODBUS_BUS["timeout"].default,
+    )
 
 
 def _parse_axis(
@@ -765,7 +807,7 @@ def _parse_axis(
     m = c.mapping(body, line, path, _AXIS)
     if m is None:
         return None
-    units = c.choice(m, "units", path, UNITS, "m")
+    units = c.field(m, "units", path, S.AXIS["units"])
     task = c.choice(m, "task", path, tuple(tasks) or ("",), tasks[0] if tasks else "")
     lp = join(path, "limits")
     lim = None
@@ -773,7 +815,7 @@ def _parse_axis(
     if lm is not None:
         v_max = c.number(lm, "v_max", lp, None, gt=0.0)
         a_max = c.number(lm, "a_max", lp, None, gt=0.0)
-        j_max = c.number(lm, "j_max", lp, math.inf, gt=0.0, inf_ok=True)
+        j_max = c.number(lm, "j_max", lp, S.LIMITS["j_max"].default, gt=0.0, inf_ok=True)
         v_min = c.number(lm, "v_min", lp, None, le=0.0)
         a_min = c.number(lm, "a_min", lp, None, le=0.0)
         for key, val in (("v_min", v_min), ("a_min", a_min)):
@@ -781,23 +823,18 @@ def _parse_axis(
                 c.error(lm.line_of(key), join(lp, key), "got 0", "a number < 0")
         # the supported range of axis limits (blocks.axis.AXIS_LIMIT_MIN / _MAX): inside it
         # every FB input range and every profile the kernel plans stay in the planner's envelope
-        for key, val in (("v_max", v_max), ("a_max", a_max), ("j_max", j_max)):
-            if val is not None and val != math.inf and not _LIMIT_LO <= val <= _LIMIT_HI:
-                c.error(
-                    lm.line_of(key),
-                    join(lp, key),
-                    f"got {_fmt(val)}",
-                    f"a number in [{_fmt(_LIMIT_LO)}, {_fmt(_LIMIT_HI)}]"
-                    + (", or .inf" if key == "j_max" else ""),
-                )
-        for key, val in (("v_min", v_min), ("a_min", a_min)):
-            if val is not None and val != 0.0 and not -_LIMIT_HI <= val <= -_LIMIT_LO:
-                c.error(
-                    lm.line_of(key),
-                    join(lp, key),
-                    f"got {_fmt(val)}",
-                    f"a number in [{_fmt(-_LIMIT_HI)}, {_fmt(-_LIMIT_LO)}]",
-                )
+        # (the sign first, with its own message; then the range of the schema)
+        for key, val in (
+            ("v_max", v_max),
+            ("a_max", a_max),
+            ("j_max", j_max),
+            ("v_min", v_min),
+            ("a_min", a_min),
+        ):
+            node = S.LIMITS[key]
+            assert isinstance(node, Number)
+            if val is not None and val != 0.0 and not node.accepts(val):
+                c.error(lm.line_of(key), join(lp, key), f"got {_fmt(val)}", _allowed(node))
         if v_max is not None and a_max is not None:
             lim = LimitsSpec(v_max, a_max, j_max or math.inf, v_min or None, a_min or None)
     sw_min = sw_max = None
@@ -805,8 +842,8 @@ def _parse_axis(
         sp = join(path, "software_limits")
         sm = c.mapping(m["software_limits"], m.line_of("software_limits"), sp, _SWLIM)
         if sm is not None:
-            sw_min = c.number(sm, "min", sp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
-            sw_max = c.number(sm, "max", sp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
+            sw_min = c.field(sm, "min", sp, S.SOFTWARE_LIMITS["min"])
+            sw_max = c.field(sm, "max", sp, S.SOFTWARE_LIMITS["max"])
             if sw_min is not None and sw_max is not None and not sw_min < sw_max:
                 c.error(
                     sm.line_of("max"),
@@ -814,7 +851,7 @@ def _parse_axis(
                     f"max {_fmt(sw_max)} is not above min {_fmt(sw_min)}",
                     "min < max",
                 )
-    modulo = c.number(m, "modulo", path, None, gt=0.0)
+    modulo = c.field(m, "modulo", path, S.AXIS["modulo"])
     if modulo is not None and (sw_min is not None or sw_max is not None):
         c.error(
             m.line_of("modulo"),
@@ -822,16 +859,16 @@ def _parse_axis(
             "a modulo axis has no software limits",
             "modulo or software_limits",
         )
-    fe = c.number(m, "following_error", path, None, gt=0.0)
-    qd = c.integer(m, "queue_depth", path, 8, lo=0, hi=64)
+    fe = c.field(m, "following_error", path, S.AXIS["following_error"])
+    qd = c.field(m, "queue_depth", path, S.AXIS["queue_depth"])
     homing = HomingSpec()
     if m.get("homing") is not None:
         hp = join(path, "homing")
         hm = c.mapping(m["homing"], m.line_of("homing"), hp, _HOMING)
         if hm is not None:
-            method = c.choice(hm, "method", hp, HOMING, "set_position")
-            sw = c.number(hm, "switch", hp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
-            hv = c.number(hm, "velocity", hp, None, gt=0.0)
+            method = c.field(hm, "method", hp, S.HOMING["method"])
+            sw = c.field(hm, "switch", hp, S.HOMING["switch"])
+            hv = c.field(hm, "velocity", hp, S.HOMING["velocity"])
             if method == "switch" and sw is None:
                 c.error(hm.line, join(hp, "switch"), "missing for method switch", "a number")
             if method == "set_position" and ("switch" in hm or "velocity" in hm):
@@ -859,7 +896,7 @@ def _parse_axis(
         fe,
         homing,
         drive,
-        qd if qd is not None else 8,
+        qd if qd is not None else S.AXIS["queue_depth"].default,
     )
 
 
@@ -876,7 +913,7 @@ def _parse_drive(
         return None
     known = {k: False for k in (*_DRIVE_KEYS, *CANOPEN_DRIVE_KEYS, *MODBUS_DRIVE_KEYS)}
     c.keys(m, dp, known)
-    dtype = c.choice(m, "type", dp, ("ideal", "bus"), None)
+    dtype = c.choice(m, "type", dp, ("ideal", "bus"), None)  # IDEAL_DRIVE / *_DRIVE["type"]
     bus_name = m.get("bus")
     if dtype == "ideal" or (dtype is None and bus_name is None):
         for k in m:
@@ -896,14 +933,16 @@ def _parse_drive(
         return None
     bus = buses[bus_name]
     base_dir = Path(c.file).parent
-    cpu = c.number(m, "counts_per_unit", dp, 1.0e6, gt=0.0) or 1.0e6
+    cpu_node = S.CANOPEN_DRIVE["counts_per_unit"]
+    cpu = c.field(m, "counts_per_unit", dp, cpu_node) or cpu_node.default
     if bus.type == "can":
         for k in MODBUS_DRIVE_KEYS:
             if k in m and k not in CANOPEN_DRIVE_KEYS:
                 c.error(m.key_lines[k], join(dp, k), "not used on a CAN bus", "node_id")
         if "node_id" not in m:
-            c.error(m.line, join(dp, "node_id"), "missing", "an integer in 1..127")
-        node = c.integer(m, "node_id", dp, None, lo=1, hi=127)
+            rng = S.CANOPEN_DRIVE["node_id"].range_text()  # type: ignore[attr-defined]
+            c.error(m.line, join(dp, "node_id"), "missing", f"an integer in {rng}")
+        node = c.field(m, "node_id", dp, S.CANOPEN_DRIVE["node_id"])
         options = check_canopen_drive(c, m, dp, base_dir)
         return DriveSpec("canopen", bus_name, node_id=node, counts_per_unit=cpu, options=options)
     if "node_id" in m:
@@ -1014,13 +1053,7 @@ def parse_config(data: Any, file: str | Path) -> Config:
     return Config(str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups))
 
 
-_GROUP = {
-    "axes": True,
-    "queue_depth": False,
-    "tolerance": False,
-    "v_share": False,
-    "blend_share": False,
-}
+_GROUP = S.GROUP.table()
 
 
 def _parse_group(
@@ -1046,10 +1079,11 @@ def _parse_group(
         if m is None or "axes" not in m:
             return None
         members, mline, mp = m["axes"], m.line_of("axes"), join(gp, "axes")
-        qd = c.integer(m, "queue_depth", gp, None, lo=1, hi=10_000)
-        tol = c.number(m, "tolerance", gp, None, gt=0.0, le=1.0)
-        vs = c.number(m, "v_share", gp, None, ge=0.01, le=0.99)
-        bs = c.number(m, "blend_share", gp, None, ge=0.01, le=0.99)
+        # absent: GroupSpec's defaults (the schema's; a test keeps them equal)
+        qd = c.field(m, "queue_depth", gp, S.GROUP["queue_depth"], None)
+        tol = c.field(m, "tolerance", gp, S.GROUP["tolerance"], None)
+        vs = c.field(m, "v_share", gp, S.GROUP["v_share"], None)
+        bs = c.field(m, "blend_share", gp, S.GROUP["blend_share"], None)
         for key, val in (
             ("queue_depth", qd),
             ("tolerance", tol),
@@ -1204,7 +1238,13 @@ def build(
     use_rt = (rs.clock == "realtime") if realtime is None else realtime
     rt = Runtime(
         cycle=rs.tick,
-        clock=RealtimeClock() if use_rt else SimClock(),
+        clock=RealtimeClock(
+            fifo_priority=rs.rt_priority,
+            cpus=rs.rt_cpus or None,
+            lock_memory=rs.rt_lock_memory,
+        )
+        if use_rt
+        else SimClock(),
         trace_capacity=rs.trace_capacity,
         trace_bytes=rs.trace_bytes,
         overrun_policy=rs.overrun,

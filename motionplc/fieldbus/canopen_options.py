@@ -42,31 +42,23 @@ from motionplc.fieldbus.canopen_startup import (
     ScalingSpec,
     check_layout,
 )
+from motionplc.schema import config as schema
+from motionplc.schema.nodes import Integer, Obj
 
 __all__ = ["CANOPEN_DRIVE_KEYS", "check_canopen_drive"]
 
-CANOPEN_DRIVE_KEYS: dict[str, bool] = {
-    "eds": False,
-    "heartbeat": False,
-    "node_guarding": False,
-    "pdo": False,
-    "scaling": False,
-    "mode_timeout": False,
-    "setup_timeout": False,
-    "following_error_window": False,
-    "following_error_timeout": False,
-}
-
-HEARTBEAT_KEYS = {"producer": False, "consumer": False}
-GUARDING_KEYS = {"guard_time": True, "life_time_factor": False}
-PDO_ENTRY_KEYS = {"objects": True, "cob_id": False, "transmission": False}
-OBJECT_KEYS = {"index": True, "sub": False, "optional": False}
-SCALING_KEYS = {
-    "encoder_resolution": False,
-    "gear_ratio": False,
-    "feed_constant": False,
-    "polarity": False,
-}
+# keys, ranges and defaults: the schema (motionplc.schema.config.CANOPEN_DRIVE)
+D = schema.CANOPEN_DRIVE
+CANOPEN_DRIVE_KEYS: dict[str, bool] = schema.CANOPEN_DRIVE_KEYS
+HEARTBEAT_KEYS = schema.HEARTBEAT.table()
+GUARDING_KEYS = schema.GUARDING.table()
+_RPDO1 = schema.PDO["rpdo1"]
+assert isinstance(_RPDO1, Obj)
+PDO_ENTRY_KEYS = _RPDO1.table()
+_OBJECT = next(v for v in _RPDO1["objects"].item.variants if isinstance(v, Obj))  # type: ignore[attr-defined]
+OBJECT_KEYS = _OBJECT.table()
+_SCALING = next(v for v in schema.SCALING.variants if isinstance(v, Obj))
+SCALING_KEYS = _SCALING.table()
 PDO_NAME = re.compile(r"^(rpdo|tpdo)([1-4])$")
 OBJECT_TEXT = re.compile(r"^\s*(0[xX][0-9a-fA-F]+|\d+)\s*(?::\s*(0[xX][0-9a-fA-F]+|\d+)\s*)?$")
 OBJECT_FORMS = 'an index (0x6041 or "0x6041"), "index:sub", or {index, sub, optional}'
@@ -104,8 +96,8 @@ def check_canopen_drive(
         gp = join(path, "node_guarding")
         g = c.mapping(m["node_guarding"], m.line_of("node_guarding"), gp, GUARDING_KEYS)
         if g is not None:
-            guard = c.number(g, "guard_time", gp, ge=0.001, le=65.535)
-            factor = c.integer(g, "life_time_factor", gp, 3, lo=1, hi=255)
+            guard = c.field(g, "guard_time", gp, schema.GUARDING["guard_time"])
+            factor = c.field(g, "life_time_factor", gp, schema.GUARDING["life_time_factor"])
             if guard is not None:
                 guarding = True
                 out["guard_time"] = guard
@@ -124,10 +116,10 @@ def check_canopen_drive(
                     "one of them",
                 )
             else:
-                producer = c.number(h, "producer", hp, ge=0.0, le=65.535)
+                producer = c.field(h, "producer", hp, schema.HEARTBEAT["producer"])
                 if producer is not None:
                     out["heartbeat_period"] = producer
-            consumer = c.number(h, "consumer", hp, ge=0.0, le=65.535)
+            consumer = c.field(h, "consumer", hp, schema.HEARTBEAT["consumer"])
             if consumer is not None:
                 out["master_heartbeat_timeout"] = consumer
 
@@ -143,14 +135,15 @@ def check_canopen_drive(
         if scaling is not None:
             out["scaling_objects"] = scaling
 
-    for key, lo, hi in (("mode_timeout", 0.0, 60.0), ("setup_timeout", 0.001, 600.0)):
-        value = c.number(m, key, path, ge=lo, le=hi)
+    for key in ("mode_timeout", "setup_timeout"):
+        value = c.field(m, key, path, D[key])
         if value is not None:
             out[key] = value
-    window = c.number(m, "following_error_window", path, following_error_window, gt=0.0, le=1e12)
+    window = c.field(m, "following_error_window", path, D["following_error_window"])
+    window = window if window is not None else following_error_window
     if window is not None:
         out["following_error_window"] = window
-    timeout = c.number(m, "following_error_timeout", path, ge=0.0, le=65.535)
+    timeout = c.field(m, "following_error_timeout", path, D["following_error_timeout"])
     if timeout is not None:
         out["following_error_timeout"] = timeout
     return out
@@ -183,8 +176,8 @@ def _check_object(
         else:
             c.error(om.line_of("index"), join(path, "index"), f"got {raw!r}", "an object index")
             return None
-        sub = c.integer(om, "sub", path, 0, lo=0, hi=255)
-        optional = c.boolean(om, "optional", path, False)
+        sub = c.field(om, "sub", path, _OBJECT["sub"])
+        optional = c.field(om, "optional", path, _OBJECT["optional"])
         line = om.line_of("index")
     else:
         c.error(line, path, f"got {type(x).__name__}", OBJECT_FORMS)
@@ -236,8 +229,8 @@ def _check_pdos(
                 ok = False
             else:
                 objects.append(obj)
-        cob_id = c.integer(em, "cob_id", ep, None, lo=0x001, hi=0x7FF)
-        trans = c.integer(em, "transmission", ep, 1, lo=1, hi=240)
+        cob_id = c.field(em, "cob_id", ep, _RPDO1["cob_id"])
+        trans = c.field(em, "transmission", ep, _RPDO1["transmission"])
         if not ok or trans is None:
             continue
         try:
@@ -275,10 +268,12 @@ def _check_scaling(c: Checker, x: Any, line: int, path: str) -> ScalingSpec | st
         if key not in sm or sm[key] is None:
             continue
         pair = sm[key]
+        item = _SCALING[key].item  # type: ignore[attr-defined]
+        assert isinstance(item, Integer) and item.lo is not None and item.hi is not None
         if (
             isinstance(pair, list)
             and len(pair) == 2
-            and all(_int(v) and 1 <= v <= 0xFFFFFFFF for v in pair)
+            and all(_int(v) and item.lo <= v <= item.hi for v in pair)
         ):
             kwargs[key] = (pair[0], pair[1])
         else:
@@ -286,10 +281,10 @@ def _check_scaling(c: Checker, x: Any, line: int, path: str) -> ScalingSpec | st
                 sm.line_of(key),
                 join(path, key),
                 f"got {pair!r}",
-                "[numerator, denominator], integers in 1..4294967295",
+                f"[numerator, denominator], integers in {item.range_text()}",
             )
             ok = False
-    polarity = c.integer(sm, "polarity", path, None, lo=0, hi=255)
+    polarity = c.field(sm, "polarity", path, _SCALING["polarity"])
     if polarity is not None:
         kwargs["polarity"] = polarity
     if not ok:

@@ -42,20 +42,14 @@ from motionplc.fieldbus.modbus_regmap import (
     load_register_map,
     resolve_map_source,
 )
+from motionplc.schema import config as schema
 
 __all__ = ["MODBUS_DRIVE_KEYS", "check_modbus_drive"]
 
-MODBUS_DRIVE_KEYS: dict[str, bool] = {
-    "unit_id": True,
-    "word_order": False,
-    "register_map": False,
-    "following_error_window": False,
-    "following_error_timeout": False,
-    "watchdog": False,
-    "velocity_feed_forward": False,
-    "requests_in_flight": False,
-}
-WORD_ORDERS = ("big", "little")
+# keys, ranges and defaults: the schema (motionplc.schema.config.MODBUS_DRIVE)
+D = schema.MODBUS_DRIVE
+MODBUS_DRIVE_KEYS: dict[str, bool] = schema.MODBUS_DRIVE_KEYS
+WORD_ORDERS = schema.WORD_ORDERS
 
 
 def _register_map(c: Checker, m: YamlMap, path: str, base_dir: Path) -> RegisterMap | None:
@@ -99,11 +93,12 @@ def check_modbus_drive(c: Checker, m: YamlMap, path: str, base_dir: Path) -> dic
     register and velocity feed-forward without ``target_velocity`` are errors here."""
     out: dict[str, Any] = {}
     if "unit_id" not in m:
-        c.error(m.line, join(path, "unit_id"), "missing", "an integer in 1..247")
-    unit = c.integer(m, "unit_id", path, None, lo=1, hi=247)
+        rng = D["unit_id"].range_text()  # type: ignore[attr-defined]
+        c.error(m.line, join(path, "unit_id"), "missing", f"an integer in {rng}")
+    unit = c.field(m, "unit_id", path, D["unit_id"])
     if unit is not None:
         out["device_id"] = unit
-    order = c.choice(m, "word_order", path, WORD_ORDERS, None)
+    order = c.field(m, "word_order", path, D["word_order"])
     if order is not None:
         out["word_order"] = order
     rmap = _register_map(c, m, path, Path(base_dir))
@@ -112,14 +107,14 @@ def check_modbus_drive(c: Checker, m: YamlMap, path: str, base_dir: Path) -> dic
     cpu = m.get("counts_per_unit", 1.0e6)
     if isinstance(cpu, bool) or not isinstance(cpu, (int, float)) or not cpu > 0:
         cpu = None  # reported by the caller
-    for key, ge, unit_name, factor in (
-        ("following_error_window", None, "m", cpu),
-        ("following_error_timeout", None, "s", 1.0),
-        ("watchdog", 0.0, "s", 1.0),
+    for key, unit_name, factor in (
+        ("following_error_window", "m", cpu),
+        ("following_error_timeout", "s", 1.0),
+        ("watchdog", "s", 1.0),
     ):
         if m.get(key) is None:
             continue
-        value = c.number(m, key, path, None, gt=None if ge is not None else 0.0, ge=ge)
+        value = c.field(m, key, path, D[key])
         if value is None:
             continue
         out[key] = value
@@ -148,11 +143,11 @@ def check_modbus_drive(c: Checker, m: YamlMap, path: str, base_dir: Path) -> dic
                 f"a number up to {hi:.6g} {unit_name}",
             )
     if m.get("requests_in_flight") is not None:
-        n = c.integer(m, "requests_in_flight", path, None, lo=1, hi=16)
+        n = c.field(m, "requests_in_flight", path, D["requests_in_flight"], None)
         if n is not None:
             out["requests_in_flight"] = n
     if "velocity_feed_forward" in m:
-        ff = c.boolean(m, "velocity_feed_forward", path, False)
+        ff = c.field(m, "velocity_feed_forward", path, D["velocity_feed_forward"])
         out["velocity_feed_forward"] = ff
         if ff and rmap is not None and "target_velocity" not in rmap:
             c.error(

@@ -44,6 +44,7 @@ from typing import Any, Literal
 
 from motionplc.config import Checker, YamlList, YamlMap, join, load_yaml
 from motionplc.errors import ConfigError
+from motionplc.schema import register_map as RM  # noqa: N812
 
 __all__ = [
     "CMD_CONTROLWORD",
@@ -81,15 +82,16 @@ __all__ = [
 
 WordOrder = Literal["big", "little"]
 
-FORMAT = 1
-DEFAULT_MAP = "motionplc-v1"
+# the format's keys, types and ranges: the schema (motionplc.schema.register_map)
+FORMAT = RM.FORMAT
+DEFAULT_MAP = RM.DEFAULT_MAP
 SHIPPED_DIR = Path(__file__).resolve().parent / "data" / "modbus_maps"
 
-TYPES = ("u16", "i16", "u32", "i32", "f32")
-TABLES = ("holding", "input")
-WORD_ORDERS = ("big", "little")
-EXCHANGES = ("separate", "fc23")
-WRITE_FUNCTIONS = (16, 6)
+TYPES = RM.TYPES
+TABLES = RM.TABLES
+WORD_ORDERS = RM.WORD_ORDERS
+EXCHANGES = RM.EXCHANGES
+WRITE_FUNCTIONS = RM.WRITE_FUNCTIONS
 MAX_READ = 125  # registers per FC 03/04 request (and the read part of FC 23)
 MAX_WRITE = 123  # registers per FC 16 request
 MAX_FC23_WRITE = 121  # registers in the write part of FC 23
@@ -97,14 +99,7 @@ MAX_GAP = 8  # unused registers a grouped read reads through
 
 # command image slots (written every cycle)
 CMD_CONTROLWORD, CMD_MODE, CMD_POSITION, CMD_VELOCITY, CMD_TORQUE, CMD_LIFE_SIGN = range(6)
-COMMAND_KEYS = (
-    "controlword",
-    "mode_of_operation",
-    "target_position",
-    "target_velocity",
-    "target_torque",
-    "life_sign",
-)
+COMMAND_KEYS = RM.COMMAND_KEYS
 CMD_SLOTS = {k: i for i, k in enumerate(COMMAND_KEYS)}
 # status image slots (read every cycle)
 (
@@ -116,43 +111,15 @@ CMD_SLOTS = {k: i for i, k in enumerate(COMMAND_KEYS)}
     ST_ERROR_CODE,
     ST_LIFE_SIGN_ECHO,
 ) = range(7)
-STATUS_KEYS = (
-    "statusword",
-    "mode_display",
-    "position_actual",
-    "velocity_actual",
-    "following_error",
-    "error_code",
-    "life_sign_echo",
-)
+STATUS_KEYS = RM.STATUS_KEYS
 ST_SLOTS = {k: i for i, k in enumerate(STATUS_KEYS)}
-# written once at setup, when the configuration gives a value
-SETUP_KEYS = ("cycle_time", "following_error_window", "following_error_timeout", "watchdog")
-REQUIRED_KEYS = frozenset({"controlword", "target_position", "statusword", "position_actual"})
-ALL_KEYS = COMMAND_KEYS + STATUS_KEYS + SETUP_KEYS
-WRITTEN_KEYS = frozenset(COMMAND_KEYS + SETUP_KEYS)
-# keys whose values are quantities (positions, velocities, times): the only ones with a scale
-SCALED_KEYS = frozenset(
-    {
-        "target_position",
-        "target_velocity",
-        "position_actual",
-        "velocity_actual",
-        "following_error",
-        *SETUP_KEYS,
-    }
-)
+SETUP_KEYS = RM.SETUP_KEYS
+REQUIRED_KEYS = RM.REQUIRED_KEYS
+ALL_KEYS = RM.ALL_KEYS
+WRITTEN_KEYS = RM.WRITTEN_KEYS
+SCALED_KEYS = RM.SCALED_KEYS
 _BITS = ("u16", "i16")
-ALLOWED_TYPES: dict[str, tuple[str, ...]] = {
-    "controlword": _BITS,
-    "statusword": _BITS,
-    "mode_of_operation": ("i16", "u16"),
-    "mode_display": ("i16", "u16"),
-    "life_sign": ("u16",),
-    "life_sign_echo": ("u16",),
-    "error_code": ("u16", "u32"),
-    "target_torque": ("i16", "u16", "i32", "u32", "f32"),
-}
+ALLOWED_TYPES = RM.ALLOWED_TYPES
 
 _RANGES = {
     "u16": (0, 0xFFFF),
@@ -163,25 +130,12 @@ _RANGES = {
 _F32_MAX = struct.unpack(">f", b"\x7f\x7f\xff\xff")[0]
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
-_TOP = {
-    "format": True,
-    "name": False,
-    "word_order": False,
-    "register_base": False,
-    "functions": False,
-    "registers": True,
-    "identification": False,
-}
-_FUNCTIONS = {"read_holding": False, "read_input": False, "write": False, "exchange": False}
-_ENTRY = {"address": True, "type": True, "table": False, "scale": False, "word_order": False}
-_IDENT = {
-    "address": True,
-    "type": True,
-    "table": False,
-    "expect": True,
-    "name": False,
-    "word_order": False,
-}
+_TOP = RM.TOP.table()
+_FUNCTIONS = RM.FUNCTIONS.table()
+# every key an entry may have (scale: on quantities only, refused with its own message)
+_ENTRY = RM.entry("target_position").table()
+_IDENT = RM.IDENT.table()
+_SCALE = RM.entry("target_position")["scale"]
 
 
 class RegisterValueError(ValueError):
@@ -636,7 +590,7 @@ def _check_entry(c: Checker, m: YamlMap, key: str, path: str, base: int) -> Regi
     address = c.integer(e, "address", p, None, lo=base, hi=0xFFFF + base)
     types = ALLOWED_TYPES.get(key, TYPES)
     kind = c.choice(e, "type", p, types, None)
-    table = c.choice(e, "table", p, TABLES, "holding")
+    table = c.choice(e, "table", p, TABLES, "holding")  # (the schema: holding when written)
     if key in WRITTEN_KEYS and table == "input":
         c.error(
             e.line_of("table"),
@@ -648,7 +602,7 @@ def _check_entry(c: Checker, m: YamlMap, key: str, path: str, base: int) -> Regi
     scale = 1.0
     if "scale" in e and e["scale"] is not None:
         if key in SCALED_KEYS:
-            scale = c.number(e, "scale", p, None, ge=1e-12, le=1e12)
+            scale = c.field(e, "scale", p, _SCALE, None)
         else:
             c.error(
                 e.line_of("scale"),
@@ -737,19 +691,19 @@ def check_register_map(
     m = c.mapping(data, line, path, _TOP)
     if m is None:
         return None
-    c.choice(m, "format", path, (FORMAT,), None)
+    c.field(m, "format", path, RM.TOP["format"])
     name = c.string(m, "name", path, default_name) or default_name
-    order = c.choice(m, "word_order", path, WORD_ORDERS, "big")
-    base = c.choice(m, "register_base", path, (0, 1), 0)
+    order = c.field(m, "word_order", path, RM.TOP["word_order"])
+    base = c.field(m, "register_base", path, RM.TOP["register_base"])
     fn_path = join(path, "functions")
     write_fc, exchange = 16, "separate"
     if m.get("functions") is not None:
         f = c.mapping(m["functions"], m.line_of("functions"), fn_path, _FUNCTIONS)
         if f is not None:
-            c.choice(f, "read_holding", fn_path, (3,), 3)
-            c.choice(f, "read_input", fn_path, (4,), 4)
-            write_fc = c.choice(f, "write", fn_path, WRITE_FUNCTIONS, 16)
-            exchange = c.choice(f, "exchange", fn_path, EXCHANGES, "separate")
+            c.field(f, "read_holding", fn_path, RM.FUNCTIONS["read_holding"])
+            c.field(f, "read_input", fn_path, RM.FUNCTIONS["read_input"])
+            write_fc = c.field(f, "write", fn_path, RM.FUNCTIONS["write"])
+            exchange = c.field(f, "exchange", fn_path, RM.FUNCTIONS["exchange"])
     reg_path = join(path, "registers")
     registers: list[Register] = []
     complete = True

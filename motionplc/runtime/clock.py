@@ -14,6 +14,7 @@ import ctypes
 import ctypes.util
 import os
 import time
+from collections.abc import Iterable
 from typing import Protocol
 
 _MCL_CURRENT = 1
@@ -68,8 +69,10 @@ class RealtimeClock:
     ``spin_ns``: the last part of each wait is a busy loop (the OS sleep typically wakes 50-100
     us late). A larger value lowers lateness and costs CPU. ``fifo_priority``: if given, the
     process switches to ``SCHED_FIFO`` with that priority at :meth:`start` (Linux; needs the
-    privilege, otherwise it stays as it is and ``fifo_active`` is False). ``cpu``: pin the
-    process to that CPU (``os.sched_setaffinity``; ``affinity_active``). ``lock_memory``:
+    privilege, otherwise it stays as it is and ``fifo_active`` is False). ``cpus``: pin the
+    process to that set of CPUs (``os.sched_setaffinity``; ``affinity_active``; a CPU this
+    machine lacks makes the pinning refused); ``cpu``: the same for one CPU (``cpu=2`` is
+    ``cpus={2}``; both given: their union). ``lock_memory``:
     ``mlockall(MCL_CURRENT | MCL_FUTURE)`` through the C library, so no page of the process is
     paged out (``mlock_active``; needs the privilege or a large enough RLIMIT_MEMLOCK). Each
     setting stays for the rest of the process; a refused one is reported, never raised.
@@ -83,11 +86,16 @@ class RealtimeClock:
         fifo_priority: int | None = None,
         *,
         cpu: int | None = None,
+        cpus: Iterable[int] | None = None,
         lock_memory: bool = False,
     ) -> None:
         self.spin_ns = spin_ns
         self.fifo_priority = fifo_priority
         self.cpu = cpu
+        wanted = set(cpus) if cpus is not None else set()
+        if cpu is not None:
+            wanted.add(cpu)
+        self.cpus: frozenset[int] = frozenset(wanted)
         self.lock_memory = lock_memory
         self.fifo_active = False
         self.affinity_active = False
@@ -102,9 +110,9 @@ class RealtimeClock:
                 self.fifo_active = True
             except (OSError, AttributeError):
                 self.fifo_active = False
-        if self.cpu is not None and not self.affinity_active:
+        if self.cpus and not self.affinity_active:
             try:
-                os.sched_setaffinity(0, {self.cpu})
+                os.sched_setaffinity(0, set(self.cpus))
                 self.affinity_active = True
             except (OSError, AttributeError, ValueError):
                 self.affinity_active = False

@@ -52,7 +52,7 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         [
             "{f}:3: runtime.cycle: unknown key "
             "(allowed: tick, clock, overrun, trace_capacity, trace_bytes, "
-            "blend_replans_per_cycle, tasks)"
+            "blend_replans_per_cycle, max_overruns, realtime, tasks)"
         ],
     ),
     (
