@@ -1,14 +1,48 @@
 """The ``motionplc`` command line.
 
 ``motionplc run CONFIG [SEQUENCE|PROGRAM|GCODE] [--group NAME]``, ``validate``, ``plot``,
-``drives``, ``plan``. Exit codes: 0 success, 1 the run failed (an expectation, an FB or axis
-error, a timeout), 2 invalid input (configuration, sequence, program or G-code errors: one line
-each, ``FILE:LINE: key.path: problem (allowed: ...)`` or ``FILE:LINE: WORD: ...``).
+``drives``, ``plan``, ``schema``; ``motionplc --version``.
+
+Exit codes (also in ``motionplc --help``):
+
+* 0 success;
+* 1 the run failed: an expectation, an FB or axis error, a timeout, more overruns than
+  ``--max-overruns`` / ``runtime.max_overruns``;
+* 2 invalid input: a configuration, sequence, program or G-code error (one line each,
+  ``FILE:LINE: key.path: problem (allowed: ...)`` or ``FILE:LINE: WORD: ...``), a bad option
+  (``invalid number: 'abc'``), a file that cannot be read or written (``--trace: out: is a
+  directory``), a bus that cannot start (``FILE:LINE: buses.mb0.port: 127.0.0.1:5020 is in use
+  (...)``, a CAN interface that does not open; also for ``drives``), a missing optional
+  package;
+* 3 internal error: an unexpected exception, one line ``motionplc: internal error: ... (run
+  with --debug for the traceback)``; ``--debug`` prints the traceback as well;
+* 130 interrupted (Ctrl-C): ``run`` still writes its trace and summary.
+
+Nothing a user can reach prints a traceback without ``--debug``.
 
 A G-code program (``.ngc``, ``.nc``, ``.gcode``, ``.tap``) runs on the configured axes group
 (the only one, or ``--group NAME``) through :class:`motionplc.gcode_runner.GcodeRunner`; every
-move it cannot run is reported before the first cycle. ``--trace`` also writes the groups
-sidecar (``TRACE.groups.json``) that ``motionplc plot`` reads.
+move it cannot run is reported before the first cycle. ``--trace`` (``.csv``, or ``.parquet``
+with pyarrow) also writes the FB edges (``TRACE.events.csv`` / ``.events.parquet``) and the
+groups sidecar (``TRACE.groups.json``) that ``motionplc plot`` reads.
+
+``--seconds`` is a limit: a run with a sequence or program ends when it finishes (a program's
+``ctx.done()``, a sequence's last step), at the latest after ``--seconds``; without a script
+it runs exactly that long.
+
+Statistics: in real time the task table shows execution time, lateness, overruns and omitted
+cycles as measured by the runtime. On the simulated clock those cannot occur (time advances by
+exactly one tick, lateness is 0 by construction), so the table shows cycles, overruns and
+omitted cycles, and one line gives the wall-clock time per tick that the CLI measured around
+each tick (all tasks, bus I/O and tracing; mean, p99, max, and the speed against real time).
+The measurement only reads a clock between ticks: the simulated run and its trace stay
+bit-reproducible. In real time the settings applied or refused by the operating system
+(``--rt-priority``, ``--cpus``, ``--lock-memory`` or ``runtime.realtime`` in the YAML) are
+printed after the run.
+
+Progress: on a terminal a progress bar on stderr (simulated time against the limit, ETA from
+wall-clock time; tqdm), otherwise a ``t = ...`` line every 5 s of simulated time, nothing with
+``-q``.
 
 A failed run prints one ``FAILED:`` line per failure on stderr; an FB that failed because its
 axis went to ErrorStop names the axis' error, code and reason (``... failed with
@@ -22,23 +56,190 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import logging
 import math
+import os
 import sys
-from collections.abc import Iterator, Sequence
+import traceback
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from motionplc.errors import MotionPlcError, ProgramError
-from motionplc.planning import Limits, State, plan
 
 LIBRARY_LOGGERS = ("pymodbus", "canopen", "can")
 """Loggers of the fieldbus libraries, routed through the CLI's handler (see :func:`log_routing`)."""
 
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_INVALID = 2
+EXIT_INTERNAL = 3
+EXIT_INTERRUPTED = 130
 
-def _float(text: str) -> float:
-    return float(text)
+EXIT_CODES_HELP = (
+    "exit codes:\n"
+    "  0    ok\n"
+    "  1    the run failed (an expectation, an FB or axis error, a timeout, more overruns\n"
+    "       than --max-overruns)\n"
+    "  2    invalid input: configuration, sequence, program or G-code (FILE:LINE: ...),\n"
+    "       options, files that cannot be read or written, a bus that cannot start\n"
+    "       (port in use, CAN interface missing), a missing optional package\n"
+    "  3    internal error (run with --debug for the traceback)\n"
+    "  130  interrupted (Ctrl-C)"
+)
+
+TRACE_SUFFIXES = (".csv", ".parquet")
+PLOT_SUFFIXES = (".png", ".html", ".htm")
+SCHEMA_KINDS = ("config", "sequence", "register_map")
+PROGRESS_EVERY = 5.0  # [s] of simulated time between the progress lines without a terminal
+
+
+# ---------------------------------------------------------------------------- small helpers
+def _number(text: str) -> float:
+    """argparse type: a number (``inf`` allowed, ``nan`` not)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid number: {text!r}") from None
+    if math.isnan(value):
+        raise argparse.ArgumentTypeError(f"invalid number: {text!r}")
+    return value
+
+
+def _seconds(text: str) -> float:
+    """argparse type: a finite duration > 0 [s]."""
+    value = _number(text)
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(
+            f"invalid duration: {text!r} (allowed: a number of seconds > 0)"
+        )
+    return value
+
+
+def _count(text: str) -> int:
+    """argparse type: an integer >= 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"invalid count: {text!r} (allowed: an integer >= 0)")
+    return value
+
+
+def _priority(text: str) -> int:
+    """argparse type: a SCHED_FIFO priority 1..99."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if not 1 <= value <= 99:
+        raise argparse.ArgumentTypeError(f"invalid priority: {text!r} (allowed: 1..99)")
+    return value
+
+
+def _cpus(text: str) -> tuple[int, ...]:
+    """argparse type: CPU numbers ``0,1`` or ranges ``0-3,6``, sorted, each once."""
+    cpus: set[int] = set()
+    try:
+        for part in text.split(","):
+            lo, _, hi = part.strip().partition("-")
+            first, last = int(lo), int(hi) if hi else int(lo)
+            if first < 0 or last < first:
+                raise ValueError
+            cpus.update(range(first, last + 1))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"invalid CPU list: {text!r} (allowed: CPU numbers >= 0 and ranges, e.g. 0,1 or 2-3)"
+        ) from None
+    return tuple(sorted(cpus))
+
+
+def _plural(n: int, word: str, plural: str | None = None) -> str:
+    """``1 bus``, ``2 buses``, ``0 axes``."""
+    return f"{n} {word if n == 1 else plural or word + 's'}"
+
+
+def _num(x: float, fmt: str = "g") -> str:
+    """``x`` formatted with ``fmt``; a result that reads as a negative zero is shown as 0."""
+    text = format(x, fmt)
+    if text.startswith("-") and float(text) == 0.0:
+        text = text[1:]
+    return text
+
+
+def _duration(seconds: float) -> str:
+    """A short time: ``812 ns``, ``45.2 us``, ``1.52 ms``, ``2.3 s``."""
+    if seconds < 1e-6:
+        return f"{seconds * 1e9:.0f} ns"
+    if seconds < 1e-3:
+        return f"{seconds * 1e6:.3g} us"
+    if seconds < 1.0:
+        return f"{seconds * 1e3:.3g} ms"
+    return f"{seconds:.3g} s"
+
+
+def _reason(exc: BaseException) -> str:
+    """An exception as a short reason: the OS text for an OSError, else ``str`` or its type."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror[:1].lower() + exc.strerror[1:]
+    return str(exc) or type(exc).__name__
+
+
+def _yaml_line(path: str | Path, keys: Sequence[str]) -> int:
+    """The line of the deepest of ``keys`` (a path of mapping keys) found in the YAML file
+    ``path``; 1 if the file cannot be read."""
+    import yaml
+
+    try:
+        node = yaml.compose(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        return 1
+    line = 1
+    for key in keys:
+        if not isinstance(node, yaml.MappingNode):
+            break
+        for k, v in node.value:
+            if isinstance(k, yaml.ScalarNode) and k.value == key:
+                line, node = k.start_mark.line + 1, v
+                break
+        else:
+            break
+    return line
+
+
+def _check_output(option: str, path: str | None, suffixes: Sequence[str]) -> Path | None:
+    """An output file given by ``option``: its suffix allowed, not a directory, its directory
+    creatable and writable. Checked before anything runs; raises a one-line MotionPlcError."""
+    if path is None:
+        return None
+    p = Path(path)
+    if p.suffix.lower() not in suffixes:
+        raise MotionPlcError(
+            f"{option}: {p}: unsupported file type {p.suffix or '(none)'!r} "
+            f"(allowed: {', '.join(suffixes)})"
+        )
+    if p.is_dir():
+        raise MotionPlcError(f"{option}: {p}: is a directory (allowed: a file name)")
+    parent = p.parent
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise MotionPlcError(f"{option}: {p}: cannot create {parent}: {_reason(exc)}") from None
+    if not os.access(parent, os.W_OK | os.X_OK) or (p.exists() and not os.access(p, os.W_OK)):
+        raise MotionPlcError(f"{option}: {p}: not writable (permission denied)")
+    return p
+
+
+@contextmanager
+def _writing(option: str, path: Path) -> Iterator[None]:
+    """Turn an OSError while writing ``path`` into one line naming ``option``."""
+    try:
+        yield
+    except OSError as exc:
+        raise MotionPlcError(f"{option}: {path}: cannot write: {_reason(exc)}") from None
 
 
 @contextmanager
@@ -75,7 +276,26 @@ def log_routing(verbose: int) -> Iterator[None]:
             handler.setLevel(handler_level)
 
 
+def package_version() -> str:
+    """The installed distribution's version (package metadata), else ``motionplc.__version__``."""
+    from importlib import metadata
+
+    try:
+        return metadata.version("motionplc")
+    except metadata.PackageNotFoundError:
+        import motionplc
+
+        return motionplc.__version__
+
+
+# ---------------------------------------------------------------------------- plan
 def _cmd_plan(args: argparse.Namespace) -> int:
+    from motionplc.planning import Limits, State, plan
+
+    csv_path = _check_output("--csv", args.csv, (".csv",))
+    plot_path = _check_output("--plot", args.plot, PLOT_SUFFIXES)
+    if not (args.dt > 0 and math.isfinite(args.dt)):
+        raise MotionPlcError(f"--dt: got {_num(args.dt)} (allowed: a number of seconds > 0)")
     lim = Limits(
         v_max=args.v_max,
         a_max=args.a_max,
@@ -86,9 +306,22 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     start = State(args.p0, args.v0, args.a0)
     target = State(args.pf, args.vf, args.af)
     prof = plan(start, target, lim)
-    print(f"start  {start}")
-    print(f"target {target}")
-    print(f"limits {lim}")
+    n = max(2, int(math.ceil(prof.duration / args.dt)) + 1)
+    if n > 10_000_000:
+        raise MotionPlcError(
+            f"--dt: {_num(args.dt)} s gives {n} samples over {prof.duration:g} s "
+            "(allowed: at most 10,000,000 samples; choose a larger --dt)"
+        )
+
+    def state(s: Any) -> str:
+        return f"p = {_num(s.p)}, v = {_num(s.v)}, a = {_num(s.a)}"
+
+    limits = f"v_max {_num(lim.v_max)}, a_max {_num(lim.a_max)}, j_max {_num(lim.j_max)}"
+    if args.v_min is not None or args.a_min is not None:
+        limits += f", v_min {_num(lim.v_min)}, a_min {_num(lim.a_min)}"
+    print(f"start   {state(start)}")
+    print(f"target  {state(target)}")
+    print(f"limits  {limits}   (SI: m or rad, s)")
     print(f"profile family: {prof.kind}; duration {prof.duration:.9f} s")
     print(
         f"{'phase':>5} {'t_start [s]':>12} {'duration [s]':>13} {'jerk':>10} "
@@ -96,53 +329,40 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     )
     for i, (k, seg) in enumerate(zip(prof.knots, prof.segments, strict=True)):
         print(
-            f"{i + 1:>5} {k.t:>12.6f} {seg.duration:>13.6f} {seg.jerk:>10.4g} "
-            f"{k.p:>12.6f} {k.v:>10.5f} {k.a:>10.5f}"
+            f"{i + 1:>5} {_num(k.t, '.6f'):>12} {_num(seg.duration, '.6f'):>13} "
+            f"{_num(seg.jerk, '.4g'):>10} {_num(k.p, '.6f'):>12} {_num(k.v, '.5f'):>10} "
+            f"{_num(k.a, '.5f'):>10}"
         )
     e = prof.end
     print(
-        f"{'end':>5} {prof.duration:>12.6f} {'':>13} {'':>10} "
-        f"{e.p:>12.6f} {e.v:>10.5f} {e.a:>10.5f}"
+        f"{'end':>5} {_num(prof.duration, '.6f'):>12} {'':>13} {'':>10} "
+        f"{_num(e.p, '.6f'):>12} {_num(e.v, '.5f'):>10} {_num(e.a, '.5f'):>10}"
     )
-    n = max(2, int(math.ceil(prof.duration / args.dt)) + 1)
     ts = [min(i * args.dt, prof.duration) for i in range(n)]
     s = prof.sample(ts)
-    if args.csv:
-        path = Path(args.csv)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with path.open("w", newline="") as fh:
+    if csv_path is not None:
+        with _writing("--csv", csv_path), csv_path.open("w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["t", "p", "v", "a", "j"])
             for row in zip(ts, s.p, s.v, s.a, s.j, strict=True):
                 w.writerow([f"{x:.12g}" for x in row])
-        print(f"wrote {path} ({n} samples at dt={args.dt} s)")
-    if args.plot:
-        try:
-            import matplotlib
+        print(f"wrote {csv_path} ({n} samples at dt = {_num(args.dt)} s)")
+    if plot_path is not None:
+        import numpy as np
 
-            matplotlib.use("Agg")
-            import matplotlib.pyplot as plt
-        except ImportError:
-            print("--plot needs matplotlib: pip install 'motionplc[plot]'", file=sys.stderr)
-            return 2
-        fig, axes = plt.subplots(4, 1, sharex=True, figsize=(8, 8))
-        for ax, ys, label in zip(
-            axes,
-            (s.p, s.v, s.a, s.j),
-            ("position", "velocity", "acceleration", "jerk"),
-            strict=True,
-        ):
-            ax.plot(ts, ys, drawstyle="steps-post" if label == "jerk" else "default")
-            ax.set_ylabel(label)
-            ax.grid(True, alpha=0.3)
-        axes[-1].set_xlabel("time [s]")
-        fig.suptitle(f"{prof.kind}: {start} -> {target}, T = {prof.duration:.4f} s", fontsize=9)
-        fig.tight_layout()
-        path = Path(args.plot)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(path, dpi=100)
-        print(f"wrote {path}")
-    return 0
+        from motionplc import scope
+
+        series = {
+            "position": (np.asarray(s.p), "m"),
+            "velocity": (np.asarray(s.v), "m/s"),
+            "acceleration": (np.asarray(s.a), "m/s^2"),
+            "jerk": (np.asarray(s.j), "m/s^3"),
+        }
+        title = f"{prof.kind}: ({state(start)}) -> ({state(target)}), T = {prof.duration:.4f} s"
+        with _writing("--plot", plot_path):
+            scope.write_series_plot(plot_path, np.asarray(ts), series, title)
+        print(f"wrote {plot_path}")
+    return EXIT_OK
 
 
 # ---------------------------------------------------------------------------- run / validate
@@ -169,8 +389,9 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     cfg = load_config(args.config)
     tasks = ", ".join(f"{t.name} {t.period * 1e3:g} ms" for t in cfg.runtime.tasks)
     print(
-        f"{args.config}: ok - {len(cfg.axes)} axes ({', '.join(a.name for a in cfg.axes)}), "
-        f"{len(cfg.buses)} buses, tasks: {tasks}"
+        f"{args.config}: ok - {_plural(len(cfg.axes), 'axis', 'axes')} "
+        f"({', '.join(a.name for a in cfg.axes)}), {_plural(len(cfg.buses), 'bus', 'buses')}, "
+        f"{'task' if len(cfg.runtime.tasks) == 1 else 'tasks'}: {tasks}"
     )
     if args.script:
         script = _load_script(args.script, cfg, args.group)
@@ -181,21 +402,115 @@ def _cmd_validate(args: argparse.Namespace) -> int:
             limits = [(cfg.axis(a).sw_limit_min, cfg.axis(a).sw_limit_max) for a in spec.axes]
             moves = group_moves(script.program, [0.0] * len(spec.axes), limits)
             print(
-                f"{args.script}: ok - {len(script.program)} motion lines, {len(moves)} group "
-                f"moves from the origin on group {script.group!r} ({', '.join(spec.axes)})"
+                f"{args.script}: ok - {_plural(len(script.program), 'motion line')}, "
+                f"{_plural(len(moves), 'group move')} from the origin on group "
+                f"{script.group!r} ({', '.join(spec.axes)})"
             )
         elif hasattr(script, "steps"):
             print(
-                f"{args.script}: ok - {len(script.steps)} steps, {len(script.blocks)} blocks, "
-                f"task {script.task}"
+                f"{args.script}: ok - {_plural(len(script.steps), 'step')}, "
+                f"{_plural(len(script.blocks), 'block')}, task {script.task}"
             )
         else:
             print(f"{args.script}: ok - program(ctx)")
-    return 0
+    return EXIT_OK
 
 
-def _summary(machine: Any, runner: Any) -> list[str]:
-    """Per-axis table and task statistics."""
+class _TickTimer:
+    """Wall-clock time per tick, measured by the CLI between two calls of :meth:`tick` (the
+    stop predicate, called after every tick). Reads a :class:`RealtimeClock` used as a
+    stopwatch; the runtime and its simulated time are not touched. Durations go into 1 us bins
+    up to 10 ms (longer ones into one overflow bin) for the p99."""
+
+    BINS = 10_000
+
+    def __init__(self) -> None:
+        from motionplc.runtime.clock import RealtimeClock
+
+        self._watch = RealtimeClock()
+        self._watch.start()
+        self._last = self._watch.now_ns()
+        self.count = 0
+        self.total_ns = 0
+        self.max_ns = 0
+        self._hist = [0] * (self.BINS + 1)
+
+    def restart(self) -> None:
+        """The next tick starts now."""
+        self._last = self._watch.now_ns()
+
+    def tick(self) -> None:
+        """One tick ended now."""
+        now = self._watch.now_ns()
+        d = now - self._last
+        self._last = now
+        self.count += 1
+        self.total_ns += d
+        if d > self.max_ns:
+            self.max_ns = d
+        self._hist[min(d // 1000, self.BINS)] += 1
+
+    def percentile(self, q: float) -> float:
+        """Upper edge [s] of the 1 us bin holding the ceil(q * count)-th duration."""
+        need = math.ceil(q * self.count)
+        seen = 0
+        for i, n in enumerate(self._hist):
+            seen += n
+            if seen >= need and n:
+                return self.max_ns * 1e-9 if i == self.BINS else (i + 1) * 1e-6
+        return 0.0
+
+
+class _Progress:
+    """Run progress: a tqdm bar on a terminal's stderr (simulated time against ``limit``, ETA
+    from wall-clock time), ``t = ...`` lines every 5 s of simulated time otherwise, nothing when
+    quiet."""
+
+    def __init__(self, limit: float, quiet: bool, step: float) -> None:
+        self.limit = limit
+        self._bar: Any = None
+        self._next = PROGRESS_EVERY
+        self._lines = not quiet
+        if not quiet and sys.stderr.isatty():
+            try:
+                from tqdm import tqdm
+            except ImportError:  # plain lines instead
+                return
+            self._lines = False
+            self._bar = tqdm(
+                total=limit,
+                file=sys.stderr,
+                leave=False,
+                dynamic_ncols=True,
+                bar_format="{desc}{percentage:3.0f}%|{bar}| t = {n:.1f} of {total:.4g} s "
+                "[{elapsed}<{remaining}]",
+                desc="run ",
+            )
+            self._next = max(step, limit / 1000.0)
+            self._step = self._next
+
+    def update(self, t: float) -> None:
+        """Simulated time ``t`` reached (called after every tick: cheap)."""
+        if t < self._next - 1e-9:
+            return
+        if self._bar is not None:
+            self._bar.update(min(t, self.limit) - self._bar.n)
+            self._next = t + self._step
+        else:
+            if self._lines:
+                print(f"  t = {t:7.1f} s", file=sys.stderr, flush=True)
+            self._next += PROGRESS_EVERY
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def _summary(
+    machine: Any, runner: Any, timer: _TickTimer | None = None, realtime: bool = False
+) -> list[str]:
+    """Per-axis table, groups, drive warnings and task statistics (see the module docs)."""
     import numpy as np
 
     rt = machine.runtime
@@ -215,8 +530,9 @@ def _summary(machine: Any, runner: Any) -> list[str]:
         except KeyError:
             max_fe = float("nan")
         lines.append(
-            f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} {ax.position:>14.9g} "
-            f"{ax.actual_position:>14.9g} {max_fe:>12.3g}"
+            f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} "
+            f"{_num(ax.position, '.9g'):>14} {_num(ax.actual_position, '.9g'):>14} "
+            f"{_num(max_fe, '.3g'):>12}"
         )
     warned = [(name, ax) for name, ax in machine.axes.items() if ax.warnings_seen]
     if warned:
@@ -237,34 +553,174 @@ def _summary(machine: Any, runner: Any) -> list[str]:
                 f"{g.state.name:<20}"
             )
     lines.append("")
-    lines.append(
-        f"{'task':<10} {'cycles':>10} {'exec mean':>10} {'exec max':>10} "
-        f"{'late p99':>10} {'late max':>10} {'overruns':>9} {'omitted':>8}"
-    )
-    for st in rt.stats().values():
+    stats = list(rt.stats().values())
+    if realtime:
         lines.append(
-            f"{st.name:<10} {st.cycle_count:>10} {st.exec_mean * 1e6:>8.1f}us "
-            f"{st.exec_max * 1e6:>8.1f}us {st.lateness_p99 * 1e6:>8.1f}us "
-            f"{st.lateness_max * 1e6:>8.1f}us {st.overruns:>9} {st.omitted_cycles:>8}"
+            f"{'task':<10} {'cycles':>10} {'exec mean':>10} {'exec max':>10} "
+            f"{'late p99':>10} {'late max':>10} {'overruns':>9} {'omitted':>8}"
+        )
+        for st in stats:
+            lines.append(
+                f"{st.name:<10} {st.cycle_count:>10} {st.exec_mean * 1e6:>8.1f}us "
+                f"{st.exec_max * 1e6:>8.1f}us {st.lateness_p99 * 1e6:>8.1f}us "
+                f"{st.lateness_max * 1e6:>8.1f}us {st.overruns:>9} {st.omitted_cycles:>8}"
+            )
+        return lines
+    lines.append(f"{'task':<10} {'cycles':>10} {'overruns':>9} {'omitted':>8}")
+    for st in stats:
+        lines.append(f"{st.name:<10} {st.cycle_count:>10} {st.overruns:>9} {st.omitted_cycles:>8}")
+    if timer is not None and timer.count:
+        wall = timer.total_ns * 1e-9
+        simulated = timer.count * rt.cycle
+        speed = f", {simulated / wall:.3g}x real time" if wall > 0 else ""
+        lines.append(
+            f"wall-clock time per tick: mean {_duration(wall / timer.count)}, p99 "
+            f"{_duration(timer.percentile(0.99))}, max {_duration(timer.max_ns * 1e-9)} "
+            f"({_plural(timer.count, 'tick')} of {rt.cycle * 1e3:g} ms in {wall:.3g} s{speed})"
+        )
+        lines.append(
+            "(simulated time: no lateness by construction; the CLI measured each tick, all "
+            "tasks, bus I/O and trace)"
         )
     return lines
 
 
+def _apply_realtime_options(cfg: Any, args: argparse.Namespace) -> Any:
+    """The configuration with ``--rt-priority``, ``--cpus``, ``--lock-memory`` and
+    ``--max-overruns`` overriding ``runtime.realtime`` / ``runtime.max_overruns``."""
+    changes: dict[str, Any] = {}
+    if args.rt_priority is not None:
+        changes["rt_priority"] = args.rt_priority
+    if args.cpus is not None:
+        changes["rt_cpus"] = args.cpus
+    if args.lock_memory:
+        changes["rt_lock_memory"] = True
+    rt_options = [
+        o
+        for o, given in (
+            ("--rt-priority", args.rt_priority is not None),
+            ("--cpus", args.cpus is not None),
+            ("--lock-memory", args.lock_memory),
+        )
+        if given
+    ]
+    if rt_options and not args.realtime and cfg.runtime.clock != "realtime":
+        raise MotionPlcError(
+            f"{', '.join(rt_options)}: only for a real-time run (add --realtime, or "
+            "runtime.clock: realtime in the configuration)"
+        )
+    if args.max_overruns is not None:
+        changes["max_overruns"] = args.max_overruns
+    if not changes:
+        return cfg
+    try:
+        runtime = dataclasses.replace(cfg.runtime, **changes)
+    except TypeError:
+        raise MotionPlcError(
+            f"{', '.join(rt_options) or '--max-overruns'}: this motionplc's configuration has "
+            "no real-time settings (runtime.realtime, runtime.max_overruns)"
+        ) from None
+    return dataclasses.replace(cfg, runtime=runtime)
+
+
+def _realtime_report(clock: Any) -> str | None:
+    """What the operating system applied or refused of the requested real-time settings."""
+    if not getattr(clock, "realtime", False):
+        return None
+    parts: list[str] = []
+    prio = getattr(clock, "fifo_priority", None)
+    if prio is not None:
+        if getattr(clock, "fifo_active", False):
+            parts.append(f"SCHED_FIFO {prio}: applied")
+        else:
+            parts.append(
+                f"SCHED_FIFO {prio}: refused (needs CAP_SYS_NICE or an RLIMIT_RTPRIO >= {prio})"
+            )
+    cpus = getattr(clock, "cpus", None)
+    if not cpus and getattr(clock, "cpu", None) is not None:
+        cpus = (clock.cpu,)
+    if cpus:
+        listed = ",".join(str(c) for c in cpus)
+        if getattr(clock, "affinity_active", False):
+            parts.append(f"CPUs {listed}: applied")
+        else:
+            try:
+                allowed = ",".join(str(c) for c in sorted(os.sched_getaffinity(0)))
+                why = f"allowed CPUs: {allowed}"
+            except (AttributeError, OSError):
+                why = "no CPU affinity on this system"
+            parts.append(f"CPUs {listed}: refused ({why})")
+    if getattr(clock, "lock_memory", False):
+        if getattr(clock, "mlock_active", False):
+            parts.append("memory lock: applied")
+        else:
+            parts.append(
+                "memory lock: refused (needs CAP_IPC_LOCK or a large enough RLIMIT_MEMLOCK)"
+            )
+    if not parts:
+        return "real time: default scheduling (no priority, CPU affinity or memory lock asked)"
+    return "real time: " + "; ".join(parts)
+
+
+def _located_build_error(cfg: Any, exc: MotionPlcError) -> MotionPlcError:
+    """A bus that could not start, located at its YAML line (a Modbus port in use); other
+    errors as they are."""
+    from motionplc.fieldbus.drives_main import port_problem
+
+    cause = exc.__cause__
+    if "Modbus" not in str(exc) and not isinstance(cause, (OSError, RuntimeError)):
+        return exc
+    for bus in cfg.buses:
+        if bus.type != "modbus" or bus.drives != "simulated" or not bus.port:
+            continue
+        problem = port_problem(bus.host, bus.port)
+        if problem is not None:
+            return MotionPlcError(_port_in_use(cfg.path, bus.name, bus.host, bus.port, problem))
+    return exc
+
+
+def _port_in_use(config: str, bus: str, host: str, port: int, reason: str) -> str:
+    """``CONFIG:LINE: buses.NAME.port: HOST:PORT is in use (...)`` (or cannot be listened on:
+    ``reason`` is the operating system's)."""
+    line = _yaml_line(config, ("buses", bus, "port"))
+    if "in use" in reason:
+        problem = f"{host}:{port} is in use ({reason}: another process listens there; stop it"
+    else:
+        problem = f"cannot listen on {host}:{port} ({reason}"
+    return (
+        f"{config}:{line}: buses.{bus}.port: {problem} or choose another port, 0 picks a free one)"
+    )
+
+
+def _build(cfg: Any, realtime: bool | None) -> Any:
+    from motionplc.config import build
+
+    try:
+        return build(cfg, realtime=realtime)
+    except MotionPlcError as exc:
+        located = _located_build_error(cfg, exc)
+        if located is exc:
+            raise
+        raise located from exc
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from motionplc.blocks import AxisState
-    from motionplc.config import build, load_config
+    from motionplc.config import load_config
     from motionplc.sequence import axis_error_text
 
     cfg = load_config(args.config)
     if args.group is not None and not args.script:
-        print("motionplc: error: --group needs a G-code program", file=sys.stderr)
-        return 2
+        raise MotionPlcError("--group needs a G-code program")
+    trace_path = _check_output("--trace", args.trace, TRACE_SUFFIXES)
+    plot_path = _check_output("--plot", args.plot, PLOT_SUFFIXES)
     script = _load_script(args.script, cfg, args.group) if args.script else None
-    if args.seconds is not None and not args.seconds > 0:
-        print("motionplc: error: --seconds must be > 0", file=sys.stderr)
-        return 2
-    machine = build(cfg, realtime=True if args.realtime else None)
+    cfg = _apply_realtime_options(cfg, args)
+    max_overruns = getattr(cfg.runtime, "max_overruns", None)
+    overrun_source = "--max-overruns" if args.max_overruns is not None else "runtime.max_overruns"
+    machine = _build(cfg, True if args.realtime else None)
     failures: list[str] = []
+    interrupted = False
     try:
         runner = None
         if script is not None:
@@ -285,37 +741,41 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 task = script.task or cfg.runtime.tasks[0].name
             machine.attach(runner, task)
         rt = machine.runtime
+        realtime = bool(rt.clock.realtime)
         limit = args.seconds
         if limit is None:
             limit = 1.0 if runner is None else getattr(script, "timeout", 600.0) + rt.cycle
-        mode = "real time" if rt.clock.realtime else "simulated time"
+        mode = "real time" if realtime else "simulated time"
         if not args.quiet:
             what = f" with {args.script}" if args.script else ""
-            print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)")
+            print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)", flush=True)
         program_error = ""
-        report = [5.0]  # next progress line [s]
-        stop_on = None if runner is None else ("over" if args.seconds is None else "failed")
+        progress = _Progress(limit, args.quiet, rt.cycle)
+        timer = _TickTimer()
 
         def stop_now() -> bool:
             # one run, no slices: a slice boundary is housekeeping between cycles, a gap on
-            # the bus in real time; called after every tick, so it only reads flags
-            if stop_on is not None and getattr(runner, stop_on):
+            # the bus in real time; called after every tick, so it only reads flags (and the
+            # stopwatch: the simulated time is not touched)
+            timer.tick()
+            if runner is not None and runner.over:
                 return True
-            if rt.time >= report[0] - 1e-9:
-                report[0] += 5.0
-                if not args.quiet:
-                    print(f"  t = {rt.time:7.1f} s", file=sys.stderr, flush=True)
+            progress.update(rt.time)
             return False
 
         try:
             if rt.time < limit - 1e-9:
+                timer.restart()
                 rt.run_until(stop_now, max_seconds=limit - rt.time)
         except KeyboardInterrupt:
-            failures.append("interrupted")
+            interrupted = True
+            failures.append(f"interrupted at t = {rt.time:.3f} s")
         except ProgramError as exc:  # the task halted, its axes are at rest
             program_error = str(exc)
             if runner is None or not runner.failures:
                 failures.append(program_error)
+        finally:
+            progress.close()
         if runner is not None:
             failures.extend(runner.failures)
             if not runner.finished and not runner.failed and not failures:
@@ -328,54 +788,73 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 failures.append(f"axis {name!r} ends in ERROR_STOP ({axis_error_text(ax)})")
         if rt.error_reason and rt.error_reason != program_error:
             failures.append(rt.error_reason)
-        if args.trace:
-            path = Path(args.trace)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            events = path.with_suffix(".events.csv")
-            rt.trace.to_csv(path, events_path=events)
-            if rt.groups:
-                from motionplc import scope
-
-                sidecar = scope.write_groups_sidecar(
-                    path, {n: list(g.axis_names) for n, g in rt.groups.items()}
-                )
-                also = f", {events} and {sidecar}"
-            else:
-                also = f" and {events}"
-            tr = rt.trace
-            kept = ""
-            if tr.dropped_rows or tr.dropped_events:
-                kept = (
-                    f"; the last {len(tr)} cycles: {tr.dropped_rows} older rows and "
-                    f"{tr.dropped_events} FB edges dropped by the trace bound of "
-                    f"{tr.rows_capacity} rows / {tr.max_bytes / 2**20:g} MiB"
-                )
-            print(f"wrote {path} ({len(tr)} rows{kept}){also}")
-        if args.plot:
+        if max_overruns is not None:
+            for st in rt.stats().values():
+                if st.overruns > max_overruns:
+                    failures.append(
+                        f"task {st.name!r}: {_plural(st.overruns, 'overrun')} in "
+                        f"{_plural(st.cycle_count, 'cycle')}, more than the {max_overruns} "
+                        f"allowed ({overrun_source})"
+                    )
+        if trace_path is not None:
+            _write_trace(trace_path, rt)
+        if plot_path is not None:
             from motionplc import scope
 
-            code = _write_plot(Path(args.plot), scope.trace_from_runtime(rt), str(args.config))
-            if code:
-                return code
+            _write_plot(plot_path, scope.trace_from_runtime(rt), str(args.config), "--plot")
+        report = _realtime_report(rt.clock)
         if not args.quiet or failures:
             print()
-            for line in _summary(machine, runner):
+            for line in _summary(machine, runner, timer, realtime):
                 print(line)
+            if report is not None:
+                print(report)
             print()
+        elif report is not None and "refused" in report:
+            print(report)
         t_end = getattr(runner, "t_finished", None)
         if failures:
             for f in failures:
                 print(f"FAILED: {f}", file=sys.stderr)
-            return 1
+            return EXIT_INTERRUPTED if interrupted else EXIT_FAILED
         if runner is not None and hasattr(runner, "report"):
             print(f"ok: {runner.report()}")
         elif runner is not None:
             print(f"ok: {args.script} finished at t = {t_end:.3f} s, all expectations met")
         else:
             print(f"ok: ran {rt.time:g} s")
-        return 0
+        return EXIT_OK
     finally:
         machine.close()
+
+
+def _write_trace(path: Path, rt: Any) -> None:
+    """Write ``--trace`` (CSV or Parquet), its FB edges and, with groups, the groups sidecar."""
+    from motionplc import scope
+
+    parquet = path.suffix.lower() == ".parquet"
+    events = path.with_suffix(".events.parquet" if parquet else ".events.csv")
+    with _writing("--trace", path):
+        if parquet:
+            rt.trace.to_parquet(path, events_path=events)
+        else:
+            rt.trace.to_csv(path, events_path=events)
+        if rt.groups:
+            sidecar = scope.write_groups_sidecar(
+                path, {n: list(g.axis_names) for n, g in rt.groups.items()}
+            )
+            also = f", {events} and {sidecar}"
+        else:
+            also = f" and {events}"
+    tr = rt.trace
+    kept = ""
+    if tr.dropped_rows or tr.dropped_events:
+        kept = (
+            f"; the last {len(tr)} cycles: {tr.dropped_rows} older rows and "
+            f"{tr.dropped_events} FB edges dropped by the trace bound of "
+            f"{tr.rows_capacity} rows / {tr.max_bytes / 2**20:g} MiB"
+        )
+    print(f"wrote {path} ({_plural(len(tr), 'row')}{kept}){also}")
 
 
 # ---------------------------------------------------------------------------- plots
@@ -383,22 +862,28 @@ def _cmd_plot(args: argparse.Namespace) -> int:
     from motionplc import scope
 
     path = Path(args.trace)
+    if path.suffix.lower() not in TRACE_SUFFIXES:
+        raise MotionPlcError(
+            f"{path}: unsupported trace type {path.suffix or '(none)'!r} "
+            f"(allowed: {', '.join(TRACE_SUFFIXES)}, as written by run --trace)"
+        )
+    out = _check_output("--output", args.output, PLOT_SUFFIXES) or _check_output(
+        "--output", str(path.with_suffix(".png")), PLOT_SUFFIXES
+    )
+    assert out is not None
     trace = scope.read_trace(path)
-    out = Path(args.output) if args.output else path.with_suffix(".png")
-    return _write_plot(out, trace, str(path))
+    _write_plot(out, trace, str(path), "--output")
+    return EXIT_OK
 
 
-def _write_plot(out: Path, trace: Any, title: str) -> int:
-    """Write a scope plot (:func:`motionplc.scope.write_plot`); 2 when matplotlib is missing."""
+def _write_plot(out: Path, trace: Any, title: str, option: str) -> None:
+    """Write a scope plot (:func:`motionplc.scope.write_plot`); a missing plotting package is
+    a one-line MotionPlcError (``scope.PlotDependencyError``)."""
     from motionplc import scope
 
-    try:
+    with _writing(option, out):
         scope.write_plot(out, trace, title)
-    except scope.PlotDependencyError as exc:
-        print(exc, file=sys.stderr)
-        return 2
     print(f"wrote {out}")
-    return 0
 
 
 # ---------------------------------------------------------------------------- drives
@@ -408,10 +893,10 @@ def _cmd_drives(args: argparse.Namespace) -> int:
     import signal
 
     from motionplc.config import load_config
-    from motionplc.fieldbus.drives_main import DrivesSpec, run_drives
+    from motionplc.fieldbus.drives_main import DrivesSpec, DrivesStartError, run_drives
 
     cfg = load_config(args.config)
-    specs: list[DrivesSpec] = []
+    specs: list[tuple[Any, DrivesSpec]] = []
     for bus in cfg.buses:
         axes = [a for a in cfg.axes if a.drive.bus == bus.name]
         if not axes:
@@ -426,11 +911,14 @@ def _cmd_drives(args: argparse.Namespace) -> int:
                 )
                 continue
             specs.append(
-                DrivesSpec(
-                    can_nodes=tuple(a.drive.node_id for a in axes if a.drive.node_id),
-                    can_interface=bus.interface,
-                    can_channel=bus.channel,
-                    duration=args.duration,
+                (
+                    bus,
+                    DrivesSpec(
+                        can_nodes=tuple(a.drive.node_id for a in axes if a.drive.node_id),
+                        can_interface=bus.interface,
+                        can_channel=bus.channel,
+                        duration=args.duration,
+                    ),
                 )
             )
         else:
@@ -440,16 +928,25 @@ def _cmd_drives(args: argparse.Namespace) -> int:
                 )
                 if ids:
                     specs.append(
-                        DrivesSpec(
-                            modbus=ids,
-                            modbus_port=bus.port,
-                            word_order=order,  # type: ignore[arg-type]
-                            duration=args.duration,
+                        (
+                            bus,
+                            DrivesSpec(
+                                modbus=ids,
+                                modbus_port=bus.port,
+                                word_order=order,  # type: ignore[arg-type]
+                                duration=args.duration,
+                            ),
                         )
                     )
     if not specs:
-        print("motionplc: no drives to serve in this configuration", file=sys.stderr)
-        return 2
+        raise MotionPlcError(f"{args.config}: no drives to serve in this configuration")
+
+    def located(bus: Any, exc: DrivesStartError) -> str:
+        if exc.kind == "modbus":
+            host = bus.host if bus.host else "127.0.0.1"
+            return _port_in_use(cfg.path, bus.name, host, exc.port, exc.reason)
+        line = _yaml_line(cfg.path, ("buses", bus.name))
+        return f"{cfg.path}:{line}: buses.{bus.name}: {exc}"
 
     async def serve() -> None:
         stop = asyncio.Event()
@@ -463,108 +960,322 @@ def _cmd_drives(args: argparse.Namespace) -> int:
         def ready(info: dict[str, object]) -> None:
             print(json.dumps(info), flush=True)
 
-        await asyncio.gather(*(run_drives(s, ready=ready, stop=stop) for s in specs))
+        async def one(bus: Any, spec: DrivesSpec) -> None:
+            try:
+                await run_drives(spec, ready=ready, stop=stop)
+            except DrivesStartError as exc:
+                stop.set()  # the others end too
+                raise MotionPlcError(located(bus, exc)) from exc
 
-    try:
-        asyncio.run(serve())
-    except OSError as exc:
-        print(f"motionplc: drives: {exc}", file=sys.stderr)
-        return 1
-    return 0
+        await asyncio.gather(*(one(bus, s) for bus, s in specs))
+
+    asyncio.run(serve())  # a server that cannot start: MotionPlcError, exit code 2
+    return EXIT_OK
 
 
+# ---------------------------------------------------------------------------- schema
+def _cmd_schema(args: argparse.Namespace) -> int:
+    import json
+
+    from motionplc import schema
+
+    if args.format == "json":
+        text = json.dumps(schema.json_schema(args.kind), indent=2, ensure_ascii=False) + "\n"
+    else:
+        text = schema.reference_markdown(args.kind)
+        text = text if text.endswith("\n") else text + "\n"
+    if args.output is None:
+        sys.stdout.write(text)
+        return EXIT_OK
+    suffixes = (".json",) if args.format == "json" else (".md", ".markdown")
+    out = _check_output("--output", args.output, suffixes)
+    assert out is not None
+    with _writing("--output", out):
+        out.write_text(text, encoding="utf-8")
+    print(f"wrote {out} ({args.kind}, {args.format})")
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------------------- parser
 _VERBOSE_HELP = (
     "show the log of the fieldbus libraries (pymodbus, canopen, python-can): -v warnings and "
     "errors, -vv everything (default: quiet; bus failures are reported as axis errors)"
 )
 
 
+class _Formatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the epilog's line breaks (exit-code table); help texts state their defaults."""
+
+
 def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of ``motionplc`` (every option documented with default and unit)."""
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "--debug",
+        action="store_true",
+        default=argparse.SUPPRESS,
+        help="print the traceback of an internal error (default: one line)",
+    )
     parser = argparse.ArgumentParser(
         prog="motionplc",
-        description="Soft-PLC motion-control runtime.",
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        epilog="exit codes: 0 ok, 1 run failed, 2 invalid configuration/sequence/program",
+        description="Soft-PLC motion-control runtime: run, check and plot machine "
+        "configurations with PLCopen sequences, Python programs or G-code.",
+        formatter_class=_Formatter,
+        epilog=EXIT_CODES_HELP,
+        parents=[common],
     )
-    sub = parser.add_subparsers(dest="command", required=True)
-    r = sub.add_parser(
-        "run", help="run a configuration with a sequence, a Python program or a G-code program"
-    )
+    parser.add_argument("--version", action="version", version=f"motionplc {package_version()}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def command(name: str, help_text: str) -> argparse.ArgumentParser:
+        return sub.add_parser(
+            name,
+            help=help_text,
+            description=help_text[:1].upper() + help_text[1:] + ".",
+            parents=[common],
+            formatter_class=_Formatter,
+            epilog=EXIT_CODES_HELP,
+        )
+
+    r = command("run", "run a configuration with a sequence, a Python program or a G-code program")
     r.add_argument("config", help="machine configuration (YAML)")
     r.add_argument(
         "script",
         nargs="?",
-        help="sequence (.yaml), Python program (.py) or G-code program (.ngc, .nc, .gcode, .tap)",
+        help="sequence (.yaml), Python program (.py) or G-code program (.ngc, .nc, .gcode, "
+        ".tap); without one, the machine idles for --seconds",
     )
     r.add_argument(
         "--group",
         help="the axes group a G-code program runs on (default: the only configured group)",
     )
-    r.add_argument("--realtime", action="store_true", help="wall-clock time instead of simulated")
+    r.add_argument(
+        "--realtime",
+        action="store_true",
+        help="run on the wall clock (default: the configuration's runtime.clock, simulated)",
+    )
     r.add_argument(
         "--seconds",
-        type=_float,
+        type=_seconds,
         default=None,
-        help="run exactly this long (default: until the script ends; 1 s without a script)",
+        metavar="S",
+        help="time limit [s]: the run ends when the script finishes, at the latest after S "
+        "(default: the script's timeout; 1 s without a script)",
     )
-    r.add_argument("--trace", help="write the trace as CSV (FB edges to *.events.csv)")
-    r.add_argument("--plot", help="write a scope plot: .png (needs matplotlib) or .html")
-    r.add_argument("--quiet", "-q", action="store_true", help="no progress output")
+    r.add_argument(
+        "--max-overruns",
+        type=_count,
+        default=None,
+        metavar="N",
+        help="fail the run if a task has more than N overruns (default: "
+        "runtime.max_overruns, else no limit)",
+    )
+    r.add_argument(
+        "--rt-priority",
+        type=_priority,
+        default=None,
+        metavar="N",
+        help="real time: SCHED_FIFO priority 1..99 (default: runtime.realtime.priority, else "
+        "the normal scheduler)",
+    )
+    r.add_argument(
+        "--cpus",
+        type=_cpus,
+        default=None,
+        metavar="LIST",
+        help="real time: pin the process to these CPUs, e.g. 0,1 or 2-3 (default: "
+        "runtime.realtime.cpus, else all)",
+    )
+    r.add_argument(
+        "--lock-memory",
+        action="store_true",
+        help="real time: lock the process' memory (mlockall) (default: "
+        "runtime.realtime.lock_memory, else off)",
+    )
+    r.add_argument(
+        "--trace",
+        metavar="FILE",
+        help="write the trace: .csv or .parquet (FB edges to FILE.events.csv/.parquet) "
+        "(default: none)",
+    )
+    r.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="write a scope plot: .png or interactive .html (default: none)",
+    )
+    r.add_argument(
+        "--quiet",
+        "-q",
+        action="store_true",
+        help="no progress, no summary table (default: progress bar on a terminal, else a "
+        "line every 5 s of simulated time)",
+    )
     r.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     r.set_defaults(func=_cmd_run)
-    v = sub.add_parser("validate", help="check a configuration (and a sequence or program)")
-    v.add_argument("config")
-    v.add_argument("script", nargs="?")
-    v.add_argument("--group", help="the axes group of a G-code program")
+
+    v = command("validate", "check a configuration (and a sequence, program or G-code program)")
+    v.add_argument("config", help="machine configuration (YAML)")
+    v.add_argument(
+        "script",
+        nargs="?",
+        help="sequence (.yaml), Python program (.py) or G-code program (.ngc, .nc, .gcode, .tap)",
+    )
+    v.add_argument(
+        "--group",
+        help="the axes group of a G-code program (default: the only configured group)",
+    )
     v.set_defaults(func=_cmd_validate)
-    pl = sub.add_parser(
+
+    pl = command(
         "plot",
-        help="plot a trace CSV: p/v/a/j and FB-state lanes per axis, and per axes group its "
-        "path in space coloured by path speed",
+        "plot a trace: p/v/a/j and FB-state lanes per axis, and per axes group its path in "
+        "space coloured by path speed",
     )
     pl.add_argument(
-        "trace", help="trace CSV written by run --trace (groups from TRACE.groups.json if present)"
+        "trace",
+        help="trace written by run --trace, .csv or .parquet (groups from TRACE.groups.json "
+        "if present)",
     )
-    pl.add_argument("-o", "--output", help="output .png or .html (default: TRACE.png)")
+    pl.add_argument(
+        "-o",
+        "--output",
+        "--out",
+        metavar="FILE",
+        help="output .png or interactive .html (default: TRACE with .png)",
+    )
     pl.set_defaults(func=_cmd_plot)
-    d = sub.add_parser("drives", help="serve the virtual drives of a configuration on their own")
-    d.add_argument("config")
-    d.add_argument("--duration", type=_float, default=None, help="[s]; default: until Ctrl-C")
+
+    d = command("drives", "serve the virtual drives of a configuration on their own")
+    d.add_argument("config", help="machine configuration (YAML) whose drives to serve")
+    d.add_argument(
+        "--duration",
+        type=_seconds,
+        default=None,
+        metavar="S",
+        help="serve for S seconds [s] (default: until Ctrl-C or SIGTERM)",
+    )
     d.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     d.set_defaults(func=_cmd_drives)
-    p = sub.add_parser("plan", help="plan one time-optimal move and print its phases")
-    for name, default in (
-        ("p0", 0.0),
-        ("v0", 0.0),
-        ("a0", 0.0),
-        ("pf", 6.0),
-        ("vf", 0.0),
-        ("af", 0.0),
+
+    p = command("plan", "plan one time-optimal move and print its phases")
+    for name, default, what, unit in (
+        ("p0", 0.0, "start position", "m or rad"),
+        ("v0", 0.0, "start velocity", "m/s"),
+        ("a0", 0.0, "start acceleration", "m/s^2"),
+        ("pf", 6.0, "target position", "m or rad"),
+        ("vf", 0.0, "target velocity", "m/s"),
+        ("af", 0.0, "target acceleration", "m/s^2"),
+        ("v-max", 1.8, "velocity limit", "m/s"),
+        ("a-max", 1.2, "acceleration limit", "m/s^2"),
+        ("j-max", 1.0, "jerk limit (inf: trapezoidal profile)", "m/s^3"),
     ):
-        p.add_argument(f"--{name}", type=_float, default=default)
-    p.add_argument("--v-max", type=_float, default=1.8)
-    p.add_argument("--a-max", type=_float, default=1.2)
-    p.add_argument("--j-max", type=_float, default=1.0)
-    p.add_argument("--v-min", type=_float, default=None)
-    p.add_argument("--a-min", type=_float, default=None)
-    p.add_argument("--dt", type=_float, default=0.001, help="sample period of the CSV [s]")
-    p.add_argument("--csv", help="write the sampled profile to this CSV file")
-    p.add_argument("--plot", help="write a PNG plot (needs matplotlib)")
+        p.add_argument(
+            f"--{name}",
+            type=_number,
+            default=default,
+            metavar="X",
+            help=f"{what} [{unit}] (default: {default:g})",
+        )
+    p.add_argument(
+        "--v-min",
+        type=_number,
+        default=None,
+        metavar="X",
+        help="lowest velocity [m/s], negative (default: -v_max)",
+    )
+    p.add_argument(
+        "--a-min",
+        type=_number,
+        default=None,
+        metavar="X",
+        help="lowest acceleration [m/s^2], negative (default: -a_max)",
+    )
+    p.add_argument(
+        "--dt",
+        type=_number,
+        default=0.001,
+        metavar="S",
+        help="sample period of --csv and --plot [s] (default: 0.001)",
+    )
+    p.add_argument(
+        "--csv", metavar="FILE", help="write the sampled profile t,p,v,a,j as CSV (default: none)"
+    )
+    p.add_argument(
+        "--plot",
+        metavar="FILE",
+        help="plot p, v, a, j over time: .png or interactive .html (default: none)",
+    )
     p.set_defaults(func=_cmd_plan)
+
+    sc = command("schema", "print the JSON Schema or the reference of a file kind")
+    sc.add_argument(
+        "kind",
+        nargs="?",
+        default="config",
+        choices=SCHEMA_KINDS,
+        help="machine configuration, sequence or Modbus register map (default: config)",
+    )
+    sc.add_argument(
+        "--format",
+        choices=("json", "markdown"),
+        default="json",
+        help="JSON Schema (for editors) or the Markdown reference (default: json)",
+    )
+    sc.add_argument(
+        "-o", "--output", metavar="FILE", help="write to FILE instead of stdout (default: stdout)"
+    )
+    sc.set_defaults(func=_cmd_schema)
     return parser
 
 
+def _exit_status(code: object) -> int:
+    """A SystemExit code as an exit status (argparse: 0 for --help, 2 for bad options)."""
+    if code is None:
+        return EXIT_OK
+    return code if isinstance(code, int) else EXIT_INVALID
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run one ``motionplc`` command; returns the exit code (see the module docs).
+
+    Never raises for anything a user can cause: errors are one line on stderr."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help, --version, bad options (argparse printed them)
+        return _exit_status(exc.code)
+    debug = bool(getattr(args, "debug", False))
+    func: Callable[[argparse.Namespace], int] = args.func
     try:
         if args.command in ("run", "drives"):
             with log_routing(args.verbose):
-                return int(args.func(args))
-        return int(args.func(args))
+                return int(func(args))
+        return int(func(args))
     except MotionPlcError as exc:
+        if debug:
+            traceback.print_exc()
         print(f"motionplc: error: {exc}", file=sys.stderr)
-        return 2
+        return EXIT_INVALID
+    except KeyboardInterrupt:
+        print("motionplc: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        if debug:
+            traceback.print_exc()
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"motionplc: error: {where}{_reason(exc)}", file=sys.stderr)
+        return EXIT_INVALID
+    except Exception as exc:  # noqa: BLE001 - the last resort: one line, never a traceback
+        if debug:
+            traceback.print_exc()
+        text = str(exc).splitlines()[0] if str(exc) else ""
+        print(
+            f"motionplc: internal error: {type(exc).__name__}"
+            + (f": {text}" if text else "")
+            + ("" if debug else " (run with --debug for the traceback)"),
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

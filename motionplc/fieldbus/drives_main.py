@@ -9,7 +9,12 @@
 
 When everything is up, one JSON line goes to stdout:
 ``{"modbus": {"1": 40123, ...}, "can": {"interface": "socketcan", "channel": "vcan0",
-"nodes": [1, 2]}}``. The process runs until SIGTERM/SIGINT or ``--duration`` seconds.
+"nodes": [1, 2]}}`` (``"can"`` only when CAN drives are served, ``"modbus"`` is ``{}``
+without Modbus drives). The process runs until SIGTERM/SIGINT or ``--duration`` seconds.
+
+What cannot start (a Modbus port in use, a CAN interface that does not open) raises
+:class:`DrivesStartError` naming the server or interface and the reason (for a port in use the
+operating system's, found by :func:`port_problem`); ``main`` prints it as one line, exit 1.
 
 Here the drives run on the event loop's clock (a separate process has no simulated clock to
 share): Modbus drives still step one cycle per command write; heartbeats, watchdogs and SYNC
@@ -30,11 +35,13 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import errno
 import json
 import logging
 import os
 import queue
 import signal
+import socket
 import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
@@ -46,7 +53,16 @@ from motionplc.fieldbus.base import FieldbusError
 from motionplc.fieldbus.fastcan import DEFAULT_MAX_FRAMES
 from motionplc.fieldbus.modbus_map import WordOrder
 
-__all__ = ["BoundedStderrHandler", "DrivesSpec", "guarded_logging", "main", "run_drives"]
+__all__ = [
+    "BoundedStderrHandler",
+    "DrivesSpec",
+    "DrivesStartError",
+    "can_open_hint",
+    "guarded_logging",
+    "main",
+    "port_problem",
+    "run_drives",
+]
 
 logger = logging.getLogger("motionplc.fieldbus.drives")
 
@@ -180,6 +196,61 @@ def guarded_logging(
             handler.close()
 
 
+class DrivesStartError(FieldbusError):
+    """A drive server or CAN interface of :func:`run_drives` could not start.
+
+    ``kind`` is ``"modbus"`` (``port``: the TCP port that was asked for, 0 = ephemeral) or
+    ``"can"``; ``what`` names the server or interface, ``reason`` the cause as one line (for a
+    port: the operating system's text, e.g. ``address already in use``). The message is
+    ``what: reason``."""
+
+    def __init__(self, kind: str, what: str, reason: str, *, port: int = 0) -> None:
+        super().__init__(f"{what}: {reason}")
+        self.kind = kind
+        self.what = what
+        self.port = port
+        self.reason = reason
+
+
+def port_problem(host: str, port: int) -> str | None:
+    """Why a TCP server cannot listen on ``host:port`` (``"address already in use"``, the
+    operating system's reason), or None when it can. Binds and closes a probe socket with
+    ``SO_REUSEADDR`` (as asyncio's servers do), so a port held only by connections in
+    TIME_WAIT counts as free. Port 0 is always free."""
+    if port == 0:
+        return None
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+    except OSError as exc:
+        return f"cannot resolve {host!r}: {exc.strerror or exc}"
+    family, kind, proto, _, addr = infos[0]
+    with socket.socket(family, kind, proto) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind(addr)
+        except OSError as exc:
+            text = exc.strerror or str(exc)
+            return text[:1].lower() + text[1:]
+    return None
+
+
+def can_open_hint(interface: str, channel: str, exc: BaseException) -> str:
+    """What to do when ``can.Bus(interface, channel)`` failed with ``exc`` ("" if nothing
+    specific): a kernel without SocketCAN, a missing vcan channel."""
+    code = getattr(exc, "errno", None)
+    if interface == "socketcan" and code == errno.EAFNOSUPPORT:
+        return (
+            "; this kernel has no SocketCAN (AF_CAN): load the can, can_raw and vcan modules "
+            "(tools/setup_vcan.sh)"
+        )
+    if interface == "socketcan" and code in (errno.ENODEV, errno.ENXIO):
+        return (
+            f"; {channel} does not exist: sudo ip link add dev {channel} type vcan && "
+            f"sudo ip link set up {channel} (tools/setup_vcan.sh), or name a real adapter"
+        )
+    return ""
+
+
 @dataclass(frozen=True, slots=True)
 class DrivesSpec:
     """What to start in the drives process."""
@@ -236,14 +307,32 @@ async def _serve_drives(
             srv = VirtualModbusServer(
                 VirtualModbusDrive(device_id, word_order=spec.word_order), port=port
             )
-            await srv.serve()
+            try:
+                await srv.serve()
+            except (OSError, RuntimeError) as exc:  # pymodbus: "Could not start listen"
+                reason = port_problem(srv.host, port) or (str(exc) or type(exc).__name__)
+                raise DrivesStartError(
+                    "modbus",
+                    f"Modbus server for device {device_id} on {srv.host}:{port}",
+                    reason,
+                    port=port,
+                ) from exc
             servers.append(srv)
         if spec.can_nodes:
             import can
 
             from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
 
-            bus = can.Bus(interface=spec.can_interface, channel=spec.can_channel)
+            try:
+                bus = can.Bus(interface=spec.can_interface, channel=spec.can_channel)
+            except (OSError, can.CanError, ImportError, ValueError, TypeError) as exc:
+                hint = can_open_hint(spec.can_interface, spec.can_channel, exc)
+                raise DrivesStartError(
+                    "can",
+                    f"cannot open CAN interface {spec.can_interface!r} channel "
+                    f"{spec.can_channel!r}",
+                    f"{exc}{hint}",
+                ) from exc
             rack = VirtualCanBus(
                 bus,
                 [VirtualCia402Drive(n) for n in spec.can_nodes],
@@ -262,16 +351,16 @@ async def _serve_drives(
             can_thread = threading.Thread(target=pump, name="virtual-can", daemon=True)
             can_thread.start()
         if ready is not None:
-            ready(
-                {
-                    "modbus": {str(s.drives[0].device_id): s.port for s in servers},
-                    "can": {
-                        "interface": spec.can_interface,
-                        "channel": spec.can_channel,
-                        "nodes": list(spec.can_nodes),
-                    },
+            info: dict[str, object] = {
+                "modbus": {str(s.drives[0].device_id): s.port for s in servers}
+            }
+            if spec.can_nodes:
+                info["can"] = {
+                    "interface": spec.can_interface,
+                    "channel": spec.can_channel,
+                    "nodes": list(spec.can_nodes),
                 }
-            )
+            ready(info)
         while not stop.is_set():
             t = loop.time() - t0
             if spec.duration is not None and t >= spec.duration:
@@ -293,18 +382,38 @@ async def _serve_drives(
 
 
 def _ids(text: str) -> tuple[int, ...]:
-    return tuple(int(x) for x in text.split(",") if x.strip())
+    try:
+        return tuple(int(x) for x in text.split(",") if x.strip())
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"invalid id list: {text!r} (allowed: integers separated by commas, e.g. 1,2)"
+        ) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m motionplc.fieldbus.drives_main")
     parser.add_argument("--modbus", type=_ids, default=(), help="Modbus device ids, e.g. 1,2")
-    parser.add_argument("--modbus-port", type=int, default=0)
-    parser.add_argument("--word-order", choices=("big", "little"), default="big")
+    parser.add_argument(
+        "--modbus-port",
+        type=int,
+        default=0,
+        help="TCP port of the first Modbus drive, the next ones on the following ports "
+        "(default: 0 = ephemeral ports, announced on stdout)",
+    )
+    parser.add_argument(
+        "--word-order",
+        choices=("big", "little"),
+        default="big",
+        help="word order of 32-bit Modbus values (default: big)",
+    )
     parser.add_argument("--can-nodes", type=_ids, default=(), help="CAN node ids, e.g. 1,2,3")
-    parser.add_argument("--can-interface", default="socketcan")
-    parser.add_argument("--can-channel", default="vcan0")
-    parser.add_argument("--duration", type=float, default=None)
+    parser.add_argument(
+        "--can-interface", default="socketcan", help="python-can interface (default: socketcan)"
+    )
+    parser.add_argument("--can-channel", default="vcan0", help="CAN channel (default: vcan0)")
+    parser.add_argument(
+        "--duration", type=float, default=None, help="run time [s] (default: until SIGTERM/SIGINT)"
+    )
     args = parser.parse_args(argv)
     try:
         spec = DrivesSpec(
@@ -333,9 +442,11 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         asyncio.run(run())
-    except OSError as exc:
+    except (OSError, FieldbusError) as exc:
         sys.stderr.write(f"drives: {exc}\n")
         return 1
+    except KeyboardInterrupt:
+        return 130
     return 0
 
 
