@@ -1,23 +1,37 @@
-"""The PLC scope: plots of a trace as PNG or HTML.
+"""The PLC scope: a trace drawn as an interactive HTML page (plotly) or a PNG (matplotlib).
 
-Per axis: position, velocity, acceleration and jerk over time, the PLCopen state lane and one lane
-per function block (busy/active bars, done/error/aborted marks). Per axes group (when the trace
-has groups): the group's path in space coloured by its path speed (XY for two axes, XY and XZ for
-three or more; equal aspect, start and end marked, a colour scale), the path speed over time and
-the group state lane, drawn left of the per-axis columns, which the member axes keep.
+Per axis, one column of lanes over a common time axis: position (commanded and actual
+overlaid), velocity (commanded and actual), acceleration, jerk, following error, and a lane of
+rows for the PLCopen axis state (coloured spans, each named once where it fits; the colours in
+the legend) and one row per function block instance (Busy/Active/Valid spans, Done/Error/
+CommandAborted marks from the FB edge events). Every y-axis names its quantity and unit
+("position [m]"; [rad] for a rotary axis), taken from the trace's units (``*.units.json`` next
+to a CSV, the schema of a Parquet file, ``Trace.units`` of a live runtime); a trace without
+units says "m or rad". Per axes group (when the trace has groups): the group's path in space
+coloured by its path speed (XY for two axes, XY and XZ for three or more; equal aspect, start
+and end marked, a colour scale), the path speed over time and the group state and FB lanes.
 
-:func:`read_trace` reads a trace CSV written by ``motionplc run --trace`` (FB edges from the
-``*.events.csv`` next to it, the group membership from the ``*.groups.json`` sidecar that
-:func:`write_groups_sidecar` writes), :func:`trace_from_runtime` takes the same data from a live
-runtime, and :func:`write_plot` writes a ``.png`` (needs matplotlib, imported only when drawing)
-or a self-contained ``.html`` (no dependencies, no scripts). Long paths are thinned for drawing
-by :func:`decimate_path`, which keeps corners and the speed extremes.
+The HTML page is self-contained (plotly.js inlined, it opens offline): every time axis is linked
+(zoom or pan one, all follow; scroll zooms; double-click resets), a unified hover cursor reads
+every channel of a column at one time, a legend click hides or shows a channel (legend groups
+per axis). Traces longer than ``2 * max_points`` rows are decimated for display by
+:func:`minmax_indices` (per channel the first, lowest and highest sample of each of
+``max_points`` buckets, so peaks survive); the title says so. Group paths are thinned by
+:func:`decimate_path`, which keeps corners and the speed extremes.
 
-Trace columns of a group ``g``: ``g.path_velocity`` (path speed [m/s], >= 0) and ``g.state``
-(a :class:`~motionplc.blocks.enums.GroupState`; in the CSV by member name, e.g.
-``GROUP_MOVING``). Without ``g.path_velocity`` the scope uses the Euclidean norm of the member
-axes' commanded velocities (the path speed of the identity Cartesian mapping) and says so;
-without ``g.state`` the group gets no state lane.
+:func:`read_trace` reads a trace ``.csv`` (``motionplc run --trace``; FB edges from the
+``*.events.csv``, units from ``*.units.json``, group membership from ``*.groups.json``, see
+:func:`write_groups_sidecar`) or ``.parquet`` (``Trace.to_parquet``; edges from
+``*.events.parquet``); :func:`trace_from_runtime` takes the same data from a live runtime;
+:func:`write_plot` draws a trace, :func:`write_series_plot` any time series (``motionplc plan``).
+plotly, matplotlib and pyarrow are imported only when needed; a missing one raises
+:class:`PlotDependencyError` with a one-line message naming the pip extra.
+
+Trace columns of a group ``g``: ``g.path_velocity`` (path speed, >= 0) and ``g.state`` (a
+:class:`~motionplc.blocks.enums.GroupState`; in the CSV by member name, e.g. ``GROUP_MOVING``).
+Without ``g.path_velocity`` the scope uses the Euclidean norm of the member axes' commanded
+velocities (the path speed of the identity Cartesian mapping) and says so; without ``g.state``
+the group gets no state row.
 """
 
 from __future__ import annotations
@@ -34,12 +48,22 @@ from motionplc.errors import MotionPlcError
 MAX_PATH_SEGMENTS = 20_000
 """Default bound on the line segments drawn per path view (see :func:`decimate_path`)."""
 
+MAX_POINTS = 2_000
+"""Default display buckets per channel (about one per pixel column of a wide lane)."""
+
 GROUPS_SUFFIX = ".groups.json"
 """Suffix of the group sidecar of a trace CSV (``out/demo.csv`` -> ``out/demo.groups.json``)."""
 
+UNKNOWN_LENGTH = "m or rad"
+"""The position unit shown for a trace that does not record its units (older CSVs)."""
+
+HTML_DIV_ID = "motionplc-scope"
+"""The id of the plot's ``<div>`` in the HTML page (fixed: the same trace gives the same page)."""
+
 
 class PlotDependencyError(MotionPlcError):
-    """A PNG was asked for but matplotlib is not installed (the message says how to get it)."""
+    """An optional package (matplotlib, plotly or pyarrow) is missing; the message is one line
+    naming the pip extra that installs it."""
 
 
 Event = tuple[int, str, str, bool]
@@ -48,16 +72,58 @@ Event = tuple[int, str, str, bool]
 
 @dataclass(frozen=True, slots=True)
 class ScopeTrace:
-    """What the scope draws: the trace columns, one row per cycle, the FB edges and the groups.
+    """What the scope draws: the trace columns, one row per cycle, the FB edges, the groups and
+    the units.
 
     ``data`` is a float array (rows x columns; states as their enum values); ``groups`` maps a
-    group name to its member axes in order (empty when the trace has no groups).
+    group name to its member axes in order (empty when the trace has no groups); ``units`` maps
+    a column to its unit (``{"x.position": "m", ...}``; empty when the trace has none).
     """
 
     columns: list[str]
     data: Any
     events: list[Event]
     groups: dict[str, list[str]] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+
+
+def _plotly() -> tuple[Any, Any]:
+    """``(plotly.graph_objects, plotly.io)`` or a one-line :class:`PlotDependencyError`."""
+    try:
+        import plotly.graph_objects as go
+        import plotly.io as pio
+    except ImportError:
+        raise PlotDependencyError(
+            "the interactive HTML scope needs plotly: pip install 'motionplc[plot]'"
+        ) from None
+    return go, pio
+
+
+def _pyplot() -> Any:
+    """``matplotlib.pyplot`` on the Agg backend or a one-line :class:`PlotDependencyError`."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise PlotDependencyError(
+            "plotting a PNG needs matplotlib: pip install 'motionplc[plot]' "
+            "(or write an .html plot)"
+        ) from None
+    return plt
+
+
+def _pyarrow() -> tuple[Any, Any]:
+    """``(pyarrow, pyarrow.parquet)`` or a one-line :class:`PlotDependencyError`."""
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise PlotDependencyError(
+            "Parquet traces need pyarrow: pip install 'motionplc[parquet]' (or use a .csv trace)"
+        ) from None
+    return pa, pq
 
 
 def _reason(exc: Exception) -> str:
@@ -135,12 +201,91 @@ def read_groups_sidecar(csv_path: str | Path) -> dict[str, list[str]]:
     return _checked_groups(obj, str(path))
 
 
+# ---------------------------------------------------------------------------- units sidecar
+def read_units_sidecar(csv_path: str | Path) -> dict[str, str]:
+    """The units of a trace CSV from ``<stem>.units.json``; ``{}`` when there is none.
+
+    A sidecar that cannot be read, is not JSON or is not ``{"units": {column: unit}}`` raises
+    :class:`MotionPlcError` located at the sidecar.
+    """
+    from motionplc.runtime.trace import units_sidecar_path
+
+    path = units_sidecar_path(csv_path)
+    if not path.exists():
+        return {}
+    try:
+        obj = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError) as exc:
+        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
+    except json.JSONDecodeError as exc:
+        raise MotionPlcError(
+            f"{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
+        ) from None
+    return _checked_units(obj, str(path))
+
+
+def _checked_units(obj: Any, where: str) -> dict[str, str]:
+    if not isinstance(obj, dict) or set(obj) - {"units"}:
+        raise MotionPlcError(f'{where}: expected an object {{"units": {{column: unit}}}}')
+    units = obj.get("units", {})
+    if not isinstance(units, dict):
+        raise MotionPlcError(f"{where}: units: expected an object {{column: unit}}")
+    for k, v in units.items():
+        if not isinstance(v, str) or not v:
+            raise MotionPlcError(f"{where}: units.{k}: not a unit: {v!r}")
+    return dict(units)
+
+
+def _length_unit(units: Mapping[str, str], axis: str) -> str | None:
+    """The position unit of ``axis`` as recorded (``None`` when the trace does not say)."""
+    return units.get(f"{axis}.position") or units.get(f"{axis}.actual_position")
+
+
+def _derived_unit(length: str | None, order: int) -> str:
+    """The unit of the ``order``-th time derivative of a position in ``length`` (or unknown)."""
+    suffix = ("", "/s", "/s²", "/s³")[order]
+    if length is None:
+        return " or ".join(u + suffix for u in ("m", "rad")) if order else UNKNOWN_LENGTH
+    return length + suffix
+
+
+_FIELD_ORDER = {
+    "position": 0,
+    "actual_position": 0,
+    "following_error": 0,
+    "velocity": 1,
+    "actual_velocity": 1,
+    "acceleration": 2,
+    "jerk": 3,
+    "path_velocity": 1,
+}
+
+
+def column_unit(trace: ScopeTrace, column: str) -> str:
+    """The unit of a trace column: as recorded in the trace, else derived from the position
+    unit of its axis (velocity: position unit per second, ...), else "m or rad" forms; ``s``
+    for ``t`` and ``""`` for columns without a unit (cycle, states)."""
+    if column in trace.units:
+        return trace.units[column]
+    if column == "t":
+        return "s"
+    owner, _, fld = column.rpartition(".")
+    if fld not in _FIELD_ORDER:
+        return ""
+    if owner in trace.groups:
+        lengths = {_length_unit(trace.units, m) for m in trace.groups[owner]}
+        length = lengths.pop() if len(lengths) == 1 else None
+    else:
+        length = _length_unit(trace.units, owner)
+    return _derived_unit(length, _FIELD_ORDER[fld])
+
+
 # ---------------------------------------------------------------------------- reading
 def trace_from_runtime(rt: Any) -> ScopeTrace:
     """The scope data of a runtime's trace ring (the cycles it still holds).
 
     The groups come from ``rt.groups`` (``{name: group}`` with ``group.axis_names``) when the
-    runtime has them; groups without member names are left out.
+    runtime has them; groups without member names are left out. Units from ``rt.trace.units``.
     """
     import numpy as np
 
@@ -152,21 +297,51 @@ def trace_from_runtime(rt: Any) -> ScopeTrace:
         members = [str(m) for m in (getattr(group, "axis_names", None) or ())]
         if members:
             groups[str(name)] = members
-    return ScopeTrace(columns, data, events, groups)
+    units = dict(getattr(rt.trace, "units", None) or {})
+    return ScopeTrace(columns, data, events, groups, units)
 
 
-def read_trace(path: Path) -> ScopeTrace:
-    """Read a trace CSV (``motionplc run --trace``), its ``*.events.csv`` and groups sidecar.
-
-    Axis states (``STANDSTILL``) and group states (``GROUP_MOVING``) are read by name. Raises
-    :class:`MotionPlcError` located at ``file:line`` for anything that is not a trace, and at the
-    sidecar for a broken one or a group whose member axis has no columns in the trace.
-    """
+def _state_names() -> dict[str, float]:
     from motionplc.blocks import AxisState
     from motionplc.blocks.enums import GroupState
 
     states = {s.name: float(s.value) for s in AxisState}
     states.update({s.name: float(s.value) for s in GroupState})
+    return states
+
+
+def read_trace(path: Path) -> ScopeTrace:
+    """Read a trace ``.csv`` or ``.parquet`` and what lies next to it (edges, groups, units).
+
+    CSV (``motionplc run --trace``): FB edges from ``*.events.csv``, units from
+    ``*.units.json`` (absent in older traces: then none). Parquet (``Trace.to_parquet``): edges
+    from ``*.events.parquet``, units from the schema. Both: groups from ``*.groups.json``. Axis
+    states (``STANDSTILL``) and group states (``GROUP_MOVING``) are read by name; the values of
+    both formats are the same float64 numbers bit for bit. Raises :class:`MotionPlcError`
+    located at ``file:line`` (CSV) or ``file: column`` for anything that is not a trace, at the
+    sidecar for a broken one or a group whose member axis has no columns in the trace, and
+    :class:`PlotDependencyError` for a Parquet file without pyarrow.
+    """
+    path = Path(path)
+    if path.suffix.lower() == ".parquet":
+        columns, data, events, units = _read_parquet(path)
+    else:
+        columns, data, events = _read_csv(path)
+        units = read_units_sidecar(path)
+    groups = read_groups_sidecar(path)
+    axes = [c[: -len(".position")] for c in columns if c.endswith(".position")]
+    for name, members in groups.items():
+        for m in members:
+            if m not in axes:
+                raise MotionPlcError(
+                    f"{groups_sidecar_path(path)}: groups.{name}: axis {m!r} has no columns in "
+                    f"{path.name} (its axes: {', '.join(axes) or 'none'})"
+                )
+    return ScopeTrace(columns, data, events, groups, units)
+
+
+def _read_csv(path: Path) -> tuple[list[str], Any, list[Event]]:
+    states = _state_names()
     try:
         with path.open(newline="") as fh:
             reader = csv.reader(fh)
@@ -188,16 +363,65 @@ def read_trace(path: Path) -> ScopeTrace:
             for row in list(csv.reader(fh))[1:]:
                 if len(row) == 4:
                     events.append((int(row[0]), row[1], row[2], row[3] == "True"))
-    groups = read_groups_sidecar(path)
-    axes = [c[: -len(".position")] for c in columns if c.endswith(".position")]
-    for name, members in groups.items():
-        for m in members:
-            if m not in axes:
-                raise MotionPlcError(
-                    f"{groups_sidecar_path(path)}: groups.{name}: axis {m!r} has no columns in "
-                    f"{path.name} (its axes: {', '.join(axes) or 'none'})"
-                )
-    return ScopeTrace(columns, data, events, groups)
+    return columns, data, events
+
+
+def _read_parquet(path: Path) -> tuple[list[str], Any, list[Event], dict[str, str]]:
+    import numpy as np
+
+    from motionplc.runtime.trace import PARQUET_META_KEY
+
+    pa, pq = _pyarrow()
+    try:
+        table = pq.read_table(str(path))
+    except (OSError, pa.ArrowException) as exc:
+        raise MotionPlcError(f"{path}: cannot read as Parquet: {_reason(exc)}") from None
+    columns = list(table.column_names)
+    if columns[:2] != ["cycle", "t"]:
+        raise MotionPlcError(f"{path}: not a motionplc trace (expected columns cycle, t, ...)")
+    try:
+        meta = json.loads((table.schema.metadata or {}).get(PARQUET_META_KEY, b"{}"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise MotionPlcError(f"{path}: schema metadata 'motionplc' is not JSON: {exc}") from None
+    units = {
+        f.name: f.metadata[b"unit"].decode()
+        for f in table.schema
+        if f.metadata and b"unit" in f.metadata
+    }
+    units.update(_checked_units({"units": meta.get("units", {})}, f"{path}: metadata"))
+    states = _state_names()
+    out = np.empty((table.num_rows, len(columns)))
+    for j, (name, col) in enumerate(zip(columns, table.columns, strict=True)):
+        if col.null_count:
+            raise MotionPlcError(f"{path}: {name}: {col.null_count} missing values")
+        typ = col.type
+        if pa.types.is_dictionary(typ) or pa.types.is_string(typ):
+            names = col.cast(pa.string()).to_numpy(zero_copy_only=False)
+            table_ = {
+                **states,
+                **{k: float(v) for k, v in meta.get("enums", {}).get(name, {}).items()},
+            }
+            uniq, inverse = np.unique(names.astype(str), return_inverse=True)
+            bad = [u for u in uniq if u not in table_]
+            if bad:
+                raise MotionPlcError(f"{path}: {name}: not a state name: {bad[0]!r}")
+            out[:, j] = np.array([table_[u] for u in uniq], dtype=float)[inverse]
+        elif pa.types.is_integer(typ) or pa.types.is_floating(typ) or pa.types.is_boolean(typ):
+            out[:, j] = col.to_numpy().astype(float)
+        else:
+            raise MotionPlcError(f"{path}: {name}: unsupported column type {typ}")
+    events: list[Event] = []
+    ev_path = path.with_suffix(".events.parquet")
+    if ev_path.is_file():
+        try:
+            ev = pq.read_table(str(ev_path)).to_pydict()
+            events = [
+                (int(c), str(f), str(o), bool(v))
+                for c, f, o, v in zip(ev["cycle"], ev["fb"], ev["output"], ev["value"], strict=True)
+            ]
+        except (OSError, KeyError, pa.ArrowException) as exc:
+            raise MotionPlcError(f"{ev_path}: not an FB edge table: {_reason(exc)}") from None
+    return columns, out, events, units
 
 
 def _load_numbers(
@@ -302,7 +526,203 @@ def decimate_path(points: Any, speed: Any, max_segments: int = MAX_PATH_SEGMENTS
     return np.unique(np.concatenate([bounds, far, fast, slow]))
 
 
+# ---------------------------------------------------------------------------- display decimation
+def minmax_indices(values: Any, buckets: int = MAX_POINTS) -> Any:
+    """Indices of the samples that draw ``values`` on ``buckets`` pixel columns, peaks kept.
+
+    Guarantees: the result is strictly increasing, starts at 0 and ends at n - 1; when
+    n <= 2 * ``buckets`` it is every sample; otherwise the samples are cut into at most
+    ``buckets`` runs of equal length (the last may be shorter) and from each the first, the
+    lowest and the highest sample are kept (at most 3 * ``buckets`` + 1 indices), so the drawn
+    line reaches every extreme of the full signal in every bucket. NaN samples count neither
+    as lowest nor as highest. Raises ``ValueError`` for ``buckets < 1`` or a non-1-D input.
+    """
+    import numpy as np
+
+    y = np.asarray(values, dtype=float)
+    if y.ndim != 1:
+        raise ValueError(f"minmax_indices: values: one-dimensional array needed, got {y.shape}")
+    if isinstance(buckets, bool) or int(buckets) < 1:
+        raise ValueError(f"minmax_indices: buckets: {buckets} (allowed: >= 1)")
+    n = len(y)
+    if n <= 2 * int(buckets):
+        return np.arange(n)
+    size = -(-n // int(buckets))
+    nb = -(-n // size)
+    padded = np.concatenate([y, np.full(nb * size - n, np.nan)]).reshape(nb, size)
+    nan = np.isnan(padded)
+    base = np.arange(nb) * size
+    lo = base + np.argmin(np.where(nan, np.inf, padded), axis=1)
+    hi = base + np.argmax(np.where(nan, -np.inf, padded), axis=1)
+    idx = np.unique(np.concatenate([base, lo, hi, [n - 1]]))
+    return idx[idx < n]
+
+
 # ---------------------------------------------------------------------------- lanes
+_SIGNAL_COLORS = {
+    "position": "#1f77b4",
+    "velocity": "#1f77b4",
+    "acceleration": "#2ca02c",
+    "jerk": "#9467bd",
+    "actual_position": "#ff7f0e",
+    "actual_velocity": "#ff7f0e",
+    "following_error": "#d62728",
+    "path_velocity": "#1f77b4",
+}
+
+_AXIS_ROWS: tuple[tuple[str, tuple[str, ...], float], ...] = (
+    ("position", ("position", "actual_position"), 1.1),
+    ("velocity", ("velocity", "actual_velocity"), 1.0),
+    ("acceleration", ("acceleration",), 0.8),
+    ("jerk", ("jerk",), 0.6),
+    ("following error", ("following_error",), 0.7),
+)
+"""Value lanes of an axis column: (quantity, trace fields drawn in it, relative height)."""
+
+_LANE_ROW_WEIGHT = 0.13
+"""Relative height of one state/FB row."""
+
+_LANE_COLORS = {
+    "busy": "#c6dbef",
+    "active": "#2171b5",
+    "valid": "#74c476",
+    "status": "#238b45",
+    "in_velocity": "#6a51a3",
+    "done": "#000000",
+    "error": "#d62728",
+    "command_aborted": "#ff7f0e",
+}
+_BAR_OUTPUTS = ("busy", "valid", "status", "active", "in_velocity")  # drawn in this order
+_BAR_HEIGHT = {"busy": 0.8, "valid": 0.8, "status": 0.5, "active": 0.45, "in_velocity": 0.25}
+_MARKS = {"done": "|", "error": "x", "command_aborted": "v"}
+_MARK_SYMBOLS = {"done": "line-ns", "error": "x-thin", "command_aborted": "triangle-down"}
+
+_AXIS_STATE_COLORS = (  # AxisState value order: DISABLED .. ERROR_STOP
+    "#d9d9d9",
+    "#a1d99b",
+    "#fdd0a2",
+    "#9ecae1",
+    "#bcbddc",
+    "#c7e9c0",
+    "#fdae6b",
+    "#d62728",
+)
+
+_GROUP_STATE_COLORS = {  # GroupState value -> colour, matching the axis state lane's colours
+    0: "#d9d9d9",  # GROUP_DISABLED (axis DISABLED)
+    1: "#a1d99b",  # GROUP_STANDBY (axis STANDSTILL)
+    2: "#fdd0a2",  # GROUP_HOMING (axis HOMING)
+    3: "#9ecae1",  # GROUP_MOVING (axis DISCRETE_MOTION)
+    4: "#fdae6b",  # GROUP_STOPPING (axis STOPPING)
+    5: "#d62728",  # GROUP_ERROR_STOP (axis ERROR_STOP)
+}
+
+
+def _state_table(kind: str) -> dict[int, tuple[str, str]]:
+    """State value -> (name, colour) of the axis (``"axis"``) or group state enum."""
+    from motionplc.blocks import AxisState
+    from motionplc.blocks.enums import GroupState
+
+    if kind == "axis":
+        return {
+            int(s.value): (s.name, _AXIS_STATE_COLORS[i % len(_AXIS_STATE_COLORS)])
+            for i, s in enumerate(AxisState)
+        }
+    return {
+        int(s.value): (s.name, _GROUP_STATE_COLORS.get(int(s.value), "grey")) for s in GroupState
+    }
+
+
+Span = tuple[str, float, float]
+"""An FB output span (output, t_from, t_to); t_from == t_to for a Done/Error/Aborted mark."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Column:
+    """One column of lanes: an axis (value lanes) or a group (path view and path speed)."""
+
+    name: str
+    kind: str  # "axis" or "group"
+    title: str
+    signals: dict[str, Any]  # field -> values over the trace's time (present ones only)
+    units: dict[str, str]  # field -> unit
+    state: Any  # state values or None
+    fbs: dict[str, list[Span]]
+    members: tuple[str, ...] = ()
+    positions: Any = None  # group: (n, d) member positions
+    speed_derived: bool = False
+    member_units: tuple[str, ...] = ()  # group: the position unit of each member
+
+    def lane_labels(self) -> list[str]:
+        return [("state" if self.state is not None else "(no state)"), *self.fbs]
+
+    def projections(self) -> list[tuple[int, int]]:
+        """Member index pairs drawn: XY for two axes, XY and XZ for three or more, none for one."""
+        d = len(self.members)
+        return [] if d < 2 else [(0, 1)] if d == 2 else [(0, 1), (0, 2)]
+
+
+def _columns(trace: ScopeTrace) -> tuple[Any, list[_Column]]:
+    """The time vector and the columns of the scope: the groups first, then the axes."""
+    import numpy as np
+
+    data = np.asarray(trace.data, dtype=float)
+    if data.ndim != 2 or data.shape[1] != len(trace.columns):
+        raise MotionPlcError(
+            f"trace data: {data.shape} does not match {len(trace.columns)} columns"
+        )
+    cols = {c: i for i, c in enumerate(trace.columns)}
+    t, t0, c0, dt, t_end = _time_base(data)
+    t_end += dt if len(t) else 0.0
+    axes = [c[: -len(".position")] for c in trace.columns if c.endswith(".position")]
+    axes = [a for a in axes if "." not in a]
+    member_of = {m: g for g, ms in trace.groups.items() for m in ms}
+    out: list[_Column] = []
+    for name, members in trace.groups.items():
+        pos = np.column_stack([data[:, cols[f"{m}.position"]] for m in members])
+        derived = f"{name}.path_velocity" not in cols
+        if derived:
+            vel = np.column_stack(
+                [data[:, cols[f"{m}.velocity"]] for m in members if f"{m}.velocity" in cols]
+            )
+            speed = np.sqrt(np.sum(vel * vel, axis=1))
+        else:
+            speed = data[:, cols[f"{name}.path_velocity"]]
+        state = data[:, cols[f"{name}.state"]] if f"{name}.state" in cols else None
+        out.append(
+            _Column(
+                name=name,
+                kind="group",
+                title=f"group {name}: {', '.join(members)}",
+                signals={"path_velocity": speed},
+                units={"path_velocity": column_unit(trace, f"{name}.path_velocity")},
+                state=state,
+                fbs=_fb_intervals(name, trace.events, t0, c0, dt, t_end),
+                members=tuple(members),
+                positions=pos,
+                speed_derived=derived,
+                member_units=tuple(column_unit(trace, f"{m}.position") for m in members),
+            )
+        )
+    for ax in axes:
+        fields = [f for _, fs, _ in _AXIS_ROWS for f in fs]
+        signals = {f: data[:, cols[f"{ax}.{f}"]] for f in fields if f"{ax}.{f}" in cols}
+        group = f" (group {member_of[ax]})" if ax in member_of else ""
+        out.append(
+            _Column(
+                name=ax,
+                kind="axis",
+                title=f"axis {ax}{group}",
+                signals=signals,
+                units={f: column_unit(trace, f"{ax}.{f}") for f in fields},
+                state=data[:, cols[f"{ax}.state"]] if f"{ax}.state" in cols else None,
+                fbs=_fb_intervals(ax, trace.events, t0, c0, dt, t_end),
+                members=(ax,),
+            )
+        )
+    return t, out
+
+
 def _fb_intervals(
     prefix: str, events: list[Event], t0: float, c0: int, dt: float, t_end: float
 ) -> dict[str, list[tuple[str, float, float]]]:
@@ -337,62 +757,6 @@ def _time_base(data: Any) -> tuple[Any, float, int, float, float]:
     return t, t0, c0, dt, t_end
 
 
-def _lanes(columns: list[str], data: Any, events: list[Event]) -> dict[str, Any]:
-    """Per axis: p/v/a/j arrays, state segments and FB intervals (busy/active, done/error)."""
-    t, t0, c0, dt, t_end = _time_base(data)
-    axes = [c[: -len(".position")] for c in columns if c.endswith(".position")]
-    axes = [a for a in axes if "." not in a]
-    out: dict[str, Any] = {}
-    for ax in axes:
-        col = {
-            f: data[:, columns.index(f"{ax}.{f}")]
-            for f in ("position", "velocity", "acceleration", "jerk", "state")
-        }
-        fbs = _fb_intervals(ax, events, t0, c0, dt, t_end)
-        out[ax] = {"t": t, **col, "fbs": fbs}
-    return out
-
-
-@dataclass(frozen=True, slots=True)
-class _GroupView:
-    """One group's drawing data: member positions (n, d), path speed, state (or None), FBs."""
-
-    name: str
-    members: tuple[str, ...]
-    t: Any
-    positions: Any
-    speed: Any
-    speed_derived: bool
-    state: Any
-    fbs: dict[str, list[tuple[str, float, float]]]
-
-    def projections(self) -> list[tuple[int, int]]:
-        """Member index pairs drawn: XY for two axes, XY and XZ for three or more, none for one."""
-        d = len(self.members)
-        return [] if d < 2 else [(0, 1)] if d == 2 else [(0, 1), (0, 2)]
-
-
-def _group_views(trace: ScopeTrace) -> list[_GroupView]:
-    import numpy as np
-
-    cols = {c: i for i, c in enumerate(trace.columns)}
-    data = trace.data
-    t, t0, c0, dt, t_end = _time_base(data)
-    views = []
-    for name, members in trace.groups.items():
-        pos = np.column_stack([data[:, cols[f"{m}.position"]] for m in members])
-        derived = f"{name}.path_velocity" not in cols
-        if derived:
-            vel = np.column_stack([data[:, cols[f"{m}.velocity"]] for m in members])
-            speed = np.sqrt(np.sum(vel * vel, axis=1))
-        else:
-            speed = data[:, cols[f"{name}.path_velocity"]]
-        state = data[:, cols[f"{name}.state"]] if f"{name}.state" in cols else None
-        fbs = _fb_intervals(name, trace.events, t0, c0, dt, t_end)
-        views.append(_GroupView(name, tuple(members), t, pos, speed, derived, state, fbs))
-    return views
-
-
 def _runs(state: Any) -> list[tuple[int, int]]:
     """(first, next) index pairs of the runs of equal values (``next`` is len for the last)."""
     import numpy as np
@@ -404,224 +768,718 @@ def _runs(state: Any) -> list[tuple[int, int]]:
     return list(zip([0, *cuts], [*cuts, n], strict=True))
 
 
+def _state_spans(t: Any, state: Any, max_spans: int) -> list[tuple[int, float, float]]:
+    """(state value, t_from, t_to) of the runs of equal state (the last one ends one cycle after
+    the last sample); when there are more than ``max_spans`` runs, those of the state sampled
+    at ``max_spans`` evenly spaced rows (short blips may then be missing)."""
+    import numpy as np
+
+    n = len(t)
+    if n == 0 or state is None:
+        return []
+    dt = float(t[1] - t[0]) if n > 1 else 0.001
+    runs = _runs(state)
+    if len(runs) > max_spans:
+        rows = np.unique(np.linspace(0, n - 1, max_spans).round().astype(int))
+        sub = _runs(np.asarray(state)[rows])
+        runs = [(int(rows[a]), int(rows[b]) if b < len(rows) else n) for a, b in sub]
+    return [
+        (int(state[a]), float(t[a]), float(t[b]) if b < n else float(t[-1]) + dt) for a, b in runs
+    ]
+
+
+def _merged(spans: list[tuple[float, float]], gap: float) -> list[tuple[float, float]]:
+    """Spans sorted and joined where they are less than ``gap`` apart (display decimation)."""
+    out: list[tuple[float, float]] = []
+    for a, b in sorted(spans):
+        if out and a - out[-1][1] <= gap:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def _fb_display(
+    fbs: Mapping[str, list[Span]], gap: float
+) -> tuple[dict[str, list[tuple[int, float, float]]], dict[str, list[tuple[int, float]]]]:
+    """Bars per output (row, t_from, t_to) and marks per output (row, t), rows from 1, with
+    bars closer than ``gap`` joined and at most one mark per output, row and ``gap``."""
+    bars: dict[str, list[tuple[int, float, float]]] = {}
+    marks: dict[str, list[tuple[int, float]]] = {}
+    for row, (_fb, spans) in enumerate(fbs.items(), start=1):
+        by_out: dict[str, list[tuple[float, float]]] = {}
+        for output, ta, tb in spans:
+            by_out.setdefault(output, []).append((ta, tb))
+        for output, items in by_out.items():
+            if output in _MARKS:
+                seen: set[int] = set()
+                for ta, _tb in sorted(items):
+                    k = int(ta // gap) if gap > 0 else 0
+                    if k not in seen:
+                        seen.add(k)
+                        marks.setdefault(output, []).append((row, ta))
+            else:
+                bars.setdefault(output, []).extend((row, a, b) for a, b in _merged(items, gap))
+    return bars, marks
+
+
+def _fb_status_text(spans: list[Span], grid: Any) -> list[str]:
+    """The FB outputs that are true at each grid time (marks within the grid step after it)."""
+    import numpy as np
+
+    g = np.asarray(grid, dtype=float)
+    parts: list[list[str]] = [[] for _ in range(len(g))]
+    by_out: dict[str, list[tuple[float, float]]] = {}
+    for output, ta, tb in spans:
+        by_out.setdefault(output, []).append((ta, tb))
+    for output in [*_BAR_OUTPUTS, *(o for o in by_out if o not in _BAR_OUTPUTS)]:
+        items = by_out.get(output)
+        if not items or len(g) == 0:
+            continue
+        arr = np.array(sorted(items))
+        if output in _MARKS:
+            k = np.searchsorted(g, arr[:, 0], side="right") - 1
+            hit = np.zeros(len(g), bool)
+            hit[np.clip(k, 0, len(g) - 1)] = True
+        else:
+            k = np.searchsorted(arr[:, 0], g, side="right") - 1
+            ends = np.maximum.accumulate(arr[:, 1])
+            hit = (k >= 0) & (g < ends[np.clip(k, 0, None)])
+        for i in np.flatnonzero(hit):
+            parts[i].append(output)
+    return [", ".join(p) if p else "-" for p in parts]
+
+
+# ---------------------------------------------------------------------------- writing
+def write_plot(
+    out: Path,
+    trace: ScopeTrace,
+    title: str,
+    max_segments: int = MAX_PATH_SEGMENTS,
+    max_points: int = MAX_POINTS,
+) -> None:
+    """Write the scope of ``trace`` to ``out``: ``.html``/``.htm`` (interactive, plotly), else PNG.
+
+    The HTML page is self-contained (plotly.js inlined) and the same trace gives the same
+    bytes. Channels longer than ``2 * max_points`` rows are decimated for display by
+    :func:`minmax_indices` (the title says so); group paths have at most ``max_segments``
+    segments per view (:func:`decimate_path`; at most ``4 * max_points`` in the HTML). Raises
+    :class:`MotionPlcError` for a trace without axis columns and :class:`PlotDependencyError`
+    when plotly (HTML) or matplotlib (PNG) is missing; creates the parent directory.
+    """
+    t, cols = _columns(trace)
+    if not any(c.kind == "axis" for c in cols):
+        raise MotionPlcError(f"{title}: the trace has no axis columns")
+    if isinstance(max_points, bool) or int(max_points) < 1:
+        raise ValueError(f"write_plot: max_points: {max_points} (allowed: >= 1)")
+    html = out.suffix.lower() in (".html", ".htm")
+    if html:
+        go, pio = _plotly()
+        fig = _html_figure(go, t, cols, title, int(max_points), max_segments)
+        page = pio.to_html(
+            fig, include_plotlyjs=True, full_html=True, div_id=HTML_DIV_ID, config=_HTML_CONFIG
+        )
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(page, encoding="utf-8")
+        return
+    plt = _pyplot()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    _png(plt, out, t, cols, title, int(max_points), max_segments)
+
+
+_HTML_CONFIG = {
+    "scrollZoom": True,
+    "displaylogo": False,
+    "responsive": True,
+    "toImageButtonOptions": {"format": "png", "scale": 2},
+}
+
+
+def _decimation_note(n: int, max_points: int) -> str:
+    if n <= 2 * max_points:
+        return f"{n} samples per channel, all drawn"
+    return (
+        f"{n} samples per channel, display decimated: first, min and max of each of "
+        f"{max_points} buckets"
+    )
+
+
+def _axis_key(letter: str, k: int) -> tuple[str, str]:
+    """(layout key, trace reference) of the k-th x or y axis (1-based): xaxis/x, xaxis2/x2."""
+    return (f"{letter}axis", letter) if k == 1 else (f"{letter}axis{k}", f"{letter}{k}")
+
+
+def _row_domains(weights: Sequence[float], gap: float) -> list[tuple[float, float]]:
+    """Vertical domains (bottom, top) of rows of relative heights, top row first."""
+    total = sum(weights) + gap * (len(weights) - 1)
+    out, top = [], 1.0
+    for w in weights:
+        bottom = top - w / total
+        out.append((max(bottom, 0.0), top))
+        top = bottom - gap / total
+    return out
+
+
+def _html_figure(
+    go: Any, t: Any, cols: list[_Column], title: str, max_points: int, max_segments: int
+) -> Any:
+    """The plotly figure: one column of lanes per group and axis, time axes linked."""
+    import numpy as np
+
+    n = len(t)
+    t = np.asarray(t, dtype=float)
+    n_lanes = max(len(c.lane_labels()) for c in cols)
+    weights = [w for _, _, w in _AXIS_ROWS] + [max(0.35, _LANE_ROW_WEIGHT * n_lanes)]
+    gap = 0.2
+    rows = _row_domains(weights, gap)
+    ncol = len(cols)
+    gap_x = 0.07 if ncol > 1 else 0.0
+    width = (1.0 - gap_x * (ncol - 1)) / ncol
+    grid = np.unique(np.linspace(0, n - 1, min(n, max_points)).round().astype(int)) if n else []
+    grid_t = t[grid] if n else np.zeros(0)
+    bucket = (float(t[-1] - t[0]) / max_points) if n > 1 else 0.0
+    data: list[dict[str, Any]] = []
+    layout: dict[str, Any] = {}
+    annotations: list[dict[str, Any]] = []
+    shown: set[str] = set()  # legend entries shown once (states, FB outputs)
+    ny = 0
+    nx = ncol  # x axes 1..ncol are the columns' time axes
+
+    def new_y(domain: tuple[float, float], anchor: str, **kw: Any) -> str:
+        nonlocal ny
+        ny += 1
+        key, ref = _axis_key("y", ny)
+        layout[key] = {"domain": list(domain), "anchor": anchor, "automargin": True, **kw}
+        return ref
+
+    def ytitle(text: str) -> dict[str, Any]:
+        return {"text": text, "font": {"size": 11}, "standoff": 4}
+
+    def signal(col: _Column, fld: str, tx: str, ty: str, unit: str) -> None:
+        y = np.asarray(col.signals[fld], dtype=float)
+        idx = minmax_indices(y, max_points)
+        name = f"{col.name}.{fld}"
+        data.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "x": t[idx],
+                "y": y[idx],
+                "xaxis": tx,
+                "yaxis": ty,
+                "name": name,
+                "legendgroup": col.name,
+                "legendgrouptitle": {"text": col.title},
+                "line": {
+                    "color": _SIGNAL_COLORS.get(fld, "#333"),
+                    "width": 1.4,
+                    "dash": "dash" if fld.startswith("actual_") else "solid",
+                    "shape": "hv" if fld == "jerk" else "linear",
+                },
+                "hovertemplate": f"{name}: %{{y:.6g}} {unit}<extra></extra>",
+            }
+        )
+
+    for c, col in enumerate(cols):
+        x0 = c * (width + gap_x)
+        dom_x = [x0, x0 + width]
+        tkey, tx = _axis_key("x", c + 1)
+        annotations.append(
+            {
+                "text": f"<b>{col.title}</b>",
+                "x": x0 + width / 2,
+                "y": 1.0,
+                "xref": "paper",
+                "yref": "paper",
+                "yanchor": "bottom",
+                "showarrow": False,
+                "font": {"size": 13},
+            }
+        )
+        if col.kind == "axis":
+            for r, (qty, fields, _w) in enumerate(_AXIS_ROWS):
+                unit = col.units[fields[0]]
+                present = [f for f in fields if f in col.signals]
+                ty = new_y(rows[r], tx, title=ytitle(f"{qty} [{unit}]"))
+                for f in present:
+                    signal(col, f, tx, ty, unit)
+                if not present:
+                    layout[_axis_key("y", ny)[0]]["title"] = ytitle(f"{qty} (not in trace)")
+        else:
+            proj = col.projections()
+            top, bottom = rows[0][1], rows[2][0]
+            pos = np.asarray(col.positions, dtype=float)
+            speed = np.asarray(col.signals["path_velocity"], dtype=float)
+            segs = min(max_segments, 4 * max_points)
+            keep = decimate_path(pos, speed, segs) if len(pos) else np.arange(0)
+            v_top = _speed_scale(speed[keep]) if len(keep) else 1.0
+            unit = col.units["path_velocity"]
+            views = _row_domains([1.0] * len(proj), 0.12 if len(proj) > 1 else 0.0)
+            for k, (i, j) in enumerate(proj):
+                lo_, hi_ = views[k]
+                dom_y = [bottom + lo_ * (top - bottom), bottom + hi_ * (top - bottom)]
+                nx += 1
+                pkey, px = _axis_key("x", nx)
+                ny += 1
+                qkey, py = _axis_key("y", ny)
+                mu = [col.member_units[i], col.member_units[j]]
+                layout[pkey] = {
+                    "domain": [dom_x[0], dom_x[0] + 0.72 * width],  # the colour bar right of it
+                    "anchor": py,
+                    "title": ytitle(f"{col.members[i]} position [{mu[0]}]"),
+                    "automargin": True,
+                }
+                layout[qkey] = {
+                    "domain": dom_y,
+                    "anchor": px,
+                    "scaleanchor": px,
+                    "scaleratio": 1,
+                    "constrain": "domain",
+                    "title": ytitle(f"{col.members[j]} position [{mu[1]}]"),
+                    "automargin": True,
+                }
+                xs, ys = pos[keep, i], pos[keep, j]
+                data.append(
+                    {
+                        "type": "scatter",
+                        "mode": "lines+markers",
+                        "x": xs,
+                        "y": ys,
+                        "xaxis": px,
+                        "yaxis": py,
+                        "name": f"{col.name} path ({col.members[i]}, {col.members[j]})",
+                        "legendgroup": col.name,
+                        "legendgrouptitle": {"text": col.title},
+                        "line": {"color": "#bbbbbb", "width": 1},
+                        "marker": {
+                            "size": 4,
+                            "color": speed[keep],
+                            "colorscale": "Viridis",
+                            "cmin": 0.0,
+                            "cmax": v_top,
+                            "showscale": k == 0,
+                            "colorbar": {
+                                "title": {"text": f"path speed<br>[{unit}]", "side": "top"},
+                                "x": dom_x[1],
+                                "xanchor": "right",
+                                "y": (top + bottom) / 2,
+                                "len": (top - bottom),
+                                "thickness": 10,
+                            },
+                        },
+                        "hovertemplate": (
+                            f"{col.members[i]} %{{x:.6g}}, {col.members[j]} %{{y:.6g}}, "
+                            f"path speed %{{marker.color:.4g}} {unit}<extra></extra>"
+                        ),
+                    }
+                )
+                if len(xs):
+                    for label, at, sym, colour in (
+                        ("start", 0, "circle-open", "#2ca02c"),
+                        ("end", -1, "square", "#d62728"),
+                    ):
+                        data.append(
+                            {
+                                "type": "scatter",
+                                "mode": "markers",
+                                "x": [xs[at]],
+                                "y": [ys[at]],
+                                "xaxis": px,
+                                "yaxis": py,
+                                "name": f"{col.name} {label}",
+                                "legendgroup": col.name,
+                                "showlegend": False,
+                                "marker": {
+                                    "symbol": sym,
+                                    "size": 12,
+                                    "color": colour,
+                                    "line": {"width": 2, "color": colour},
+                                },
+                                "hovertemplate": f"{label}<extra></extra>",
+                            }
+                        )
+            if len(keep) < len(pos):
+                annotations[-1]["text"] += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
+            note = " (norm of member velocities)" if col.speed_derived else ""
+            ty = new_y((rows[4][0], rows[3][1]), tx, title=ytitle(f"path speed [{unit}]{note}"))
+            signal(col, "path_velocity", tx, ty, unit)
+        # the state and FB lane rows (the time axis is anchored here, at the bottom)
+        labels = col.lane_labels()
+        ty = new_y(
+            rows[-1],
+            tx,
+            range=[len(labels) - 0.5, -0.5],
+            tickmode="array",
+            tickvals=list(range(len(labels))),
+            ticktext=labels,
+            tickfont={"size": 10},
+            fixedrange=True,
+            showgrid=False,
+            zeroline=False,
+        )
+        layout[tkey] = {
+            "domain": dom_x,
+            "anchor": ty,
+            "title": {"text": "time [s]", "font": {"size": 11}, "standoff": 4},
+            "showspikes": True,
+            "spikemode": "across",
+            "spikesnap": "cursor",
+            "spikethickness": 1,
+            "spikecolor": "#666",
+            "spikedash": "solid",
+            "hoverformat": ".4f",
+            "automargin": True,
+            **({"matches": "x"} if c else {}),
+        }
+        _html_lanes(data, shown, col, t, tx, ty, grid_t, bucket, max_points)
+    ncycles = f"{n} cycles, t = {t[0]:.4g} .. {t[-1]:.4g} s" if n else "no cycles"
+    layout.update(
+        {
+            "title": {
+                "text": f"{title}<br><sup>{ncycles}; {_decimation_note(n, max_points)}. "
+                "Drag: zoom (all time axes follow), double-click: reset, scroll: zoom, "
+                "legend click: show/hide a channel</sup>",
+                "x": 0.01,
+                "font": {"size": 15},
+            },
+            "height": int(160 + 150 * (sum(weights) + gap * len(_AXIS_ROWS))),
+            "margin": {"l": 60, "r": 20, "t": 90, "b": 50},
+            "hovermode": "x unified",
+            "hoversubplots": "axis",
+            "hoverlabel": {"font": {"size": 11}},
+            "barmode": "overlay",
+            "uniformtext": {"mode": "hide", "minsize": 9},
+            "legend": {
+                "groupclick": "toggleitem",
+                "font": {"size": 10},
+                "tracegroupgap": 10,
+                "itemsizing": "constant",
+            },
+            "template": "plotly_white",
+            "annotations": annotations,
+            "dragmode": "zoom",
+        }
+    )
+    return go.Figure(data=data, layout=layout)
+
+
+def _html_lanes(
+    data: list[dict[str, Any]],
+    shown: set[str],
+    col: _Column,
+    t: Any,
+    tx: str,
+    ty: str,
+    grid_t: Any,
+    bucket: float,
+    max_points: int,
+) -> None:
+    """The state row (coloured spans named inside where the name fits) and the FB rows."""
+    import numpy as np
+
+    table = _state_table(col.kind)
+    spans = _state_spans(t, col.state, 4 * max_points)
+    by_state: dict[int, list[tuple[float, float]]] = {}
+    for s, ta, tb in spans:
+        by_state.setdefault(s, []).append((ta, tb))
+    for s, items in sorted(by_state.items()):
+        name, colour = table.get(s, (str(s), "grey"))
+        key = f"state {name}"
+        arr = np.array(items)
+        data.append(
+            {
+                "type": "bar",
+                "orientation": "h",
+                "base": arr[:, 0],
+                "x": arr[:, 1] - arr[:, 0],
+                "y": np.zeros(len(arr)),
+                "width": 0.8,
+                "xaxis": tx,
+                "yaxis": ty,
+                "name": name,
+                "legendgroup": "states",
+                "legendgrouptitle": {"text": "states"},
+                "showlegend": key not in shown,
+                "marker": {"color": colour, "line": {"width": 0.5, "color": "#ffffff"}},
+                "text": [name] * len(arr),
+                "textposition": "inside",
+                "insidetextanchor": "middle",
+                "textangle": 0,
+                "constraintext": "both",
+                "textfont": {"size": 10, "color": "#111111"},
+                "hoverinfo": "skip",
+            }
+        )
+        shown.add(key)
+    bars, marks = _fb_display(col.fbs, bucket)
+    for output in [*_BAR_OUTPUTS, *(o for o in bars if o not in _BAR_OUTPUTS)]:
+        items3 = bars.get(output)
+        if not items3:
+            continue
+        arr = np.array(items3)
+        key = f"fb {output}"
+        data.append(
+            {
+                "type": "bar",
+                "orientation": "h",
+                "base": arr[:, 1],
+                "x": np.maximum(arr[:, 2] - arr[:, 1], 0.0),
+                "y": arr[:, 0],
+                "width": _BAR_HEIGHT.get(output, 0.6),
+                "xaxis": tx,
+                "yaxis": ty,
+                "name": output,
+                "legendgroup": "fb",
+                "legendgrouptitle": {"text": "FB outputs"},
+                "showlegend": key not in shown,
+                "marker": {"color": _LANE_COLORS.get(output, "grey")},
+                "hoverinfo": "skip",
+            }
+        )
+        shown.add(key)
+    for output, items2 in marks.items():
+        colour = _LANE_COLORS.get(output, "grey")
+        key = f"fb {output}"
+        data.append(
+            {
+                "type": "scatter",
+                "mode": "markers",
+                "x": [b for _, b in items2],
+                "y": [a for a, _ in items2],
+                "xaxis": tx,
+                "yaxis": ty,
+                "name": output,
+                "legendgroup": "fb",
+                "legendgrouptitle": {"text": "FB outputs"},
+                "showlegend": key not in shown,
+                "marker": {
+                    "symbol": _MARK_SYMBOLS.get(output, "circle"),
+                    "size": 12,
+                    "color": colour,
+                    "line": {"width": 2.5, "color": colour},
+                },
+                "hoverinfo": "skip",
+            }
+        )
+        shown.add(key)
+    # invisible cursor readouts: the state and each FB's true outputs at the hover time
+    if len(grid_t) and col.state is not None:
+        idx = np.searchsorted(t, grid_t, side="right") - 1
+        names = [table.get(int(s), (str(int(s)), ""))[0] for s in np.asarray(col.state)[idx]]
+        data.append(_readout(f"{col.name}.state", grid_t, 0, names, tx, ty, col.name))
+    for row, (fb, spans_) in enumerate(col.fbs.items(), start=1):
+        if len(grid_t):
+            text = _fb_status_text(spans_, grid_t)
+            data.append(_readout(f"{col.name}.{fb}", grid_t, row, text, tx, ty, col.name))
+
+
+def _readout(
+    name: str, x: Any, row: int, text: list[str], tx: str, ty: str, group: str
+) -> dict[str, Any]:
+    import numpy as np
+
+    return {
+        "type": "scatter",
+        "mode": "markers",
+        "x": x,
+        "y": np.full(len(x), float(row)),
+        "xaxis": tx,
+        "yaxis": ty,
+        "name": name,
+        "legendgroup": group,
+        "showlegend": False,
+        "text": text,
+        "marker": {"opacity": 0, "size": 2},
+        "hovertemplate": f"{name}: %{{text}}<extra></extra>",
+    }
+
+
 def _speed_scale(values: Any) -> float:
-    """Top of the colour scale: the fastest drawn segment (1 m/s when nothing moves)."""
+    """Top of the colour scale: the fastest drawn sample (1 when nothing moves)."""
     import numpy as np
 
     top = float(np.max(values)) if len(values) else 0.0
     return top if top > 0 and np.isfinite(top) else 1.0
 
 
-_LANE_COLORS = {
-    "busy": "#c6dbef",
-    "active": "#2171b5",
-    "valid": "#74c476",
-    "status": "#238b45",
-    "in_velocity": "#6a51a3",
-    "done": "#000000",
-    "error": "#d62728",
-    "command_aborted": "#ff7f0e",
-}
-
-_GROUP_STATE_COLORS = {  # GroupState value -> colour, matching the axis state lane's colours
-    0: "#d9d9d9",  # GROUP_DISABLED (axis DISABLED)
-    1: "#a1d99b",  # GROUP_STANDBY (axis STANDSTILL)
-    2: "#fdd0a2",  # GROUP_HOMING (axis HOMING)
-    3: "#9ecae1",  # GROUP_MOVING (axis DISCRETE_MOTION)
-    4: "#fdae6b",  # GROUP_STOPPING (axis STOPPING)
-    5: "#d62728",  # GROUP_ERROR_STOP (axis ERROR_STOP)
-}
-
-_VIRIDIS = (  # matplotlib's viridis at 0, 1/8, ..., 1 (the PNG uses the real map)
-    "#440154",
-    "#482878",
-    "#3e4989",
-    "#31688e",
-    "#26828e",
-    "#1f9e89",
-    "#35b779",
-    "#6ece58",
-    "#fde725",
-)
-
-SPEED_LEVELS = 64
-"""Colour levels of the HTML path view: level k of 0..63 is viridis at k / 63 of the scale top."""
+# ---------------------------------------------------------------------------- PNG
+PNG_DPI = 90
+PNG_COLUMN_WIDTH = 6.5  # inches per column
+PNG_HEIGHT = 13.0  # inches
 
 
-def speed_color(fraction: float) -> str:
-    """Viridis (linear between its ninths) at ``fraction`` of the scale, clipped to [0, 1]."""
-    f = min(max(float(fraction), 0.0), 1.0) * (len(_VIRIDIS) - 1)
-    i = min(int(f), len(_VIRIDIS) - 2)
-    r = f - i
-    a, b = _VIRIDIS[i], _VIRIDIS[i + 1]
-    rgb = [round(int(a[k : k + 2], 16) * (1 - r) + int(b[k : k + 2], 16) * r) for k in (1, 3, 5)]
-    return "#" + "".join(f"{c:02x}" for c in rgb)
-
-
-# ---------------------------------------------------------------------------- writing
-def write_plot(
-    out: Path, trace: ScopeTrace, title: str, max_segments: int = MAX_PATH_SEGMENTS
+def _png(
+    plt: Any,
+    out: Path,
+    t: Any,
+    cols: list[_Column],
+    title: str,
+    max_points: int,
+    max_segments: int,
 ) -> None:
-    """Write the scope of ``trace`` to ``out``: ``.html``/``.htm`` as inline SVG, else a PNG.
+    """The PNG scope: the same columns and lanes as the HTML page, state names that fit."""
+    import numpy as np
 
-    Groups get a path view each (at most ``max_segments`` segments per view, see
-    :func:`decimate_path`); a trace without groups is drawn exactly as before groups existed.
-    Raises :class:`MotionPlcError` for a trace without axis columns and
-    :class:`PlotDependencyError` for a PNG without matplotlib; creates the parent directory.
-    """
-    lanes = _lanes(trace.columns, trace.data, trace.events)
-    if not lanes:
-        raise MotionPlcError(f"{title}: the trace has no axis columns")
-    views = _group_views(trace)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.suffix.lower() in (".html", ".htm"):
-        out.write_text(_html_plot(lanes, title, views, max_segments), encoding="utf-8")
-        return
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise PlotDependencyError(
-            "plotting a PNG needs matplotlib: pip install 'motionplc[plot]' "
-            "(or write an .html plot, which needs nothing)"
-        ) from None
-    names = list(lanes)
-    suptitle = (
-        f"{title} - FB lanes: busy (light), active (dark), valid/status (green), "
-        "done |, error x, aborted v"
+    n_lanes = max(len(c.lane_labels()) for c in cols)
+    ratios = [w for _, _, w in _AXIS_ROWS] + [max(0.45, _LANE_ROW_WEIGHT * 1.4 * n_lanes)]
+    fig = plt.figure(
+        figsize=(PNG_COLUMN_WIDTH * len(cols), PNG_HEIGHT), layout="constrained", dpi=PNG_DPI
     )
-    if not views:
-        fig, grid = plt.subplots(
-            5,
-            len(names),
-            sharex=True,
-            figsize=(6.5 * len(names), 11),
-            squeeze=False,
-            gridspec_kw={"height_ratios": [1, 1, 1, 1, 1.4]},
-        )
-        _axis_columns(grid, lanes, {})
-        fig.suptitle(suptitle, fontsize=9)
-        fig.tight_layout()
-    else:
-        fig = plt.figure(figsize=(6.5 * (len(names) + len(views)), 11), layout="constrained")
-        left, right = fig.subfigures(1, 2, width_ratios=[len(views), len(names)], wspace=0.02)
-        grid = right.subplots(
-            5,
-            len(names),
-            sharex=True,
-            squeeze=False,
-            gridspec_kw={"height_ratios": [1, 1, 1, 1, 1.4]},
-        )
-        member_of = {m: v.name for v in views for m in v.members}
-        _axis_columns(grid, lanes, member_of)
-        subs = left.subfigures(1, len(views), squeeze=False)[0] if len(views) > 1 else [left]
-        for sub, view in zip(subs, views, strict=True):
-            _group_column(sub, view, grid[0][0], max_segments)
-        fig.suptitle(suptitle, fontsize=9)
-    fig.savefig(out, dpi=90)
+    gs = fig.add_gridspec(len(ratios), len(cols), height_ratios=ratios)
+    t = np.asarray(t, dtype=float)
+    labels: list[tuple[Any, Any, float, float]] = []  # (text, axes, t_from, t_to)
+    share = None
+    legend: dict[str, Any] = {}
+    for c, col in enumerate(cols):
+        lane = fig.add_subplot(gs[-1, c], sharex=share)
+        share = share or lane
+        if col.kind == "axis":
+            for r, (qty, fields, _w) in enumerate(_AXIS_ROWS):
+                a = fig.add_subplot(gs[r, c], sharex=share)
+                unit = col.units[fields[0]]
+                for f in fields:
+                    if f not in col.signals:
+                        continue
+                    y = np.asarray(col.signals[f], dtype=float)
+                    idx = minmax_indices(y, max_points)
+                    a.plot(
+                        t[idx],
+                        y[idx],
+                        lw=1.2,
+                        color=_SIGNAL_COLORS.get(f, "#333"),
+                        ls="--" if f.startswith("actual_") else "-",
+                        drawstyle="steps-post" if f == "jerk" else "default",
+                        label=f"{col.name}.{f}",
+                    )
+                present = [f for f in fields if f in col.signals]
+                a.set_ylabel(f"{qty} [{unit}]" if present else f"{qty} (not in trace)", fontsize=9)
+                if len(present) > 1:
+                    a.legend(fontsize=7, loc="best")
+                a.grid(True, alpha=0.3)
+                a.tick_params(labelbottom=False, labelsize=8)
+                if r == 0:
+                    a.set_title(col.title, fontsize=11)
+        else:
+            _png_group(fig, gs, c, col, t, share, max_points, max_segments)
+        _png_lanes(lane, col, t, labels, legend, max_points)
+    note = _decimation_note(len(t), max_points)
+    fig.suptitle(f"{title}  ({note})", fontsize=10)
+    fig.legend(
+        list(legend.values()),
+        list(legend),
+        loc="outside lower center",
+        ncol=min(len(legend), 12),
+        fontsize=8,
+        frameon=False,
+    )
+    fig.canvas.draw()  # lay out, then hide the state names that do not fit their span
+    renderer = fig.canvas.get_renderer()
+    for text, a, ta, tb in labels:
+        x0, x1 = a.transData.transform([(ta, 0.0), (tb, 0.0)])[:, 0]
+        for candidate in _short_names(text.get_text()):  # the longest name that fits
+            text.set_text(candidate)
+            if text.get_window_extent(renderer).width <= 0.95 * abs(x1 - x0):
+                break
+        else:
+            text.set_visible(False)
+    fig.savefig(out, dpi=PNG_DPI)
     plt.close(fig)
 
 
-def _state_lane(a: Any, t: Any, state: Any, colors: dict[int, str], names: Any) -> None:
-    """Coloured bars of the runs of equal state on row 0, named when wide enough."""
-    n = len(t)
-    for start, k in _runs(state):
-        s = int(state[start])
-        a.broken_barh(
-            [(t[start], t[min(k, n - 1)] - t[start])], (-0.4, 0.8), color=colors.get(s, "grey")
+def _short_names(name: str) -> list[str]:
+    """A state name and its shorter forms: ``discrete_motion``, ``discrete``, ``DM``."""
+    words = [w for w in name.split("_") if w]
+    out = [name]
+    if len(words) > 1:
+        out.append(words[0] if words[0] != "group" else "_".join(words[1:]))
+        out.append("".join(w[0] for w in words if w != "group").upper())
+    return list(dict.fromkeys(out))
+
+
+def _png_lanes(
+    a: Any,
+    col: _Column,
+    t: Any,
+    labels: list[tuple[Any, Any, float, float]],
+    legend: dict[str, Any],
+    max_points: int,
+) -> None:
+    """State spans (row 0) and FB rows (1, 2, ...): bars and Done/Error/Aborted marks."""
+    from matplotlib.patches import Patch
+
+    table = _state_table(col.kind)
+    by_state: dict[int, list[tuple[float, float]]] = {}
+    for s, ta, tb in _state_spans(t, col.state, 4 * max_points):
+        by_state.setdefault(s, []).append((ta, tb - ta))
+        name = table.get(s, (str(s), "grey"))[0]
+        txt = a.text(
+            (ta + tb) / 2, 0, name.lower(), ha="center", va="center", fontsize=7, clip_on=True
         )
-        dur = t[min(k, n - 1)] - t[start]
-        if dur > 0.06 * (t[-1] - t[0] + 1e-12):
-            a.text(t[start] + dur / 2, 0, names(s).lower(), ha="center", va="center", fontsize=6)
-
-
-def _fb_rows(a: Any, fbs: dict[str, list[tuple[str, float, float]]]) -> None:
-    """One row per FB (rows 1, 2, ...): busy/active/valid bars, done/error/aborted marks."""
-    for row, fb in enumerate(fbs, start=1):
-        bars: dict[str, list[tuple[float, float]]] = {}
-        marks: dict[str, list[float]] = {}
-        for output, t_a, t_b in fbs[fb]:
-            if t_b > t_a:
-                bars.setdefault(output, []).append((t_a, t_b - t_a))
-            else:
-                marks.setdefault(output, []).append(t_a)
-        for output, spans in bars.items():  # one collection per lane: fast for many edges
-            h = 0.8 if output in ("busy", "valid") else 0.4
-            a.broken_barh(spans, (row - h / 2, h), color=_LANE_COLORS.get(output, "grey"))
-        for output, ts in marks.items():
-            marker = {"done": "|", "error": "x", "command_aborted": "v"}.get(output, ".")
-            a.plot(
-                ts,
-                [row] * len(ts),
-                marker=marker,
-                color=_LANE_COLORS.get(output, "grey"),
-                ms=9,
-                mew=2,
-                ls="none",
-            )
-
-
-def _finish_lane(a: Any, labels: list[str]) -> None:
-    a.set_yticks(range(len(labels)))
-    a.set_yticklabels(labels, fontsize=7)
-    a.set_ylim(-0.7, len(labels) - 0.3)
-    a.invert_yaxis()
-    a.set_xlabel("time [s]")
+        labels.append((txt, a, ta, tb))
+    for s, spans in by_state.items():
+        name, colour = table.get(s, (str(s), "grey"))
+        a.broken_barh(spans, (-0.4, 0.8), color=colour)
+        legend.setdefault(name, Patch(color=colour))
+    bucket = (float(t[-1] - t[0]) / max_points) if len(t) > 1 else 0.0
+    bars, marks = _fb_display(col.fbs, bucket)
+    for output in [*_BAR_OUTPUTS, *(o for o in bars if o not in _BAR_OUTPUTS)]:
+        items = bars.get(output)
+        if not items:
+            continue
+        h = _BAR_HEIGHT.get(output, 0.6)
+        colour = _LANE_COLORS.get(output, "grey")
+        by_row: dict[int, list[tuple[float, float]]] = {}
+        for row, ta, tb in items:
+            by_row.setdefault(row, []).append((ta, max(tb - ta, 0.0)))
+        for row, spans in by_row.items():
+            a.broken_barh(spans, (row - h / 2, h), color=colour)
+        legend.setdefault(f"FB {output}", Patch(color=colour))
+    for output, pts in marks.items():
+        colour = _LANE_COLORS.get(output, "grey")
+        (line,) = a.plot(
+            [b for _, b in pts],
+            [r for r, _ in pts],
+            marker=_MARKS.get(output, "."),
+            color=colour,
+            ms=9,
+            mew=2,
+            ls="none",
+        )
+        legend.setdefault(f"FB {output}", line)
+    lane_labels = col.lane_labels()
+    a.set_yticks(range(len(lane_labels)))
+    a.set_yticklabels(lane_labels, fontsize=7)
+    a.set_ylim(len(lane_labels) - 0.4, -0.6)
+    a.set_xlabel("time [s]", fontsize=9)
+    a.tick_params(labelsize=8)
     a.grid(True, axis="x", alpha=0.3)
 
 
-def _axis_columns(grid: Any, lanes: dict[str, Any], member_of: dict[str, str]) -> None:
-    """The per-axis scope: p/v/a/j rows and the state + FB lane row, one column per axis."""
-    from motionplc.blocks import AxisState
-
-    colors = {
-        AxisState.DISABLED: "#d9d9d9",
-        AxisState.STANDSTILL: "#a1d99b",
-        AxisState.HOMING: "#fdd0a2",
-        AxisState.DISCRETE_MOTION: "#9ecae1",
-        AxisState.CONTINUOUS_MOTION: "#bcbddc",
-        AxisState.SYNCHRONIZED_MOTION: "#c7e9c0",
-        AxisState.STOPPING: "#fdae6b",
-        AxisState.ERROR_STOP: "#d62728",
-    }
-    for j, ax_name in enumerate(lanes):
-        ln = lanes[ax_name]
-        t = ln["t"]
-        for i, key in enumerate(("position", "velocity", "acceleration", "jerk")):
-            a = grid[i][j]
-            a.plot(t, ln[key], lw=1.2, drawstyle="steps-post" if key == "jerk" else "default")
-            a.set_ylabel(key)
-            a.grid(True, alpha=0.3)
-        group = f" (group {member_of[ax_name]})" if ax_name in member_of else ""
-        grid[0][j].set_title(f"axis {ax_name}{group}")
-        a = grid[4][j]
-        fbs = ln["fbs"]
-        if len(t):
-            _state_lane(a, t, ln["state"], colors, lambda s: AxisState(s).name)
-        _fb_rows(a, fbs)
-        _finish_lane(a, ["state", *fbs])
-
-
-def _group_column(sub: Any, view: _GroupView, share: Any, max_segments: int) -> None:
-    """A group's column: its path views, the path speed over time and the group state lane."""
+def _png_group(
+    fig: Any,
+    gs: Any,
+    c: int,
+    col: _Column,
+    t: Any,
+    share: Any,
+    max_points: int,
+    max_segments: int,
+) -> None:
+    """A group's column: its path views (rows 0-2), the path speed (rows 3-4)."""
     import numpy as np
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
 
-    from motionplc.blocks.enums import GroupState
-
-    proj = view.projections()
-    ratios = [3.0] * len(proj) + [1.0, 1.0]
-    axs = sub.subplots(len(proj) + 2, 1, squeeze=False, gridspec_kw={"height_ratios": ratios})
-    axs = axs[:, 0]
-    pos, speed, t = view.positions, view.speed, view.t
+    proj = col.projections()
+    pos = np.asarray(col.positions, dtype=float)
+    speed = np.asarray(col.signals["path_velocity"], dtype=float)
     keep = decimate_path(pos, speed, max_segments) if len(pos) else np.arange(0)
     values = speed[keep[:-1]]
     norm = Normalize(0.0, _speed_scale(values))
-    source = " (norm of the member velocities)" if view.speed_derived else ""
-    for a, (i, j) in zip(axs, proj, strict=False):
+    unit = col.units["path_velocity"]
+    sub = gs[0:3, c].subgridspec(max(len(proj), 1), 1, hspace=0.25)
+    for k, (i, j) in enumerate(proj):
+        a = fig.add_subplot(sub[k, 0])
         ends = pos[keep][:, [i, j]]
         segs = np.stack([ends[:-1], ends[1:]], axis=1)
         lc = LineCollection(segs, cmap="viridis", norm=norm, linewidths=2.0)
@@ -635,243 +1493,134 @@ def _group_column(sub: Any, view: _GroupView, share: Any, max_segments: int) -> 
             a.legend(fontsize=7, loc="best")
         a.autoscale_view()
         a.set_aspect("equal", adjustable="datalim")
-        a.set_xlabel(f"{view.members[i]} position")
-        a.set_ylabel(f"{view.members[j]} position")
+        a.set_xlabel(f"{col.members[i]} position [{col.member_units[i]}]", fontsize=9)
+        a.set_ylabel(f"{col.members[j]} position [{col.member_units[j]}]", fontsize=9)
+        a.tick_params(labelsize=8)
         a.grid(True, alpha=0.3)
-        sub.colorbar(lc, ax=a, label="path speed [m/s]")
-    title = f"group {view.name}: {', '.join(view.members)}"
-    if len(keep) < len(pos):
-        title += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
-    axs[0].set_title(title, fontsize=10)
-    a = axs[-2]
-    a.plot(t, speed, lw=1.2, color="#1f77b4")
-    a.set_ylabel(f"path speed [m/s]{source}", fontsize=8 if source else None)
+        fig.colorbar(lc, ax=a, label=f"path speed [{unit}]")
+        if k == 0:
+            title = col.title
+            if len(keep) < len(pos):
+                title += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
+            a.set_title(title, fontsize=11)
+    a = fig.add_subplot(gs[3:5, c], sharex=share)
+    idx = minmax_indices(speed, max_points)
+    a.plot(t[idx], speed[idx], lw=1.2, color=_SIGNAL_COLORS["path_velocity"])
+    note = " (norm of member velocities)" if col.speed_derived else ""
+    a.set_ylabel(f"path speed [{unit}]{note}", fontsize=9 if not note else 7)
+    a.tick_params(labelbottom=False, labelsize=8)
     a.grid(True, alpha=0.3)
-    lane = axs[-1]
-    if share is not None:  # the time range of the axis columns (sharex across subfigures
-        a.set_xlim(share.get_xlim())  # would redraw the figure on every limit change)
-        lane.set_xlim(share.get_xlim())
-    if view.state is not None and len(t):
-        _state_lane(lane, t, view.state, _GROUP_STATE_COLORS, lambda s: GroupState(s).name)
-    _fb_rows(lane, view.fbs)
-    _finish_lane(lane, ["state" if view.state is not None else "(no state)", *view.fbs])
 
 
-# ---------------------------------------------------------------------------- HTML
-def _html_plot(
-    lanes: dict[str, Any],
+# ---------------------------------------------------------------------------- series
+def write_series_plot(
+    out: Path,
+    t: Any,
+    series: Mapping[str, tuple[Any, str]],
     title: str,
-    views: Sequence[_GroupView] = (),
-    max_segments: int = MAX_PATH_SEGMENTS,
-) -> str:
-    """A self-contained HTML scope (inline SVG, hover shows values; no scripts from the web).
+    max_points: int = MAX_POINTS,
+) -> None:
+    """Plot time series, one lane each, on a common time axis: ``.html``/``.htm`` (interactive,
+    plotly, self-contained) or PNG (matplotlib), e.g. a planned profile (``motionplc plan``).
 
-    With groups, a column of path views (``<svg class='path-view'>``, one per group) stands
-    left of the per-axis lanes; without groups the page is the per-axis lanes only.
+    ``series`` maps a name to ``(values, unit)``; every lane's y-axis reads ``name [unit]``
+    (``name`` alone for an empty unit). ``t`` is in seconds. Values longer than
+    ``2 * max_points`` are decimated for display by :func:`minmax_indices`. Raises
+    ``ValueError`` naming the series whose values are not one per time (or when there is no
+    series, or ``t`` is not one-dimensional) and :class:`PlotDependencyError` for a missing
+    plotly or matplotlib; creates the parent directory.
     """
-    import html
-
     import numpy as np
 
-    w, h, pad = 900, 120, 40
-    head = [
-        "<!doctype html><meta charset='utf-8'>",
-        f"<title>{html.escape(title)}</title>",
-        "<style>body{font-family:sans-serif;font-size:12px} svg{background:#fafafa;"
-        "margin:2px 0} polyline{fill:none;stroke:#1f77b4;stroke-width:1.2}</style>",
-        f"<h3>{html.escape(title)}</h3>",
-    ]
-    parts: list[str] = []
-    for ax_name, ln in lanes.items():
-        t = np.asarray(ln["t"], dtype=float)
-        parts.append(f"<h4>axis {html.escape(ax_name)}</h4>")
-        if t.size == 0:
-            continue
-        t0, t1 = float(t[0]), float(t[-1]) if t[-1] > t[0] else float(t[0]) + 1.0
-        step = max(1, t.size // 2000)
-        for key in ("position", "velocity", "acceleration", "jerk", "state"):
-            y = np.asarray(ln[key], dtype=float)
-            lo, hi = float(np.min(y)), float(np.max(y))
-            hi = hi if hi > lo else lo + 1.0
-            xs = pad + (t[::step] - t0) / (t1 - t0) * (w - 2 * pad)
-            ys = h - 10 - (y[::step] - lo) / (hi - lo) * (h - 20)
-            pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(xs, ys, strict=True))
-            parts.append(
-                f"<svg width='{w}' height='{h}'><title>{ax_name}.{key}: min {lo:.6g}, "
-                f"max {hi:.6g}</title><text x='2' y='12'>{key} [{lo:.4g} .. {hi:.4g}]"
-                f"</text><polyline points='{pts}'/></svg><br>"
+    tt = np.asarray(t, dtype=float)
+    if tt.ndim != 1:
+        raise ValueError(f"write_series_plot: t: one-dimensional array needed, got {tt.shape}")
+    if not series:
+        raise ValueError("write_series_plot: series: at least one series needed")
+    lanes: list[tuple[str, Any, str]] = []
+    for name, item in series.items():
+        if not isinstance(item, tuple) or len(item) != 2 or not isinstance(item[1], str):
+            raise ValueError(f"write_series_plot: series[{name!r}]: expected (values, unit)")
+        y = np.asarray(item[0], dtype=float)
+        if y.shape != tt.shape:
+            raise ValueError(
+                f"write_series_plot: series[{name!r}]: {y.shape[0] if y.ndim else 0} values "
+                f"for {len(tt)} times (one value per time needed)"
             )
-        rows = ln["fbs"]
-        hh = 18 * (len(rows) + 1)
-        svg = [f"<svg width='{w}' height='{hh}'>"]
-        for r, (fb, items) in enumerate(rows.items()):
-            y = 18 * r + 4
-            svg.append(f"<text x='2' y='{y + 11}'>{html.escape(fb)}</text>")
-            for output, ta, tb in items:
-                x0 = pad + 60 + (ta - t0) / (t1 - t0) * (w - 2 * pad - 60)
-                x1 = pad + 60 + (tb - t0) / (t1 - t0) * (w - 2 * pad - 60)
-                color = _LANE_COLORS.get(output, "grey")
-                svg.append(
-                    f"<rect x='{x0:.1f}' y='{y}' width='{max(x1 - x0, 2):.1f}' height='12' "
-                    f"fill='{color}'><title>{html.escape(fb)} {output} {ta:.3f}-{tb:.3f} s"
-                    "</title></rect>"
-                )
-        svg.append("</svg>")
-        parts.append("".join(svg))
-    if not views:
-        return "\n".join(head + parts) + "\n"
-    head.insert(
-        3,
-        "<style>svg.path-view polyline{stroke-width:2;stroke-linejoin:round}"
-        " .scope-row{display:flex;gap:24px;align-items:flex-start}</style>",
-    )
-    groups = [_html_group(k, v, max_segments) for k, v in enumerate(views)]
-    return (
-        "\n".join(
-            [
-                *head,
-                "<div class='scope-row'><div class='groups'>",
-                *groups,
-                "</div><div class='axes'>",
-                *parts,
-                "</div></div>",
-            ]
+        lanes.append((str(name), y, item[1]))
+    label = [f"{n} [{u}]" if u else n for n, _, u in lanes]
+    note = _decimation_note(len(tt), int(max_points))
+    if out.suffix.lower() in (".html", ".htm"):
+        go, pio = _plotly()
+        rows = _row_domains([1.0] * len(lanes), 0.25)
+        layout: dict[str, Any] = {}
+        data = []
+        for k, ((name, y, unit), dom, text) in enumerate(zip(lanes, rows, label, strict=True)):
+            ykey, yref = _axis_key("y", k + 1)
+            layout[ykey] = {
+                "domain": list(dom),
+                "anchor": "x",
+                "title": {"text": text},
+                "automargin": True,
+            }
+            idx = minmax_indices(y, int(max_points))
+            data.append(
+                {
+                    "type": "scatter",
+                    "mode": "lines",
+                    "x": tt[idx],
+                    "y": y[idx],
+                    "xaxis": "x",
+                    "yaxis": yref,
+                    "name": name,
+                    "line": {"width": 1.5},
+                    "hovertemplate": f"{name}: %{{y:.6g}} {unit}<extra></extra>",
+                }
+            )
+        layout["xaxis"] = {
+            "anchor": _axis_key("y", len(lanes))[1],
+            "title": {"text": "time [s]"},
+            "showspikes": True,
+            "spikemode": "across",
+            "spikesnap": "cursor",
+            "hoverformat": ".4f",
+        }
+        layout.update(
+            {
+                "title": {"text": f"{title}<br><sup>{note}</sup>", "x": 0.01},
+                "height": 180 + 190 * len(lanes),
+                "hovermode": "x unified",
+                "hoversubplots": "axis",
+                "template": "plotly_white",
+                "margin": {"l": 70, "r": 20, "t": 80, "b": 50},
+            }
         )
-        + "\n"
-    )
-
-
-def _html_group(k: int, view: _GroupView, max_segments: int) -> str:
-    """One group's HTML: the path view (projections, speed-coloured, legend), speed and state."""
-    import html
-
-    import numpy as np
-
-    from motionplc.blocks.enums import GroupState
-
-    esc = html.escape
-    pos, speed, t = view.positions, view.speed, np.asarray(view.t, dtype=float)
-    keep = decimate_path(pos, speed, max_segments) if len(pos) else np.arange(0)
-    values = np.asarray(speed[keep[:-1]], dtype=float)
-    top = _speed_scale(values)
-    levels = np.clip(np.round(values / top * (SPEED_LEVELS - 1)), 0, SPEED_LEVELS - 1).astype(int)
-    palette = [speed_color(i / (SPEED_LEVELS - 1)) for i in range(SPEED_LEVELS)]
-    proj = view.projections()
-    size, pad, legend = 400.0, 30.0, 90
-    kept = pos[keep] if len(keep) else np.zeros((0, len(view.members)))
-    lo = kept.min(axis=0) if len(kept) else np.zeros(len(view.members))
-    hi = kept.max(axis=0) if len(kept) else np.zeros(len(view.members))
-    used = sorted({c for ij in proj for c in ij})
-    extent = float(np.max(hi[used] - lo[used])) if used else 0.0
-    scale = size / extent if extent > 0 else 1.0  # px per position unit, equal on every axis
-    panels: list[str] = []
-    y_off = 0.0
-    width = 0.0
-    for i, j in proj:
-        pw = (hi[i] - lo[i]) * scale + 2 * pad
-        ph = (hi[j] - lo[j]) * scale + 2 * pad
-        xs = pad + (kept[:, i] - lo[i]) * scale
-        ys = y_off + ph - pad - (kept[:, j] - lo[j]) * scale
-        g = [
-            f"<g class='projection' data-axes='{esc(view.members[i])},{esc(view.members[j])}' "
-            f"data-segments='{max(len(keep) - 1, 0)}'>",
-            f"<rect x='0' y='{y_off:.1f}' width='{pw:.1f}' height='{ph:.1f}' fill='none' "
-            "stroke='#ccc'/>",
-            f"<text x='{pw / 2:.1f}' y='{y_off + ph - 8:.1f}'>{esc(view.members[i])}</text>",
-            f"<text x='4' y='{y_off + ph / 2:.1f}'>{esc(view.members[j])}</text>",
-        ]
-        for s, e in _runs(levels):  # one polyline per run of segments of one colour level
-            pts = " ".join(f"{xs[m]:.1f},{ys[m]:.1f}" for m in range(s, e + 1))
-            v_lo, v_hi = float(np.min(values[s:e])), float(np.max(values[s:e]))
-            g.append(
-                f"<polyline class='speed' points='{pts}' style='stroke:{palette[levels[s]]}'>"
-                f"<title>{v_lo:.4g} .. {v_hi:.4g} m/s</title></polyline>"
-            )
-        if len(kept):
-            g.append(
-                f"<circle class='start' cx='{xs[0]:.1f}' cy='{ys[0]:.1f}' r='7' fill='none' "
-                "stroke='#2ca02c' stroke-width='2'><title>start</title></circle>"
-            )
-            g.append(
-                f"<rect class='end' x='{xs[-1] - 4:.1f}' y='{ys[-1] - 4:.1f}' width='8' "
-                "height='8' fill='#d62728'><title>end</title></rect>"
-            )
-        g.append("</g>")
-        panels.append("".join(g))
-        y_off += ph + 6
-        width = max(width, pw)
-    gid = f"speed-scale-{k}"
-    stops = "".join(
-        f"<stop offset='{i / (len(_VIRIDIS) - 1):.4f}' stop-color='{c}'/>"
-        for i, c in enumerate(_VIRIDIS)
-    )
-    height = max(y_off, 200.0)
-    bar_x, bar_h = width + 20, min(height - 40, 300.0)
-    legend_svg = (
-        f"<defs><linearGradient id='{gid}' x1='0' y1='1' x2='0' y2='0'>{stops}"
-        f"</linearGradient></defs><g class='speed-scale' data-top='{top:.6g}'>"
-        f"<rect x='{bar_x:.1f}' y='20' width='14' height='{bar_h:.1f}' fill='url(#{gid})'/>"
-        f"<text x='{bar_x + 18:.1f}' y='28'>{top:.4g}</text>"
-        f"<text x='{bar_x + 18:.1f}' y='{20 + bar_h:.1f}'>0</text>"
-        f"<text x='{bar_x:.1f}' y='12'>path speed [m/s]</text></g>"
-    )
-    note = " (norm of the member velocities)" if view.speed_derived else ""
-    drawn = f"{len(keep) - 1} of {len(pos) - 1} segments drawn" if len(keep) < len(pos) else "all"
-    out = [
-        f"<h4>group {esc(view.name)}: {esc(', '.join(view.members))}</h4>",
-        f"<svg class='path-view' data-group='{esc(view.name)}' "
-        f"data-axes='{esc(','.join(view.members))}' data-scale='{scale:.6g}' "
-        f"width='{width + legend + 30:.0f}' height='{height:.0f}'>"
-        f"<title>group {esc(view.name)}: path coloured by path speed 0 .. {top:.4g} m/s{note}"
-        f" ({drawn} segments)</title>",
-        *panels,
-        legend_svg,
-        "</svg><br>",
-    ]
-    if t.size:
-        w, h, lpad = 500, 100, 40
-        t0, t1 = float(t[0]), float(t[-1]) if t[-1] > t[0] else float(t[0]) + 1.0
-        idx = decimate_path(np.column_stack([t, speed]), speed, 2000)
-        v_hi = max(float(np.max(speed)), 1e-12)
-        xs = lpad + (t[idx] - t0) / (t1 - t0) * (w - 2 * lpad)
-        ys = h - 10 - np.asarray(speed[idx], dtype=float) / v_hi * (h - 20)
-        pts = " ".join(f"{a:.1f},{b:.1f}" for a, b in zip(xs, ys, strict=True))
-        out.append(
-            f"<svg class='path-speed' width='{w}' height='{h}'><title>{esc(view.name)} path "
-            f"speed: max {v_hi:.6g} m/s</title><text x='2' y='12'>path speed [m/s]{note} "
-            f"[0 .. {v_hi:.4g}]</text><polyline points='{pts}'/></svg><br>"
+        page = pio.to_html(
+            go.Figure(data=data, layout=layout),
+            include_plotlyjs=True,
+            full_html=True,
+            div_id=HTML_DIV_ID,
+            config=_HTML_CONFIG,
         )
-        rows = [("state", None), *((fb, items) for fb, items in view.fbs.items())]
-        svg = [f"<svg class='group-lanes' width='{w}' height='{18 * (len(rows) + 1)}'>"]
-
-        label_w = min(7 * max(len(label) for label, _ in rows), 180)  # FB names fit
-
-        def x_of(tt: float) -> float:
-            return label_w + 8 + (tt - t0) / (t1 - t0) * (w - label_w - 8 - lpad)
-
-        for r, (label, items) in enumerate(rows):
-            y = 18 * r + 4
-            svg.append(f"<text x='2' y='{y + 11}'>{esc(label)}</text>")
-            if items is None:
-                if view.state is None:
-                    continue
-                for s, e in _runs(view.state):
-                    st = int(view.state[s])
-                    ta, tb = float(t[s]), float(t[min(e, len(t) - 1)])
-                    name = GroupState(st).name if st in GroupState._value2member_map_ else st
-                    svg.append(
-                        f"<rect class='state' x='{x_of(ta):.1f}' y='{y}' "
-                        f"width='{max(x_of(tb) - x_of(ta), 1):.1f}' height='12' "
-                        f"fill='{_GROUP_STATE_COLORS.get(st, 'grey')}'><title>{name} "
-                        f"{ta:.3f}-{tb:.3f} s</title></rect>"
-                    )
-                continue
-            for output, ta, tb in items:
-                svg.append(
-                    f"<rect x='{x_of(ta):.1f}' y='{y}' width='{max(x_of(tb) - x_of(ta), 2):.1f}' "
-                    f"height='12' fill='{_LANE_COLORS.get(output, 'grey')}'><title>"
-                    f"{esc(label)} {output} {ta:.3f}-{tb:.3f} s</title></rect>"
-                )
-        svg.append("</svg>")
-        out.append("".join(svg))
-    return "\n".join(out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(page, encoding="utf-8")
+        return
+    plt = _pyplot()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig, axes = plt.subplots(
+        len(lanes),
+        1,
+        sharex=True,
+        figsize=(9, 1.2 + 2.0 * len(lanes)),
+        squeeze=False,
+        layout="constrained",
+    )
+    for a, (name, y, _unit), text in zip(axes[:, 0], lanes, label, strict=True):
+        idx = minmax_indices(y, int(max_points))
+        a.plot(tt[idx], y[idx], lw=1.3, drawstyle="steps-post" if name == "jerk" else "default")
+        a.set_ylabel(text, fontsize=9)
+        a.grid(True, alpha=0.3)
+    axes[-1, 0].set_xlabel("time [s]")
+    fig.suptitle(f"{title}  ({note})", fontsize=10)
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
