@@ -216,13 +216,13 @@ def _check_output(option: str, path: str | None, suffixes: Sequence[str]) -> Pat
     if path is None:
         return None
     p = Path(path)
+    if p.is_dir():
+        raise MotionPlcError(f"{option}: {p}: is a directory (allowed: a file name)")
     if p.suffix.lower() not in suffixes:
         raise MotionPlcError(
             f"{option}: {p}: unsupported file type {p.suffix or '(none)'!r} "
             f"(allowed: {', '.join(suffixes)})"
         )
-    if p.is_dir():
-        raise MotionPlcError(f"{option}: {p}: is a directory (allowed: a file name)")
     parent = p.parent
     try:
         parent.mkdir(parents=True, exist_ok=True)
@@ -923,8 +923,10 @@ def _cmd_drives(args: argparse.Namespace) -> int:
             )
         else:
             for order in ("big", "little"):
-                ids = tuple(
-                    a.drive.unit_id for a in axes if a.drive.word_order == order and a.drive.unit_id
+                ids = tuple(  # no word_order: the register map's, big for motionplc-v1
+                    a.drive.unit_id
+                    for a in axes
+                    if (a.drive.word_order or "big") == order and a.drive.unit_id
                 )
                 if ids:
                     specs.append(
