@@ -404,7 +404,7 @@ def _read_parquet(path: Path) -> tuple[list[str], Any, list[Event], dict[str, st
             uniq, inverse = np.unique(names.astype(str), return_inverse=True)
             bad = [u for u in uniq if u not in table_]
             if bad:
-                raise MotionPlcError(f"{path}: {name}: not a state name: {bad[0]!r}")
+                raise MotionPlcError(f"{path}: {name}: not a state name: {str(bad[0])!r}")
             out[:, j] = np.array([table_[u] for u in uniq], dtype=float)[inverse]
         elif pa.types.is_integer(typ) or pa.types.is_floating(typ) or pa.types.is_boolean(typ):
             out[:, j] = col.to_numpy().astype(float)

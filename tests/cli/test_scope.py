@@ -7,11 +7,14 @@ the middle of the bottom edge), a smooth path speed 0 -> max -> 0, written as a 
 
 from __future__ import annotations
 
+import base64
 import csv
+import json
 import re
 import struct
 from pathlib import Path
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 import pytest
@@ -21,12 +24,14 @@ from hypothesis import strategies as st
 from motionplc.cli import main
 from motionplc.errors import MotionPlcError
 from motionplc.scope import (
-    SPEED_LEVELS,
+    HTML_DIV_ID,
+    PNG_COLUMN_WIDTH,
+    PNG_DPI,
+    PNG_HEIGHT,
     ScopeTrace,
     decimate_path,
     groups_sidecar_path,
     read_trace,
-    speed_color,
     trace_from_runtime,
     write_groups_sidecar,
 )
@@ -117,25 +122,40 @@ def png_size(path: Path) -> tuple[int, int]:
     return struct.unpack(">II", data[16:24])
 
 
-def path_views(page: str) -> list[str]:
-    return re.findall(r"<svg class='path-view'.*?</svg>", page, flags=re.S)
+def _arrays(obj: Any) -> Any:
+    """plotly's JSON with its base64 typed arrays (``{"dtype", "bdata"}``) as numpy arrays."""
+    if isinstance(obj, dict):
+        if set(obj) >= {"dtype", "bdata"}:
+            a = np.frombuffer(base64.b64decode(obj["bdata"]), dtype=np.dtype(obj["dtype"]))
+            return a.reshape(obj["shape"]) if "shape" in obj else a
+        return {k: _arrays(v) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_arrays(v) for v in obj]
+    return obj
 
 
-def segments(view: str) -> tuple[list[str], np.ndarray]:
-    """Per drawn segment its colour, and the drawn vertices (pixels) in order."""
-    colours: list[str] = []
-    vertices: list[tuple[float, float]] = []
-    for pts, colour in re.findall(
-        r"<polyline class='speed' points='([^']*)' style='stroke:(#\w+)'", view
-    ):
-        xy = [tuple(map(float, p.split(","))) for p in pts.split()]
-        assert len(xy) >= 2
-        colours += [colour] * (len(xy) - 1)
-        if vertices:
-            assert vertices[-1] == xy[0]  # runs join up
-            xy = xy[1:]
-        vertices += xy
-    return colours, np.array(vertices)
+def plotly_figure(page: str) -> tuple[list[dict[str, Any]], dict[str, Any], dict[str, Any]]:
+    """(traces, layout, config) of the ``Plotly.newPlot`` call embedded in an HTML page."""
+    start = page.index("Plotly.newPlot(") + len("Plotly.newPlot(")
+    dec = json.JSONDecoder()
+    parts = []
+    pos = start
+    for _ in range(4):
+        while page[pos] in " \n\t,":
+            pos += 1
+        obj, pos = dec.raw_decode(page, pos)
+        parts.append(obj)
+    div, data, layout, config = parts
+    assert div == HTML_DIV_ID
+    return _arrays(data), _arrays(layout), config
+
+
+def traces_named(data: list[dict[str, Any]], name: str) -> list[dict[str, Any]]:
+    return [d for d in data if d.get("name") == name]
+
+
+def path_traces(data: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    return [d for d in data if " path (" in d.get("name", "")]
 
 
 # ---------------------------------------------------------------------------- PNG
@@ -151,49 +171,49 @@ def test_png_has_one_more_column_per_group(
     assert f"wrote {tmp_path / 'grouped.png'}" in capsys.readouterr().out
     w0, h0 = png_size(tmp_path / "plain.png")
     w1, h1 = png_size(tmp_path / "grouped.png")
-    assert (w0, h0) == (round(6.5 * 2 * 90), 11 * 90)  # two axis columns, as before groups
-    assert h1 == h0 and w1 == round(6.5 * 3 * 90)  # plus one group column
+    col, height = round(PNG_COLUMN_WIDTH * PNG_DPI), round(PNG_HEIGHT * PNG_DPI)
+    assert (w0, h0) == (2 * col, height)  # two axis columns
+    assert h1 == h0 and w1 == 3 * col  # plus one group column
     assert (tmp_path / "grouped.png").stat().st_size > 30_000  # not an empty canvas
 
 
 # ---------------------------------------------------------------------------- HTML
-def test_html_path_view_colours_segments_by_speed(tmp_path: Path) -> None:
+def test_html_path_view_colours_points_by_speed(tmp_path: Path) -> None:
     trace = tmp_path / "t.csv"
     ref = write_trace(trace, n=4001, groups={"g": ["x", "y"]})
     out = tmp_path / "t.html"
     from motionplc.scope import write_plot
 
     write_plot(out, read_trace(trace), "t", max_segments=400)
-    page = out.read_text()
-    views = path_views(page)
-    assert len(views) == 1 and "data-group='g'" in views[0]
-    colours, px = segments(views[0])
+    data, layout, _ = plotly_figure(out.read_text())
+    (path,) = path_traces(data)
+    assert path["name"] == "g path (x, y)"
     keep = decimate_path(ref["p"], ref["speed"], 400)
-    assert 100 < len(colours) == len(keep) - 1 <= 400  # decimated, every segment drawn once
-    assert f"data-segments='{len(keep) - 1}'" in views[0]
-    # colours: the fastest segment is the top of the scale, the slowest the bottom, in order
-    stops = re.findall(r"<stop offset='[\d.]+' stop-color='(#\w+)'/>", views[0])
-    v = ref["speed"][keep[:-1]]
-    assert colours[int(np.argmax(v))] == stops[-1] == speed_color(1.0)
-    assert colours[int(np.argmin(v))] == stops[0] == speed_color(0.0)
-    palette = [speed_color(k / (SPEED_LEVELS - 1)) for k in range(SPEED_LEVELS)]
-    level = np.array([palette.index(c) for c in colours])
-    order = np.argsort(v, kind="stable")
-    assert np.all(np.diff(level[order]) >= 0) and len(set(level)) > 20
-    top = float(re.search(r"data-top='([\d.e+-]+)'", views[0]).group(1))
-    assert top == pytest.approx(v.max(), rel=1e-5)
-    # equal aspect: the 0.6 x 0.3 rectangle is twice as wide as high, at the stated scale
-    scale = float(re.search(r"data-scale='([\d.e+-]+)'", views[0]).group(1))
-    ext = px.max(axis=0) - px.min(axis=0)
-    assert ext[0] == pytest.approx(WIDTH * scale, abs=0.2)
-    assert ext[1] == pytest.approx(HEIGHT * scale, abs=0.2)
-    assert ext[0] == pytest.approx(2 * ext[1], abs=0.3) and ext[0] > 300
-    # y grows upwards: the path starts on the bottom edge (largest pixel y), runs to +x first
-    assert px[0, 1] == pytest.approx(px[:, 1].max()) and px[5, 0] > px[0, 0]
-    assert "class='start'" in views[0] and "class='end'" in views[0]
-    # the per-axis lanes are still there, next to the groups
-    assert page.index("class='groups'") < page.index("class='axes'") < page.index("axis x")
-    assert "path speed [m/s]" in page and "GROUP_MOVING" in page
+    assert 100 < len(keep) - 1 <= 400  # decimated: corners and speed extremes kept
+    assert np.array_equal(path["x"], ref["p"][keep, 0])
+    assert np.array_equal(path["y"], ref["p"][keep, 1])
+    marker = path["marker"]
+    assert np.array_equal(marker["color"], ref["speed"][keep])
+    assert marker["cmin"] == 0 and marker["cmax"] == pytest.approx(ref["speed"].max(), rel=1e-5)
+    assert marker["showscale"] and marker["colorscale"][0][1] == "#440154"  # viridis
+    # equal aspect: the y axis of the view is scaled to its x axis
+    xa, ya = path["xaxis"].replace("x", "xaxis"), path["yaxis"].replace("y", "yaxis")
+    assert layout[ya]["scaleanchor"] == path["xaxis"] and layout[ya]["scaleratio"] == 1
+    assert layout[xa]["title"]["text"] == "x position [m or rad]"
+    # start and end marked; the path speed over time on a linked time axis
+    assert traces_named(data, "g start")[0]["x"] == [ref["p"][0, 0]]
+    assert traces_named(data, "g end")[0]["y"] == [ref["p"][-1, 1]]
+    (speed,) = traces_named(data, "g.path_velocity")
+    assert speed["xaxis"] == "x" and layout["xaxis2"]["matches"] == "x"
+    assert layout[speed["yaxis"].replace("y", "yaxis")]["title"]["text"] == (
+        "path speed [m/s or rad/s]"
+    )
+    # the per-axis columns are still there, right of the group's
+    titles = [a["text"] for a in layout["annotations"]]
+    assert titles[0].startswith("<b>group g: x, y</b> (") and "segments drawn" in titles[0]
+    assert titles[1:] == ["<b>axis x (group g)</b>", "<b>axis y (group g)</b>"]
+    states = [d["name"] for d in data if d.get("legendgroup") == "states"]
+    assert {"GROUP_MOVING", "SYNCHRONIZED_MOTION", "STANDSTILL"} <= set(states)
 
 
 def test_html_three_axis_group_has_xy_and_xz(tmp_path: Path) -> None:
@@ -211,28 +231,41 @@ def test_html_three_axis_group_has_xy_and_xz(tmp_path: Path) -> None:
     from motionplc.scope import write_plot
 
     write_plot(tmp_path / "t.html", tr, "t")
-    views = path_views((tmp_path / "t.html").read_text())
-    assert len(views) == 1
-    assert re.findall(r"<g class='projection' data-axes='([\w,]+)'", views[0]) == ["x,y", "x,z"]
+    traces, layout, _ = plotly_figure((tmp_path / "t.html").read_text())
+    views = path_traces(traces)
+    assert [v["name"] for v in views] == ["g path (x, y)", "g path (x, z)"]
+    assert np.array_equal(views[1]["y"], views[0]["x"] / 2)
+    assert [v["marker"]["showscale"] for v in views] == [True, False]  # one colour scale
     write_plot(tmp_path / "t.png", tr, "t")
-    assert png_size(tmp_path / "t.png") == (round(6.5 * 4 * 90), 11 * 90)
+    assert png_size(tmp_path / "t.png") == (
+        round(4 * PNG_COLUMN_WIDTH * PNG_DPI),
+        round(PNG_HEIGHT * PNG_DPI),
+    )
 
 
 def test_speed_from_member_velocities_without_a_speed_column(tmp_path: Path) -> None:
     trace = tmp_path / "t.csv"
     write_trace(trace, groups={"g": ["x", "y"]}, speed_column=False, state_column=False)
     assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 0
-    page = (tmp_path / "t.html").read_text()
-    (view,) = path_views(page)
-    assert "norm of the member velocities" in view and "class='state'" not in page
-    data = read_trace(trace)
-    vx = data.data[:, data.columns.index("x.velocity")]
-    vy = data.data[:, data.columns.index("y.velocity")]
-    top = float(re.search(r"data-top='([\d.e+-]+)'", view).group(1))
-    assert top == pytest.approx(float(np.max(np.hypot(vx, vy)[:-1])), rel=1e-5)
+    data, layout, _ = plotly_figure((tmp_path / "t.html").read_text())
+    (speed,) = traces_named(data, "g.path_velocity")
+    title = layout[speed["yaxis"].replace("y", "yaxis")]["title"]["text"]
+    assert title.endswith("(norm of member velocities)")
+    read = read_trace(trace)
+    vx = read.data[:, read.columns.index("x.velocity")]
+    vy = read.data[:, read.columns.index("y.velocity")]
+    (path,) = path_traces(data)
+    assert path["marker"]["cmax"] == pytest.approx(float(np.max(np.hypot(vx, vy))), rel=1e-9)
+    # no group state: its lane says so and it has no state spans
+    lane = layout[traces_named(data, "g.path_velocity")[0]["yaxis"].replace("y", "yaxis")]
+    assert lane is not None
+    group_lanes = [ax for ax in layout.values() if isinstance(ax, dict) and "ticktext" in ax]
+    assert group_lanes[0]["ticktext"][0] == "(no state)"
+    assert not [d for d in data if d.get("name", "").startswith("GROUP_")]
 
 
 def test_traces_without_groups_plot_as_before(tmp_path: Path) -> None:
+    """The axis columns do not depend on the groups: same traces, same data."""
     plain, grouped = tmp_path / "a.csv", tmp_path / "b.csv"
     write_trace(plain)
     write_trace(grouped, groups={"g": ["x", "y"]})
@@ -240,16 +273,18 @@ def test_traces_without_groups_plot_as_before(tmp_path: Path) -> None:
     assert read_trace(grouped).groups == {"g": ["x", "y"]}
     assert main(["plot", str(plain), "-o", str(tmp_path / "a.html")]) == 0
     assert main(["plot", str(grouped), "-o", str(tmp_path / "b.html")]) == 0
-    a = (tmp_path / "a.html").read_text().replace(str(plain), "T")
-    b = (tmp_path / "b.html").read_text().replace(str(grouped), "T")
-    # the page of the earlier scope: head, one <h4> per axis with 5 value lanes and an FB lane
-    head, body = a.split("<h3>T</h3>\n")
-    assert head.count("<style>") == 1 and "path-view" not in a and "<div" not in a
-    assert re.findall(r"<h4>axis (\w+)</h4>", body) == ["x", "y"]
-    assert body.count("<polyline points=") == 10 and body.count("<svg width='900'") == 12
-    # with groups: the same axis lanes, unchanged, in the right-hand column
-    lanes = re.search(r"<div class='axes'>\n(.*)\n</div></div>\n$", b, flags=re.S)
-    assert lanes is not None and lanes.group(1) + "\n" == body
+    a, la, _ = plotly_figure((tmp_path / "a.html").read_text())
+    b, lb, _ = plotly_figure((tmp_path / "b.html").read_text())
+    assert not path_traces(a) and len(path_traces(b)) == 1
+    assert [x["text"] for x in la["annotations"]] == ["<b>axis x</b>", "<b>axis y</b>"]
+
+    def channels(data: list[dict[str, Any]]) -> dict[str, Any]:
+        return {d["name"]: d["y"] for d in data if d["name"][:2] in ("x.", "y.")}
+
+    ca, cb = channels(a), channels(b)
+    assert sorted(ca) == sorted(cb) and len(ca) >= 10
+    for k in ca:
+        assert np.array_equal(np.asarray(ca[k], dtype=object), np.asarray(cb[k], dtype=object)), k
 
 
 # ---------------------------------------------------------------------------- sidecar
@@ -386,7 +421,8 @@ def test_reading_is_exact_and_locates_bad_values(
 # ---------------------------------------------------------------------------- the runtime
 def test_a_runtime_group_round_trips_through_csv_and_sidecar(tmp_path: Path) -> None:
     """A real group (x, y) blends a 0.3 x 0.2 rectangle: the plot from the runtime and from
-    the CSV + sidecar agree, the group state is written by name, the path view is to scale."""
+    the CSV + sidecar agree byte for byte, the group state is written by name, the path view
+    has the rectangle's extent and its colour scale tops at the fastest path speed."""
     from motionplc.blocks import MC_Power
     from motionplc.blocks.enums import BufferMode, GroupState, TransitionMode
     from motionplc.blocks.group_blocks import MC_GroupEnable, MC_MoveLinearAbsolute
@@ -437,11 +473,10 @@ def test_a_runtime_group_round_trips_through_csv_and_sidecar(tmp_path: Path) -> 
         write_plot(tmp_path / f"{name}.html", tr, "run")
     page = (tmp_path / "live.html").read_text()
     assert page == (tmp_path / "read.html").read_text()
-    (view,) = path_views(page)
-    _, px = segments(view)
-    scale = float(re.search(r"data-scale='([\d.e+-]+)'", view).group(1))
-    ext = px.max(axis=0) - px.min(axis=0)
-    assert ext == pytest.approx([0.3 * scale, 0.2 * scale], abs=0.2)
+    data, _, _ = plotly_figure(page)
+    (path,) = path_traces(data)
+    ext = [np.ptp(path["x"]), np.ptp(path["y"])]
+    assert ext == pytest.approx([0.3, 0.2], abs=1e-6)  # the blended rectangle, to scale
     pv = read.data[:, read.columns.index("g.path_velocity")]
-    top = float(re.search(r"data-top='([\d.e+-]+)'", view).group(1))
-    assert top == pytest.approx(pv[:-1].max(), rel=1e-5) and 0.4 < top <= 0.5 + 1e-9
+    top = path["marker"]["cmax"]
+    assert top == pytest.approx(pv.max(), rel=1e-9) and 0.4 < top <= 0.5 + 1e-9
