@@ -144,11 +144,21 @@ def _is_number(x: Any) -> bool:
 # ------------------------------------------------------------------------ dataclasses
 @dataclass(frozen=True, slots=True)
 class Call:
-    """One FB call of a step: inputs to set (execute FBs also get a rising edge)."""
+    """One FB call of a step: inputs to set (execute FBs also get a rising edge).
+
+    ``path`` is the call's key path in the file (``steps[2].parallel.x[0].call[1]``);
+    ``lines`` the line of each input and of each value inside a point (``position``,
+    ``position.x`` or ``position[0]``, ``points[1].y``), for located messages; ``complete``
+    is False when the call itself had errors (then only its given inputs are checked
+    against the machine, not the values it would keep from before).
+    """
 
     block: str
     inputs: tuple[tuple[str, Any], ...]
     line: int
+    path: str = ""
+    lines: tuple[tuple[str, int], ...] = ()
+    complete: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -212,6 +222,7 @@ class _Parser:
         self.anon = 0
         self.axes = [a.name for a in config.axes]
         self.groups = config.group_map
+        self.lines: dict[str, int] = {}  # of the inputs of the call being parsed
 
     def steps(self, seq: Any, line: int, path: str) -> tuple[Step, ...]:
         c = self.c
@@ -282,6 +293,7 @@ class _Parser:
 
     def call(self, body: Any, line: int, path: str) -> Call | None:
         c = self.c
+        errors_before = len(c.errors)
         m = c.mapping(body, line, path, None)
         if m is None:
             return None
@@ -355,8 +367,10 @@ class _Parser:
                     f"block {bname!r} is bound to {decl.axis!r} (line {decl.line})",
                     decl.axis,
                 )
+        self.lines = {}
         inputs = self.inputs(m, path, decl)
-        return Call(decl.name, inputs, line)
+        complete = len(c.errors) == errors_before
+        return Call(decl.name, inputs, line, path, tuple(self.lines.items()), complete)
 
     def inputs(self, m: YamlMap, path: str, decl: BlockDecl) -> tuple[tuple[str, Any], ...]:
         c = self.c
@@ -371,11 +385,13 @@ class _Parser:
                 pos, m.line_of("position"), join(path, "position"), {a: False for a in members}
             )
             out: dict[str, float] = {}
+            self.lines["position"] = m.line_of("position")
             if pm is not None:
                 for a in members:
                     v = c.number(pm, a, join(path, "position"), None)
                     if v is not None:
                         out[a] = v
+                        self.lines[f"position.{a}"] = pm.line_of(a)
             return (("position", tuple(out.items())),)
         cls = self.group_types[decl.type] if decl.group else self.types[decl.type]
         ref = "axes_group" if decl.group else "axis"
@@ -420,11 +436,12 @@ class _Parser:
             val = m[pin]
             line = m.line_of(pin)
             p = join(path, pin)
+            self.lines[pin] = line
             if decl.group and pin in _POINT_PINS:
                 if pin == "aux_point" and _is_number(val):
                     val = (float(val),)  # the radius (CircMode RADIUS)
                 else:
-                    pt = self.point(val, line, p, members)
+                    pt = self.point(val, line, p, members, pin)
                     if pt is None:
                         continue
                     val = pt
@@ -445,6 +462,9 @@ class _Parser:
                     continue
                 val = enum[val]
             elif isinstance(default, (int, float)):
+                if val is None:  # (Checker.number takes null for "not given")
+                    c.error(line, p, "got null", "a number")
+                    continue
                 num = c.number(m, pin, path, None)
                 if num is None:
                     continue
@@ -453,10 +473,11 @@ class _Parser:
         return tuple(out_inputs)
 
     def point(
-        self, val: Any, line: int, path: str, members: tuple[str, ...]
+        self, val: Any, line: int, path: str, members: tuple[str, ...], key: str = ""
     ) -> tuple[float, ...] | None:
         """A group point: ``{axis: value}`` with every member once, or a list in member
-        order; None (and an error) otherwise."""
+        order; None (and an error) otherwise. ``key``: where the values' lines are recorded
+        (``key.x`` / ``key[0]`` in ``self.lines``)."""
         c = self.c
         allowed = (
             "{" + ", ".join(f"{a}: ..." for a in members) + "} (every member once) or a list "
@@ -472,6 +493,8 @@ class _Parser:
                 if v is None:
                     return None
                 out.append(v)
+                if key:
+                    self.lines[f"{key}.{a}"] = pm.line_of(a)
             return tuple(out)
         if isinstance(val, YamlList):
             if len(val) != len(members):
@@ -488,6 +511,8 @@ class _Parser:
                     )
                     return None
                 out.append(float(x))
+                if key:
+                    self.lines[f"{key}[{i}]"] = val.line_of(i)
             return tuple(out)
         c.error(line, path, f"got {_tname(val)}", allowed)
         return None
@@ -500,8 +525,10 @@ class _Parser:
             self.c.error(line, path, f"got {_tname(val)}", "a non-empty list of points")
             return None
         out = []
+        key = path.rpartition(".")[2]
         for i, item in enumerate(val):
-            pt = self.point(item, val.line_of(i), join(path, i), members)
+            self.lines[f"{key}[{i}]"] = val.line_of(i)
+            pt = self.point(item, val.line_of(i), join(path, i), members, f"{key}[{i}]")
             if pt is None:
                 return None
             out.append(pt)
@@ -636,7 +663,13 @@ class _Parser:
 
 
 def parse_sequence(data: Any, file: str | Path, config: Config) -> Sequence:
-    """Validate a loaded sequence document against ``config``; raise one ConfigError."""
+    """Validate a loaded sequence document against ``config``; raise one ConfigError.
+
+    Besides its structure, every literal FB input is checked against the machine (the axis'
+    limits, software limits and modulo, the group's members; :mod:`motionplc.sequence_check`)
+    with the FBs' own input checks: a sequence that loads issues no command its FB would
+    refuse for an input range (what depends on the state at run time is left to the run).
+    """
     c = Checker(file)
     top = c.mapping(data, getattr(data, "line", 1), "(top level)", _TOP)
     if top is None:
@@ -647,8 +680,15 @@ def parse_sequence(data: Any, file: str | Path, config: Config) -> Sequence:
     timeout = c.number(top, "timeout", "", 600.0, gt=0.0) or 600.0
     p = _Parser(c, config)
     steps = p.steps(top.get("steps"), top.line_of("steps"), "steps") if "steps" in top else ()
+    seq = Sequence(str(file), task, timeout, tuple(p.blocks.values()), steps)
+    from motionplc.sequence_check import check_sequence
+
+    check_sequence(seq, config, c)
+    # every problem of the file at once, in the order of its lines
+    prefix = len(c.file) + 1
+    c.errors.sort(key=lambda e: int(e[prefix:].partition(":")[0] or 0))
     c.raise_if_any()
-    return Sequence(str(file), task, timeout, tuple(p.blocks.values()), steps)
+    return seq
 
 
 def load_sequence(path: str | Path, config: Config) -> Sequence:

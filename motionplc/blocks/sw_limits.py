@@ -9,7 +9,10 @@ Pure functions of an axis' configuration and set state (the axis acts on their r
 * :func:`crossed_limit`: the limit a step went too far towards (braking from the new set state
   could no longer stop at it);
 * :func:`limit_stop_profile`: the jerk-limited brake from the previous set state to rest
-  exactly at that limit (None if there is none).
+  exactly at that limit (None if there is none);
+* :func:`target_refused` / :func:`point_refused`: the limit a move's target (single axis) or a
+  group path point lies beyond, refused at Execute (the checks of a sequence before the run use
+  them; tests hold them equal to the axis' and the group's own verdicts).
 """
 
 from __future__ import annotations
@@ -24,9 +27,11 @@ __all__ = [
     "crossed_limit",
     "exact_reach",
     "limit_stop_profile",
+    "point_refused",
     "reach",
     "stop_distance",
     "stop_speed",
+    "target_refused",
 ]
 
 _INF = math.inf
@@ -137,3 +142,32 @@ def limit_stop_profile(
         except PlanningError:
             prof = None
     return prof
+
+
+def target_refused(cfg: AxisConfig, target: float, base: float | None) -> float | None:
+    """The software limit a single-axis move from ``base`` to ``target`` is refused for at
+    Execute (TARGET_OUTSIDE_SW_LIMITS), else None: a target beyond a limit is refused unless
+    the axis stands beyond that limit already and the target lies back towards the allowed
+    range (the rule of ``Axis._resolve``). ``base`` None: unknown, taken as within the limits
+    (an axis starts there). Modulo axes have no software limits."""
+    if cfg.modulo is not None:
+        return None
+    hi, lo = cfg.sw_limit_pos, cfg.sw_limit_neg
+    if hi is not None and target > hi and (base is None or target > base):
+        return hi
+    if lo is not None and target < lo and (base is None or target < base):
+        return lo
+    return None
+
+
+def point_refused(cfg: AxisConfig, x: float) -> float | None:
+    """The software limit a group path point ``x`` of this member lies beyond (a group move's
+    target or passing point is refused, TARGET_OUTSIDE_SW_LIMITS, with a tolerance of 1e-12
+    relative, the rule of ``AxesGroup._check_limits``), else None."""
+    hi, lo = cfg.sw_limit_pos, cfg.sw_limit_neg
+    tol = 1e-12 * (1.0 + abs(x))
+    if hi is not None and x > hi + tol:
+        return hi
+    if lo is not None and x < lo - tol:
+        return lo
+    return None

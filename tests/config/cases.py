@@ -413,7 +413,7 @@ SEQUENCE_CASES: list[tuple[str, str, list[str]]] = [
     ),
     (
         "block re-bound to another axis",
-        "steps:\n  - call: [{block: m, type: MC_MoveAbsolute, axis: x}]\n"
+        "steps:\n  - call: [{block: m, type: MC_MoveAbsolute, axis: x, velocity: 0.5}]\n"
         "  - call: [{block: m, axis: y}]\n",
         ["{f}:3: steps[1].call[0].axis: block 'm' is bound to 'x' (line 2) (allowed: x)"],
     ),

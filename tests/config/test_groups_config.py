@@ -333,7 +333,8 @@ def test_group_calls_are_parsed_into_fb_inputs(tmp_path: Path) -> None:
         "         velocity: 0.5, buffer_mode: BLENDING_LOW,\n"
         "         transition_mode: TM_MAX_CORNER_DEVIATION, transition_parameter: 0.001}\n"
         "      - {block: c, type: MC_MoveCircularAbsolute, group: xy, circ_mode: RADIUS,\n"
-        "         aux_point: -0.05, end_point: [0.2, 0.2], path_choice: CLOCKWISE}\n"
+        "         aux_point: -0.05, end_point: [0.2, 0.2], path_choice: CLOCKWISE,\n"
+        "         velocity: 0.3}\n"
         "      - {block: p, type: MC_MovePassingPoints, group: xy,\n"
         "         points: [[0.3, 0.2], {x: 0.4, y: 0.1}]}\n"
         "  - call: [{block: st, type: MC_GroupStop, group: xy}]\n"
@@ -352,9 +353,10 @@ def test_group_calls_are_parsed_into_fb_inputs(tmp_path: Path) -> None:
         "circ_mode": CircMode.RADIUS,
         "aux_point": (-0.05,),
         "end_point": (0.2, 0.2),
-        "path_choice": calls[1].inputs[3][1],
+        "path_choice": dict(calls[1].inputs)["path_choice"],
+        "velocity": 0.3,
     }
-    assert calls[1].inputs[3][1].name == "CLOCKWISE"
+    assert dict(calls[1].inputs)["path_choice"].name == "CLOCKWISE"
     assert dict(calls[2].inputs) == {"points": ((0.3, 0.2), (0.4, 0.1))}
     assert dict(calls[4].inputs) == {"execute": False}
     assert {b.name: (b.type, b.axis, b.group) for b in seq.blocks}["st"] == (
