@@ -20,7 +20,7 @@ from motionplc.blocks import MC_MoveAbsolute, MC_MoveRelative, MC_MoveVelocity, 
 from motionplc.blocks.axis_config import AxisConfig
 from motionplc.blocks.enums import Direction, ErrorID
 from motionplc.blocks.motion import StaticAxis
-from motionplc.blocks.sw_limits import target_refused
+from motionplc.blocks.sw_limits import point_refused, target_refused
 from motionplc.cli import main
 from motionplc.config import Checker, load_config
 from motionplc.errors import ConfigError
@@ -511,3 +511,42 @@ def test_move_velocity_static_verdict_equals_the_fb(
     elif "direction" in probs:
         static = probs["direction"].error_id
     assert _fb_error(fb, cfg) is static
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    x=st.floats(-1.1, 1.1),
+    y=st.sampled_from([0.6, 0.6 + 1e-13, 0.6 + 1e-11, -1e-13, -1e-11, 0.3]),
+)
+def test_group_point_verdict_equals_the_group(x: float, y: float) -> None:
+    """point_refused (the static check) against the group's own check of a target."""
+    from motionplc.blocks.group import _MoveError
+
+    rt = Runtime(cycle=0.001, clock=SimClock())
+    rt.add_task("t", lambda ctx: None, 0.001)
+    rt.add_axis("x", 0.5, 2.0, sw_limit_pos=1.05, sw_limit_neg=-0.05)
+    rt.add_axis("y", 0.25, 1.0, sw_limit_pos=0.6, sw_limit_neg=0.0)
+    group = rt.add_group("xy", ["x", "y"])
+    static = any(point_refused(rt.axes[a].cfg, v) is not None for a, v in (("x", x), ("y", y)))
+    try:
+        group._check_limits((x, y), "position")
+        refused = False
+    except _MoveError as exc:
+        assert exc.error_id is ErrorID.TARGET_OUTSIDE_SW_LIMITS
+        refused = True
+    assert refused is static
+
+
+@settings(max_examples=80, deadline=None)
+@given(target=st.floats(-1.5, 1.5), base=st.floats(-1.5, 1.5))
+def test_target_verdict_equals_the_axis_from_any_base(target: float, base: float) -> None:
+    """target_refused against Axis._resolve from a base also beyond a limit."""
+    from motionplc.blocks.axis import AxisJob, Command, Handle
+
+    rt = Runtime(cycle=0.001, clock=SimClock())
+    rt.add_task("t", lambda ctx: None, 0.001)
+    ax = rt.add_axis("x", 0.5, 2.0, sw_limit_pos=1.0, sw_limit_neg=-1.0)
+    job = AxisJob(Command(kind="absolute", position=target, velocity=0.5), Handle("absolute"))
+    err = ax._resolve(job, base)
+    static = target_refused(ax.cfg, target, base)
+    assert (err is ErrorID.TARGET_OUTSIDE_SW_LIMITS) is (static is not None)
