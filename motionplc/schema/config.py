@@ -989,4 +989,5 @@ CONFIG = FileSchema(
     "Units are SI (m or rad, s). Floats such as `1e-6` are read as numbers.",
     example=EXAMPLE,
     defs={"register_map": REGISTER_MAP.root},
+    pages={"register_map": "register_map.md"},
 )

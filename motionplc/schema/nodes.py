@@ -310,6 +310,8 @@ class FileSchema:
     intro: str
     example: str
     defs: Mapping[str, Node] = field(default_factory=dict)
+    # definitions documented on another reference page: name -> that page (file name)
+    pages: Mapping[str, str] = field(default_factory=dict)
 
     def resolve(self, node: Node) -> Node:
         """``node``, or the definition a :class:`Ref` names."""

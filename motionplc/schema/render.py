@@ -259,6 +259,9 @@ class _Page:
         return node_r.type_text()
 
     def ref(self, name: str) -> str:
+        if name in self.fs.pages:
+            page = self.fs.pages[name]
+            return f"an inline {name.replace('_', ' ')}, see [{page}]({page})"
         if name not in self.seen_refs:
             self.seen_refs.add(name)
             target = self.fs.defs[name]
@@ -297,7 +300,8 @@ class _Page:
         for c in self._checks_of(n):
             text += f" *Validator:* {c}."
             self.checks.append((kp, c))
-        return f"| `{k.name}` | {typ} | {default} | {text.strip()} |"
+        cells = (f"`{k.name}`", typ, default, text.strip())
+        return "| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
 
     def _checks_of(self, n: Node) -> tuple[str, ...]:
         out = list(n.checks)
