@@ -663,19 +663,28 @@ def _realtime_report(clock: Any) -> str | None:
 
 
 def _located_build_error(cfg: Any, exc: MotionPlcError) -> MotionPlcError:
-    """A bus that could not start, located at its YAML line (a Modbus port in use); other
-    errors as they are."""
+    """A bus or drive that could not start, located at its YAML line: a Modbus port in use
+    (``FILE:LINE: buses.NAME.port: HOST:PORT is in use (...)``), ``AXIS: ...`` of a drive
+    (``FILE:LINE: axes.AXIS.drive (bus NAME): ...``); other errors (a CAN interface that does
+    not open: ``FILE: buses.NAME: ...`` from ``build``) as they are."""
     from motionplc.fieldbus.drives_main import port_problem
 
+    text = str(exc)
     cause = exc.__cause__
-    if "Modbus" not in str(exc) and not isinstance(cause, (OSError, RuntimeError)):
-        return exc
-    for bus in cfg.buses:
-        if bus.type != "modbus" or bus.drives != "simulated" or not bus.port:
-            continue
-        problem = port_problem(bus.host, bus.port)
-        if problem is not None:
-            return MotionPlcError(_port_in_use(cfg.path, bus.name, bus.host, bus.port, problem))
+    if "Modbus" in text or isinstance(cause, (OSError, RuntimeError)):
+        for bus in cfg.buses:
+            if bus.type != "modbus" or bus.drives != "simulated" or not bus.port:
+                continue
+            problem = port_problem(bus.host, bus.port)
+            if problem is not None:
+                return MotionPlcError(_port_in_use(cfg.path, bus.name, bus.host, bus.port, problem))
+    for ax in cfg.axes:
+        if text.startswith(f"{ax.name}: ") and ax.drive.bus is not None:
+            line = _yaml_line(cfg.path, ("axes", ax.name, "drive"))
+            return MotionPlcError(
+                f"{cfg.path}:{line}: axes.{ax.name}.drive (bus {ax.drive.bus}): "
+                f"{text[len(ax.name) + 2 :]}"
+            )
     return exc
 
 
@@ -774,6 +783,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             program_error = str(exc)
             if runner is None or not runner.failures:
                 failures.append(program_error)
+        except MotionPlcError as exc:  # a drive that does not open at the start of the run
+            located = _located_build_error(cfg, exc)
+            if located is exc:
+                raise
+            raise located from exc
         finally:
             progress.close()
         if runner is not None:

@@ -308,3 +308,20 @@ def test_relative_program_path_reports_its_own_lines(
         assert main(["run", "m.yaml", "bad_prog.py", "-q"]) == code
         err = capsys.readouterr().err
         assert expected in err, err
+
+
+def test_an_external_modbus_drive_that_is_not_there_is_located_at_its_drive(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    free = socket.socket()
+    free.bind(("127.0.0.1", 0))
+    port = free.getsockname()[1]
+    free.close()  # nobody listens there
+    text = MODBUS.replace("PORT", str(port)).replace("simulated", "external, timeout: 0.1")
+    cfg = _write(tmp_path, "m.yaml", text)
+    prog = _write(tmp_path, "p.py", DONE_PROGRAM)
+    assert main(["run", cfg, prog, "-q"]) == 2
+    line = _one_line(capsys.readouterr().err)
+    assert line.startswith(
+        f"motionplc: error: {cfg}:9: axes.z.drive (bus mb0): cannot connect to 127.0.0.1:{port}: "
+    )
