@@ -396,16 +396,25 @@ def _read_parquet(path: Path) -> tuple[list[str], Any, list[Event], dict[str, st
             raise MotionPlcError(f"{path}: {name}: {col.null_count} missing values")
         typ = col.type
         if pa.types.is_dictionary(typ) or pa.types.is_string(typ):
-            names = col.cast(pa.string()).to_numpy(zero_copy_only=False)
             table_ = {
                 **states,
                 **{k: float(v) for k, v in meta.get("enums", {}).get(name, {}).items()},
             }
-            uniq, inverse = np.unique(names.astype(str), return_inverse=True)
-            bad = [u for u in uniq if u not in table_]
-            if bad:
-                raise MotionPlcError(f"{path}: {name}: not a state name: {str(bad[0])!r}")
-            out[:, j] = np.array([table_[u] for u in uniq], dtype=float)[inverse]
+            parts = []
+            for chunk in col.chunks:
+                if pa.types.is_dictionary(typ):  # decode the dictionary, not every row
+                    names, codes = chunk.dictionary.to_pylist(), chunk.indices.to_numpy()
+                else:
+                    uniq, codes = np.unique(
+                        chunk.to_numpy(zero_copy_only=False).astype(str), return_inverse=True
+                    )
+                    names = uniq.tolist()
+                bad = [str(u) for u in names if u not in table_]
+                if bad:
+                    raise MotionPlcError(f"{path}: {name}: not a state name: {bad[0]!r}")
+                lut = np.array([table_[u] for u in names], dtype=float)
+                parts.append(lut[codes] if len(lut) else np.empty(0))
+            out[:, j] = np.concatenate(parts) if parts else np.empty(0)
         elif pa.types.is_integer(typ) or pa.types.is_floating(typ) or pa.types.is_boolean(typ):
             out[:, j] = col.to_numpy().astype(float)
         else:

@@ -257,8 +257,6 @@ def test_speed_from_member_velocities_without_a_speed_column(tmp_path: Path) -> 
     (path,) = path_traces(data)
     assert path["marker"]["cmax"] == pytest.approx(float(np.max(np.hypot(vx, vy))), rel=1e-9)
     # no group state: its lane says so and it has no state spans
-    lane = layout[traces_named(data, "g.path_velocity")[0]["yaxis"].replace("y", "yaxis")]
-    assert lane is not None
     group_lanes = [ax for ax in layout.values() if isinstance(ax, dict) and "ticktext" in ax]
     assert group_lanes[0]["ticktext"][0] == "(no state)"
     assert not [d for d in data if d.get("name", "").startswith("GROUP_")]
