@@ -66,6 +66,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from motionplc.config import Checker, Config, YamlList, YamlMap, _tname, join, load_yaml
+from motionplc.schema import sequence as _schema
 
 if TYPE_CHECKING:
     from motionplc.config import Machine
@@ -84,8 +85,8 @@ __all__ = [
     "parse_sequence",
 ]
 
-AXIS_FIELDS = ("position", "actual_position", "velocity", "following_error", "state")
-GROUP_FIELDS = ("state", "path_velocity")
+AXIS_FIELDS = _schema.AXIS_FIELDS
+GROUP_FIELDS = _schema.GROUP_FIELDS
 
 
 def _target_fields(kind: str) -> tuple[str, tuple[str, ...], Any] | None:
@@ -99,22 +100,16 @@ def _target_fields(kind: str) -> tuple[str, tuple[str, ...], Any] | None:
     return None
 
 
-SYNC_MOVE = "SyncMoveAbsolute"
+# the key tables come from the schema (motionplc.schema.sequence): the validator and the
+# reference (docs/reference/sequence.md, docs/schema/sequence.schema.json) cannot drift
+SYNC_MOVE = _schema.SYNC_MOVE
 # group FBs not offered in sequences: the members are fixed by the configuration
-_GROUP_ADMIN = ("MC_AddAxisToGroup", "MC_RemoveAxisFromGroup", "MC_UngroupAllAxes")
+_GROUP_ADMIN = _schema.GROUP_ADMIN
 # group FB inputs that are points (one value per member)
-_POINT_PINS = ("position", "distance", "end_point", "aux_point")
-_TOP = {"task": False, "timeout": False, "steps": True}
-_STEP = {
-    "name": False,
-    "call": False,
-    "until": False,
-    "timeout": False,
-    "expect": False,
-    "wait": False,
-    "parallel": False,
-}
-_COND = {"done": False, "time": False, "position": False, "state": False}
+_POINT_PINS = _schema.POINT_PINS
+_TOP = _schema.TOP.table()
+_STEP = _schema.STEP.table()
+_COND = _schema.COND.table()
 
 
 def _fb_types() -> dict[str, type]:
