@@ -755,9 +755,6 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if limit is None:
             limit = 1.0 if runner is None else getattr(script, "timeout", 600.0) + rt.cycle
         mode = "real time" if realtime else "simulated time"
-        if not args.quiet:
-            what = f" with {args.script}" if args.script else ""
-            print(f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)", flush=True)
         program_error = ""
         progress = _Progress(limit, args.quiet, rt.cycle)
         timer = _TickTimer()
@@ -773,6 +770,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
             return False
 
         try:
+            if not args.quiet:  # inside the try: Ctrl-C once this is shown gives the summary
+                what = f" with {args.script}" if args.script else ""
+                print(
+                    f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)", flush=True
+                )
             if rt.time < limit - 1e-9:
                 timer.restart()
                 rt.run_until(stop_now, max_seconds=limit - rt.time)

@@ -6,6 +6,7 @@ defect (exit 3, ``--debug`` for the traceback)."""
 from __future__ import annotations
 
 import errno
+import re
 import socket
 from collections.abc import Iterator
 from pathlib import Path
@@ -325,3 +326,36 @@ def test_an_external_modbus_drive_that_is_not_there_is_located_at_its_drive(
     assert line.startswith(
         f"motionplc: error: {cfg}:9: axes.z.drive (bus mb0): cannot connect to 127.0.0.1:{port}: "
     )
+
+
+def test_a_real_sigint_ends_the_run_with_its_summary_and_130(tmp_path: Path) -> None:
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    cfg = _write(tmp_path, "m.yaml", IDEAL)
+    trace = tmp_path / "t.csv"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "motionplc", "run", cfg, "--seconds", "3000", "--trace", str(trace)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, PYTHONPATH=str(root)),
+        # a shell's background job inherits SIGINT ignored: give Python its handler back
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    try:
+        assert proc.stdout is not None
+        assert proc.stdout.readline().startswith(f"running {cfg} (simulated time")
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 130
+    assert "Traceback" not in err
+    assert re.fullmatch(r"FAILED: interrupted at t = [0-9.]+ s\n", err), err
+    assert out.startswith(f"wrote {trace} (") and "task " in out
