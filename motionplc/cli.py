@@ -1125,8 +1125,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--quiet",
         "-q",
         action="store_true",
-        help="no progress, no summary table (default: progress bar on a terminal, else a "
-        "line every 5 s of simulated time)",
+        help="no progress and, unless the run fails, no summary table (default: progress bar "
+        "on a terminal, else a line every 5 s of simulated time)",
     )
     r.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     r.set_defaults(func=_cmd_run)
