@@ -1233,6 +1233,7 @@ def build(
     channels get a unique suffix, so that two machines in one process never share frames.
     """
     from motionplc.runtime import RealtimeClock, Runtime, SimClock
+    from motionplc.runtime.trace import axis_units
 
     rs = config.runtime
     use_rt = (rs.clock == "realtime") if realtime is None else realtime
@@ -1283,6 +1284,7 @@ def build(
             machine.axes[ax.name] = rt.add_axis(
                 ax.name, lim.v_max, lim.a_max, lim.j_max, drive=drive, task=ax.task, **options
             )
+            rt.trace.set_units(axis_units(ax.name, ax.units))  # the scope's axis titles
         for g in config.groups:
             machine.axes_groups[g.name] = rt.add_group(g.name, g.axes, **g.options())
     except BaseException:
