@@ -661,6 +661,7 @@ class _Column:
     positions: Any = None  # group: (n, d) member positions
     speed_derived: bool = False
     member_units: tuple[str, ...] = ()  # group: the position unit of each member
+    colour_speed: Any = None  # group: the speed that colours the path view (velocity norm)
 
     def lane_labels(self) -> list[str]:
         return [("state" if self.state is not None else "(no state)"), *self.fbs]
@@ -669,6 +670,11 @@ class _Column:
         """Member index pairs drawn: XY for two axes, XY and XZ for three or more, none for one."""
         d = len(self.members)
         return [] if d < 2 else [(0, 1)] if d == 2 else [(0, 1), (0, 2)]
+
+
+def _colour_speed(col: _Column) -> Any:
+    """The speed that colours a group's path view: the members' velocity norm if known."""
+    return col.colour_speed if col.colour_speed is not None else col.signals["path_velocity"]
 
 
 def _columns(trace: ScopeTrace) -> tuple[Any, list[_Column]]:
@@ -690,13 +696,16 @@ def _columns(trace: ScopeTrace) -> tuple[Any, list[_Column]]:
     for name, members in trace.groups.items():
         pos = np.column_stack([data[:, cols[f"{m}.position"]] for m in members])
         derived = f"{name}.path_velocity" not in cols
+        vcols = [cols[f"{m}.velocity"] for m in members if f"{m}.velocity" in cols]
+        norm = np.sqrt(np.sum(data[:, vcols] ** 2, axis=1)) if vcols else None
         if derived:
-            vel = np.column_stack(
-                [data[:, cols[f"{m}.velocity"]] for m in members if f"{m}.velocity" in cols]
-            )
-            speed = np.sqrt(np.sum(vel * vel, axis=1))
+            speed = norm if norm is not None else np.zeros(len(t))
         else:
             speed = data[:, cols[f"{name}.path_velocity"]]
+        # the path view is coloured by the speed of the members' motion (their velocity norm):
+        # it is the group's path speed while the group moves, and it also shows the members
+        # moving on their own (single-axis or synchronised moves, the group standing by)
+        colour = norm if norm is not None else speed
         state = data[:, cols[f"{name}.state"]] if f"{name}.state" in cols else None
         out.append(
             _Column(
@@ -710,6 +719,7 @@ def _columns(trace: ScopeTrace) -> tuple[Any, list[_Column]]:
                 members=tuple(members),
                 positions=pos,
                 speed_derived=derived,
+                colour_speed=colour,
                 member_units=tuple(column_unit(trace, f"{m}.position") for m in members),
             )
         )
@@ -1018,7 +1028,7 @@ def _html_figure(
             proj = col.projections()
             top, bottom = rows[0][1], rows[2][0]
             pos = np.asarray(col.positions, dtype=float)
-            speed = np.asarray(col.signals["path_velocity"], dtype=float)
+            speed = np.asarray(_colour_speed(col), dtype=float)
             segs = min(max_segments, 4 * max_points)
             keep = decimate_path(pos, speed, segs) if len(pos) else np.arange(0)
             v_top = _speed_scale(speed[keep]) if len(keep) else 1.0
@@ -1068,7 +1078,7 @@ def _html_figure(
                             "cmax": v_top,
                             "showscale": k == 0,
                             "colorbar": {
-                                "title": {"text": f"path speed<br>[{unit}]", "side": "top"},
+                                "title": {"text": f"speed<br>[{unit}]", "side": "top"},
                                 "x": dom_x[1],
                                 "xanchor": "right",
                                 "y": (top + bottom) / 2,
@@ -1078,7 +1088,7 @@ def _html_figure(
                         },
                         "hovertemplate": (
                             f"{col.members[i]} %{{x:.6g}}, {col.members[j]} %{{y:.6g}}, "
-                            f"path speed %{{marker.color:.4g}} {unit}<extra></extra>"
+                            f"speed %{{marker.color:.4g}} {unit}<extra></extra>"
                         ),
                     }
                 )
@@ -1481,7 +1491,7 @@ def _png_group(
 
     proj = col.projections()
     pos = np.asarray(col.positions, dtype=float)
-    speed = np.asarray(col.signals["path_velocity"], dtype=float)
+    speed = np.asarray(_colour_speed(col), dtype=float)
     keep = decimate_path(pos, speed, max_segments) if len(pos) else np.arange(0)
     values = speed[keep[:-1]]
     norm = Normalize(0.0, _speed_scale(values))
@@ -1506,7 +1516,7 @@ def _png_group(
         a.set_ylabel(f"{col.members[j]} position [{col.member_units[j]}]", fontsize=9)
         a.tick_params(labelsize=8)
         a.grid(True, alpha=0.3)
-        fig.colorbar(lc, ax=a, label=f"path speed [{unit}]")
+        fig.colorbar(lc, ax=a, label=f"speed [{unit}]")
         if k == 0:
             title = col.title
             if len(keep) < len(pos):
