@@ -455,6 +455,8 @@ class BusSpec:
     # CAN: further keyword arguments of can.Bus for this interface (e.g. pcan's ``fd``,
     # slcan's ``tty_baudrate``), passed through as given
     options: tuple[tuple[str, Any], ...] = ()
+    # the YAML line of the bus, for errors when it is opened
+    line: int = field(default=0, compare=False)
 
     def can_bus_kwargs(self, channel: str | None = None) -> dict[str, Any]:
         """The keyword arguments of ``can.Bus`` for this CAN bus."""
@@ -772,6 +774,7 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             sync_cob_id=sync_id or 0x80,
             sdo_timeout=sdo_timeout or 0.3,
             options=tuple(options),
+            line=m.line,
         )
     host = c.field(m, "host", path, S.MODBUS_BUS["host"]) or S.MODBUS_BUS["host"].default
     if drives == "simulated" and not _is_loopback(host):
@@ -1318,7 +1321,8 @@ def _open_can(bus: BusSpec, channel: str, where: str) -> Any:
 
     try:
         return can.Bus(**bus.can_bus_kwargs(channel))
-    except (OSError, can.CanError, ImportError, ValueError, TypeError) as exc:
+    except Exception as exc:  # python-can's backends raise anything when the
+        # vendor library or the adapter is missing (kvaser: NameError), all mean "cannot open"
         hint = ""
         code = getattr(exc, "errno", None)
         if bus.interface == "socketcan" and code == errno.EAFNOSUPPORT:
@@ -1332,8 +1336,8 @@ def _open_can(bus: BusSpec, channel: str, where: str) -> Any:
                 f"sudo ip link set up {channel} (tools/setup_vcan.sh), or name a real adapter"
             )
         raise FieldbusError(
-            f"{where}: buses.{bus.name}: cannot open CAN interface {bus.interface!r} channel "
-            f"{channel!r}: {exc}{hint}"
+            f"{where}:{bus.line}: buses.{bus.name}: cannot open CAN interface "
+            f"{bus.interface!r} channel {channel!r}: {exc}{hint}"
         ) from exc
 
 

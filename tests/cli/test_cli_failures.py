@@ -128,8 +128,12 @@ def test_vcan0_on_a_kernel_without_can_is_one_line(capsys: pytest.CaptureFixture
     cfg = str(CONFIGS / "vcan0.yaml")
     assert main(["run", cfg, str(CONFIGS / "single_axis_sequence.yaml")]) == 2
     line = _one_line(capsys.readouterr().err)
+    bus_line = next(
+        i for i, t in enumerate(Path(cfg).read_text().splitlines(), 1) if t.startswith("  can0:")
+    )
     assert line.startswith(
-        f"motionplc: error: {cfg}: buses.can0: cannot open CAN interface 'socketcan' channel "
+        f"motionplc: error: {cfg}:{bus_line}: buses.can0: cannot open CAN interface 'socketcan' "
+        "channel "
         "'vcan0': [Errno 97] "
     )
     assert line.endswith(
@@ -355,7 +359,7 @@ def test_a_real_sigint_ends_the_run_with_its_summary_and_130(tmp_path: Path) -> 
         if proc.poll() is None:
             proc.kill()
             proc.wait()
-    assert proc.returncode == 130
+    assert proc.returncode == 130, (proc.returncode, out[-2000:], err[-2000:])
     assert "Traceback" not in err
     assert re.fullmatch(r"FAILED: interrupted at t = [0-9.]+ s\n", err), err
     assert out.startswith(f"wrote {trace} (") and "task " in out

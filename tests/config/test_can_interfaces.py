@@ -102,7 +102,7 @@ def test_unopenable_bus_is_one_line_without_traceback(
     assert "Traceback" not in err
     assert err.count("\n") == 1
     head = (
-        f"motionplc: error: {path}: buses.can0: cannot open CAN interface 'socketcan' "
+        f"motionplc: error: {path}:3: buses.can0: cannot open CAN interface 'socketcan' "
         "channel 'vcan97': "
     )
     assert err.startswith(head)
@@ -130,3 +130,27 @@ def test_external_drive_on_a_virtual_channel_is_reached_by_name(tmp_path: Path) 
             assert msg is not None and msg.arbitration_id == 0x77
         finally:
             machine.close()
+
+
+@pytest.mark.parametrize(
+    ("interface", "channel"), [("pcan", "PCAN_USBBUS1"), ("kvaser", "0"), ("ixxat", "0")]
+)
+def test_absent_adapter_is_one_located_line_naming_the_interface(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], interface: str, channel: str
+) -> None:
+    # the configuration is valid; the adapter (or its vendor library) is not on this machine
+    path = _config(
+        tmp_path,
+        f"{{type: can, interface: {interface}, channel: '{channel}', bitrate: 500000, "
+        "drives: external}",
+    )
+    assert main(["validate", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["run", str(path), "--seconds", "0.01", "-q"]) == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.count("\n") == 1
+    assert err.startswith(
+        f"motionplc: error: {path}:3: buses.can0: cannot open CAN interface {interface!r} "
+        f"channel {channel!r}: "
+    )
