@@ -78,7 +78,7 @@ def load_program(path: str | Path) -> Program:
         spec.loader.exec_module(module)
     except SyntaxError as exc:
         raise ConfigError(f"{p}:{exc.lineno or 1}: syntax error: {exc.msg}") from None
-    except Exception as exc:  # noqa: BLE001 - reported as a configuration error
+    except (Exception, SystemExit) as exc:  # noqa: BLE001 - reported as a configuration error
         line = _user_line(exc, p)
         raise ConfigError(f"{p}:{line}: import failed: {type(exc).__name__}: {exc}") from None
     prog = getattr(module, "program", None)
@@ -258,6 +258,15 @@ class ProgramRunner:
                 if self.program.setup is not None:
                     self.program.setup(self.ctx)
             self.program.program(self.ctx)
+        except SystemExit as exc:
+            # sys.exit() in a program would end the process with its axes in motion: a program
+            # error like any other (the task halts, its axes stop under control)
+            line = _user_line(exc, Path(self.program.path))
+            self.failures.append(
+                f"{self.program.path}:{line}: program called sys.exit({exc.code!r}); a program "
+                f"ends with ctx.done() or ctx.fail(message) (t = {ctx.t:.3f} s)"
+            )
+            raise RuntimeError(f"program called sys.exit({exc.code!r})") from None
         except Exception as exc:
             # a user program error fails the run; the runtime halts the task and brings its
             # axes to a controlled stop (Runtime.run raises ProgramError once they are at rest)

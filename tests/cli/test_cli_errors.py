@@ -228,3 +228,35 @@ def test_a_raising_program_stops_its_axes_and_is_located(
     header = rows[0].split(",")
     last = dict(zip(header, rows[-1].split(","), strict=True))
     assert float(last["x.velocity"]) == 0.0  # the stop ran to rest before the run ended
+
+
+def test_a_program_calling_sys_exit_stops_its_axes_and_fails_located(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """sys.exit() inside program(ctx) does not end the process with the axis in motion: the
+    run fails at the program's line and the axis is brought to rest."""
+    monkeypatch.chdir(tmp_path)
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(CAN_TIGHT.replace("CHANNEL", f"cli-{os.getpid()}-exit").replace("1.0e-6", "1.0"))
+    text = RAISING_PROGRAM.replace('ctx.vars["n"] = 1 / 0', "import sys; sys.exit(3)")
+    (tmp_path / "prog.py").write_text(text)
+    assert main(["run", str(cfg), "prog.py", "-q", "--trace", "t.csv"]) == 1
+    err = capsys.readouterr().err
+    assert "FAILED: prog.py:12: program called sys.exit(3); a program ends with ctx.done()" in err
+    assert "axis 'x' ends in ERROR_STOP (INTERNAL_ERROR (0x5002)" in err
+    rows = (tmp_path / "t.csv").read_text().splitlines()
+    header = rows[0].split(",")
+    last = dict(zip(header, rows[-1].split(","), strict=True))
+    assert float(last["x.velocity"]) == 0.0
+
+
+def test_a_program_calling_sys_exit_at_import_is_a_located_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    prog = tmp_path / "prog.py"
+    prog.write_text("import sys\n\nsys.exit('no')\n")
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(CAN_TIGHT.replace("CHANNEL", f"cli-{os.getpid()}-exit2"))
+    assert main(["validate", str(cfg), str(prog)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"motionplc: error: {prog}:3: import failed: SystemExit: no\n"
