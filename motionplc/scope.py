@@ -1523,8 +1523,9 @@ def _png_group(
                 title += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
             a.set_title(title, fontsize=11)
     a = fig.add_subplot(gs[3:5, c], sharex=share)
-    idx = minmax_indices(speed, max_points)
-    a.plot(t[idx], speed[idx], lw=1.2, color=_SIGNAL_COLORS["path_velocity"])
+    path_speed = np.asarray(col.signals["path_velocity"], dtype=float)  # the group's channel
+    idx = minmax_indices(path_speed, max_points)
+    a.plot(t[idx], path_speed[idx], lw=1.2, color=_SIGNAL_COLORS["path_velocity"])
     note = " (norm of member velocities)" if col.speed_derived else ""
     a.set_ylabel(f"path speed [{unit}]{note}", fontsize=9 if not note else 7)
     a.tick_params(labelbottom=False, labelsize=8)
