@@ -44,7 +44,7 @@ from collections.abc import Callable, Sequence
 from typing import NamedTuple
 
 from motionplc.errors import PlanningError
-from motionplc.planning import _brake, _third, _velocity
+from motionplc.planning import _brake, _fixed, _third, _velocity
 from motionplc.planning.limits import Limits
 from motionplc.planning.plan import (
     _check_limits,
@@ -836,9 +836,13 @@ def _family_result(c: tuple[float, Phases, str], sign: float) -> tuple[Phases, s
 
 
 def _solve_for(
-    ax: _Axis, T: float, ext: list[tuple[float, Phases, str]]
+    ax: _Axis, T: float, ext: list[tuple[float, Phases, str]], method: str = "direct"
 ) -> tuple[Phases, str] | None:
-    """Phases of duration T (after the prefix) for this axis, or None."""
+    """Phases of duration T (after the prefix) for this axis, or None.
+
+    ``method`` "direct" tries the closed-form fixed-duration families of ``_fixed`` before the
+    jerk bisection and the scans (which then remain the fallback); "bisection" skips them (the
+    seed 004 method, kept as the test oracle and the benchmark's reference)."""
     for t, ph, kind in ext:
         if abs(t - T) <= _dur_tol(T):
             return ph, kind
@@ -860,6 +864,12 @@ def _solve_for(
     r = _free_ramp(ax, T)
     if r is not None:
         return r
+    if method == "direct" and not ax.velocity:
+        r = _fixed.solve(
+            ax.v0, ax.a0, ax.d, ax.vf, ax.af, ax.vmax, ax.vmin, ax.amax, ax.amin, ax.J, T
+        )
+        if r is not None:
+            return r
     durs = [t for t, _, _ in ext]
     branch = 0
     while 2 * branch + 2 < len(durs) and T >= durs[2 * branch + 2] - _SYNC_TOL:
@@ -950,7 +960,7 @@ def _profile(ax: _Axis, phases: Phases, kind: str) -> Profile:
 
 
 def _time_sync(
-    axes: list[_Axis], dt: float | None
+    axes: list[_Axis], dt: float | None, method: str = "direct"
 ) -> tuple[list[Profile], tuple[float, ...]] | None:
     exts = [_extremals(ax) for ax in axes]
     tmins = [ax.t_pre + e[0][0] for ax, e in zip(axes, exts, strict=True)]
@@ -979,7 +989,7 @@ def _time_sync(
             width = _blocking_width(durs, T - ax.t_pre)
             if width > _NARROW_BLOCK * max(1.0, T):
                 break
-            r = _solve_for(ax, T - ax.t_pre, e)
+            r = _solve_for(ax, T - ax.t_pre, e, method)
             if r is None:
                 break
             profiles.append(_profile(ax, r[0], r[1]))
@@ -994,6 +1004,7 @@ def _phase_sync(
     targets: Sequence[State],
     t_time: float,
     dt: float | None,
+    method: str = "direct",
 ) -> tuple[list[Profile] | None, str]:
     """Scaled copies of one profile along the line, or (None, reason)."""
     if any(ax.velocity for ax in axes):
@@ -1054,7 +1065,7 @@ def _phase_sync(
             f"phase synchronisation would take {T:.9g} s, longer than the time-synchronised "
             f"{t_time:.9g} s"
         )
-    r = _solve_for(ax1, T, ext)
+    r = _solve_for(ax1, T, ext, method)
     if r is None:
         return None, "phase synchronisation not possible for the rounded duration"
     phases, kind = r
@@ -1104,6 +1115,7 @@ def plan_sync(
     sync: str = "time",
     dt: float | None = None,
     interface: Sequence[str] | None = None,
+    method: str = "direct",
 ) -> Trajectory:
     """Plan several axes together.
 
@@ -1117,6 +1129,13 @@ def plan_sync(
     :class:`Limits` (state values within +-1e12, finite limits in [1e-15, 1e15]); ``sync`` one of
     the three names; ``dt`` None or in [1e-9, 1e4] s. A synchronised duration beyond
     ``MAX_SYNC_DURATION`` (1e4 s) is rejected.
+
+    ``method``: how an axis is slowed to the common duration where no scaling or extremal
+    profile gives it -- "direct" (default: the closed-form fixed-duration families of
+    ``_fixed`` first, the jerk bisection and scans only as the fallback) or "bisection" (the
+    seed 004 method alone, kept as the reference and test oracle). Both give profiles of the
+    same duration within 2e-10 s that end on the target and hold the limits; the profiles
+    themselves may differ (several profiles can take the same duration).
     """
     starts = _sequence("starts", starts)
     targets = _sequence("targets", targets)
@@ -1131,6 +1150,8 @@ def plan_sync(
         raise PlanningError("plan_sync needs at least one axis")
     if sync not in ("time", "phase", "none"):
         raise PlanningError(f"sync must be one of 'time', 'phase', 'none', got {sync!r}")
+    if method not in ("direct", "bisection"):
+        raise PlanningError(f"method must be 'direct' or 'bisection', got {method!r}")
     if dt is not None:
         dt = check_dt(dt)
     ifaces = list(_sequence("interface", interface)) if interface is not None else ["position"] * n
@@ -1140,7 +1161,7 @@ def plan_sync(
         if kind not in ("position", "velocity"):
             raise PlanningError(f"interface[{i}] must be 'position' or 'velocity', got {kind!r}")
     try:
-        return _plan_sync(starts, targets, limits, sync, dt, ifaces)
+        return _plan_sync(starts, targets, limits, sync, dt, ifaces, method)
     except ArithmeticError as exc:
         raise _internal(
             "plan_sync", exc, f"starts={starts!r}, targets={targets!r}, limits={limits!r}"
@@ -1154,6 +1175,7 @@ def _plan_sync(
     sync: str,
     dt: float | None,
     ifaces: list[str],
+    method: str = "direct",
 ) -> Trajectory:
     n = len(starts)
     axes = [
@@ -1167,7 +1189,7 @@ def _plan_sync(
             tmins.append(ax.t_pre + t)
             if dt is not None:
                 # each axis on its own, cycle-exact (skipping its own blocked durations)
-                res = _time_sync([ax], dt)
+                res = _time_sync([ax], dt, method)
                 if res is None:
                     raise PlanningError(
                         "no cycle-exact duration found for an axis (planner defect: please "
@@ -1177,7 +1199,7 @@ def _plan_sync(
                 continue
             profiles.append(_profile(ax, ph, kind))
         return Trajectory(profiles, "none", "", tmins)
-    res = _time_sync(axes, dt)
+    res = _time_sync(axes, dt, method)
     if res is None:
         raise PlanningError(
             "no common duration found for the axes (planner defect: please report these inputs)"
@@ -1185,7 +1207,7 @@ def _plan_sync(
     profiles, tmins = res
     if sync == "phase":
         t_time = max(p.duration for p in profiles)
-        phase, note = _phase_sync(axes, starts, targets, t_time, dt)
+        phase, note = _phase_sync(axes, starts, targets, t_time, dt, method)
         if phase is not None:
             return Trajectory(phase, "phase", "", tmins)
         return Trajectory(profiles, "time", note, tmins)

@@ -1,0 +1,409 @@
+"""Fixed-duration third-order profiles in closed form (Ruckig's step 2, per profile family).
+
+Given an axis after its brake prefix -- start (v0, a0), remaining distance d, target (vf, af),
+limits and jerk limit J -- and a duration T (at least the axis' minimum, not blocked), each
+function here solves one profile family *for T*: with the duration fixed, the family's
+unknowns reduce to the real roots of a polynomial; every root in the family's admissible
+range is turned into phases and verified by integration (end state, velocity and acceleration
+limits, :func:`motionplc.planning._third._verify`), and the first verified profile whose
+duration is T within the synchronisation tolerance is returned. A family that yields nothing
+returns None; :func:`motionplc.planning.sync` then tries the next one and finally its jerk
+bisection (seed 004), which stays the documented fallback.
+
+Families (the order of :func:`solve` is by how often each one answers the random cases of
+``tools/bench_planning.py``):
+
+* ``none-j``: three ramps of one reduced jerk j (|j| <= J), a0 -> P -> Q -> af, no plateau --
+  the time-optimal NONE profile of a lower jerk limit, i.e. exactly what the jerk bisection
+  lands on in most cases. With s = T - (time left) at the two corners the acceleration,
+  velocity and position equations reduce to one quartic in j (derivation below); j < 0 is the
+  mirrored ("down") shape, so one quartic serves both.
+* ``vel-j``: cruise at v_max (or v_min) between two velocity changes of a reduced jerk j; the
+  duration is a closed-form, strictly monotone function of j on each branch of the halves,
+  solved by a safeguarded secant in log j (no planning inside the loop).
+* ``acc0_acc1-j``: plateaus at a_max and a_min joined by ramps of a reduced jerk j: with
+  s = 1/j the plateau times are linear in s and the distance is a cubic in s.
+
+Derivation of ``none-j``: with R2, R3 the time remaining at the two corners (T >= R2 >= R3 >=
+0) and jerks +j, -j, +j, integrating the jerk against (T - t)^k / k! gives
+
+    j (T   - 2 R2   + 2 R3  ) = af - a0                 =: D
+    j (T^2 - 2 R2^2 + 2 R3^2) = 2 (vf - v0 - a0 T)       =: 2 E
+    j (T^3 - 2 R2^3 + 2 R3^3) = 6 (d - v0 T - a0 T^2/2)  =: 6 F
+
+With delta = R2 - R3 = (T - D/j)/2 and sigma = R2 + R3 = (T^2 - 2E/j) / (2 delta), the third
+equation becomes 8 delta T^3 - 3 (T^2 - 2E/j)^2 - 4 delta^4 = 48 F delta / j; times j^4:
+
+    -3 T^4 j^4 + (12 D T^3 - 48 E T^2 + 96 F T) j^3 + (6 D^2 T^2 + 48 E^2 - 96 F D) j^2
+    - 4 D^3 T j + D^4 = 0.
+
+Rest to rest (D = E = 0, F = d) gives j = 32 d / T^3, the familiar t, 2t, t ramps.
+"""
+
+from __future__ import annotations
+
+import math
+
+from motionplc.planning._third import _verify
+from motionplc.planning.roots import quadratic_roots, quartic_roots_in
+
+Phases = list[tuple[float, ...]]
+_INF = math.inf
+
+
+def _dur_tol(T: float) -> float:
+    """The synchronisation tolerance on a duration (as in ``sync``): 2e-10 s or 1e-13 T."""
+    return max(2e-10, 1e-13 * T)
+
+
+def _accept(
+    ph: Phases,
+    T: float,
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+) -> Phases | None:
+    """``ph`` verified (end state and limits) and lasting T within the tolerance, else None."""
+    ver = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    if ver is None or abs(ver[0] - T) > _dur_tol(T):
+        return None
+    return list(ver[1])
+
+
+def none_free_jerk(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    T: float,
+) -> Phases | None:
+    """Three ramps of one jerk j (0 < |j| <= J) lasting exactly T, or None (see the module
+    docstring for the quartic). Guarantees: the phases end at (d, vf, af), hold the limits and
+    last T within 2e-10 s (1e-13 T) -- checked by integration, not assumed."""
+    if not T > 0.0:
+        return None
+    D = af - a0
+    E = vf - v0 - a0 * T
+    F = d - T * (v0 + 0.5 * a0 * T)
+    # work in the acceleration z = j T: D, e = E / T and f = F / T^2 are accelerations too,
+    # so the quartic in z is scale-free
+    e = E / T
+    f = F / (T * T)
+    # -3 z^4 + (12 D - 48 e + 96 f) z^3 + (6 D^2 + 48 e^2 - 96 f D) z^2 - 4 D^3 z + D^4 = 0
+    c3 = -(12.0 * D - 48.0 * e + 96.0 * f) / 3.0
+    c2 = -(6.0 * D * D + 48.0 * e * e - 96.0 * f * D) / 3.0
+    c1 = 4.0 * D * D * D / 3.0
+    c0 = -(D * D * D * D) / 3.0
+    zmax = J * T
+    ph_best: Phases | None = None
+    for z in quartic_roots_in(c3, c2, c1, c0, -zmax, zmax):
+        if z == 0.0:
+            continue
+        j = z / T
+        if abs(j) > J:
+            j = J if j > 0.0 else -J  # a rounding error beyond the limit
+        delta = 0.5 * (T - D / j)
+        if not delta > 0.0:
+            continue
+        sigma = (T * T - 2.0 * E / j) / (2.0 * delta)
+        r2 = 0.5 * (sigma + delta)
+        r3 = 0.5 * (sigma - delta)
+        tol = 1e-12 * T
+        if r3 < -tol or r2 > T + tol:
+            continue
+        r3 = max(r3, 0.0)
+        r2 = min(r2, T)
+        t1 = T - r2
+        t2 = r2 - r3
+        ph: Phases = [(t1, j), (t2, -j), (r3, j)]
+        out = _accept(ph, T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if out is not None:
+            return out
+    return ph_best
+
+
+def _vel_duration(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vc: float,
+    amax: float,
+    amin: float,
+    j: float,
+) -> tuple[float, Phases] | None:
+    """Cruise at vc (> every velocity the halves pass) between the two time-optimal velocity
+    changes of jerk j: (duration, phases) in closed form, or None if the halves do not fit."""
+    # half 1: (v0, a0) -> (vc, 0), shape up-down, peak P >= max(a0, 0)
+    rad = j * (vc - v0) + 0.5 * a0 * a0
+    if rad < 0.0:
+        return None
+    P = math.sqrt(rad)
+    if P < a0:
+        return None
+    h1 = 0.0
+    if P > amax:
+        P = amax
+        h1 = ((vc - v0) - (2.0 * amax * amax - a0 * a0) / (2.0 * j)) / amax
+        if h1 < 0.0:
+            return None
+    # half 2: (vc, 0) -> (vf, af), shape down-up, trough Q <= min(0, af)
+    rad = 0.5 * af * af - j * (vf - vc)
+    if rad < 0.0:
+        return None
+    Q = -math.sqrt(rad)
+    if Q > af:
+        return None
+    h2 = 0.0
+    if Q < amin:
+        Q = amin
+        h2 = ((vf - vc) - (af * af - 2.0 * amin * amin) / (2.0 * j)) / amin
+        if h2 < 0.0:
+            return None
+    t1, t3, t5, t7 = (P - a0) / j, P / j, -Q / j, (af - Q) / j
+    v1 = v0 + t1 * (a0 + 0.5 * t1 * j)
+    v2 = v1 + h1 * P
+    d1 = t1 * (v0 + t1 * (0.5 * a0 + t1 * j / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+    d1 += t3 * (v2 + t3 * (0.5 * P - t3 * j / 6.0))
+    v5 = vc - 0.5 * t5 * t5 * j
+    v6 = v5 + h2 * Q
+    d2 = t5 * (vc - t5 * t5 * j / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+    d2 += t7 * (v6 + t7 * (0.5 * Q + t7 * j / 6.0))
+    cruise = (d - d1 - d2) / vc
+    if cruise < 0.0:
+        return None
+    ph: Phases = [
+        (t1, j),
+        (h1, 0.0, P),
+        (t3, -j),
+        (cruise, 0.0, 0.0, vc),
+        (t5, -j),
+        (h2, 0.0, Q),
+        (t7, j),
+    ]
+    return t1 + h1 + t3 + cruise + t5 + h2 + t7, ph
+
+
+def vel_free_jerk(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    T: float,
+) -> Phases | None:
+    """A cruise at v_max (``up`` orientation; the caller mirrors for v_min) between velocity
+    changes of one reduced jerk j <= J, lasting exactly T, or None. The duration of this shape
+    falls as j rises (every ramp is 1/j long, the cruise absorbs the distance), so a bracket
+    [j_lo, J] is searched by a safeguarded secant in log j on the closed form."""
+    if vmax == _INF or vmax <= 0.0 or not T > 0.0:
+        return None
+    r = _vel_duration(v0, a0, d, vf, af, vmax, amax, amin, J)
+    if r is None or r[0] > T + _dur_tol(T):
+        return None
+    tol = _dur_tol(T)
+    if abs(r[0] - T) <= tol:
+        return _accept(r[1], T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    # bracket from below: the ramps alone scale as 1/j
+    x_hi, f_hi = 0.0, r[0] - T  # f < 0 at j = J
+    x_lo = 3.0 * math.log(max(r[0], 1e-300) / T)
+    f_lo: float | None = None
+    for _ in range(60):
+        rr = _vel_duration(v0, a0, d, vf, af, vmax, amax, amin, J * math.exp(x_lo))
+        if rr is None:
+            # the cruise vanished (j too low): the bracket's low end is between
+            x_lo = 0.5 * (x_lo + x_hi)
+            if x_hi - x_lo < 1e-12:
+                return None
+            continue
+        f_lo = rr[0] - T
+        if abs(f_lo) <= tol:
+            return _accept(rr[1], T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if f_lo > 0.0:
+            break
+        x_hi, f_hi = x_lo, f_lo
+        x_lo -= 1.0
+    if f_lo is None or f_lo <= 0.0:
+        return None
+    side = 0
+    for _ in range(100):
+        x = x_hi - f_hi * (x_hi - x_lo) / (f_hi - f_lo)
+        if not x_lo < x < x_hi:
+            x = 0.5 * (x_lo + x_hi)
+        rr = _vel_duration(v0, a0, d, vf, af, vmax, amax, amin, J * math.exp(x))
+        if rr is None:
+            return None
+        fx = rr[0] - T
+        if abs(fx) <= tol:
+            return _accept(rr[1], T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if fx > 0.0:
+            x_lo, f_lo = x, fx
+            if side == 1:
+                f_hi *= 0.5  # Illinois
+            side = 1
+        else:
+            x_hi, f_hi = x, fx
+            if side == -1:
+                f_lo *= 0.5
+            side = -1
+        if x_hi - x_lo <= 1e-15 * (1.0 + abs(x)):
+            return None
+    return None
+
+
+def acc0_acc1_free_jerk(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    T: float,
+) -> Phases | None:
+    """Plateaus at a_max (h1) and a_min (h2), ramps of one reduced jerk j = 1/s <= J:
+    a0 -> a_max -> a_min -> af, lasting exactly T, or None.
+
+    Ramp times are c_k s; h1 + h2 = T - c s and a_max h1 + a_min h2 = dv - g s give h1, h2
+    linear in s, and the distance is then a cubic in s, solved exactly (its coefficients are
+    found by evaluating the closed-form distance at four points, which is exact for a cubic up
+    to rounding, and the cubic's roots by the quartic solver on (s - s_far) * cubic)."""
+    if amax == _INF or amin == -_INF or not T > 0.0 or amax <= amin:
+        return None
+    if a0 > amax or af < amin:
+        return None
+    c1, c2, c3 = amax - a0, amax - amin, af - amin
+    c = c1 + c2 + c3
+    g = 0.5 * (amax * amax - a0 * a0 + amax * amax - amin * amin + af * af - amin * amin)
+    dv = vf - v0
+    s_min = 1.0 / J
+    s_max = T / c if c > 0.0 else _INF
+    if not s_max >= s_min:
+        return None
+
+    def profile(s: float) -> tuple[float, Phases] | None:
+        S = T - c * s
+        # a_max h1 + a_min (S - h1) = dv - g s
+        h1 = (dv - g * s - amin * S) / (amax - amin)
+        h2 = S - h1
+        j = 1.0 / s
+        ph: Phases = [
+            (c1 * s, j),
+            (h1, 0.0, amax),
+            (c2 * s, -j),
+            (h2, 0.0, amin),
+            (c3 * s, j),
+        ]
+        p, v, a = 0.0, v0, a0
+        for dur, jj, *rest in ph:
+            if rest:
+                a = rest[0]
+            p += dur * (v + dur * (0.5 * a + dur * jj / 6.0))
+            v += dur * (a + 0.5 * dur * jj)
+            a += dur * jj
+        return p - d, ph
+
+    # the residual times s^0 is a cubic in s on (0, inf); fit it on four points of [s_min, s_hi]
+    s_hi = s_max if s_max != _INF else 4.0 * s_min + T
+    xs = [s_min + (s_hi - s_min) * k / 3.0 for k in range(4)]
+    if xs[0] == xs[3]:
+        r = profile(s_min)
+        return None if r is None else _accept(r[1], T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    ys = []
+    for x in xs:
+        r = profile(x)
+        if r is None:
+            return None
+        ys.append(r[0])
+    # Newton divided differences -> monomial coefficients in t = (s - s_min) / (s_hi - s_min)
+    w = (s_hi - s_min) / 3.0
+    d1 = [(ys[k + 1] - ys[k]) for k in range(3)]
+    d2 = [(d1[k + 1] - d1[k]) / 2.0 for k in range(2)]
+    d3 = (d2[1] - d2[0]) / 3.0
+    # y(u) with u = (s - s_min) / w: y0 + d1[0] u + d2[0] u (u - 1) + d3 u (u - 1)(u - 2)
+    k3 = d3
+    k2 = d2[0] - 3.0 * d3
+    k1 = d1[0] - d2[0] + 2.0 * d3
+    k0 = ys[0]
+    roots: list[float]
+    if k3 != 0.0 and abs(k3) > 1e-14 * (abs(k2) + abs(k1) + abs(k0)):
+        # multiply by (u - far) with far outside [0, 3] to use the quartic solver
+        far = -10.0
+        q3 = k2 / k3 - far
+        q2 = k1 / k3 - far * k2 / k3
+        q1 = k0 / k3 - far * k1 / k3
+        q0 = -far * k0 / k3
+        roots = quartic_roots_in(q3, q2, q1, q0, 0.0, 3.0)
+    else:
+        roots = [u for u in quadratic_roots(k2, k1, k0) if 0.0 <= u <= 3.0]
+    for u in roots:
+        s = s_min + u * w
+        if not s_min * (1.0 - 1e-12) <= s <= s_max * (1.0 + 1e-12):
+            continue
+        s = min(max(s, s_min), s_max)
+        r = profile(s)
+        if r is None:
+            continue
+        ph = [(max(x[0], 0.0) if x[0] > -1e-12 * T else x[0], *x[1:]) for x in r[1]]
+        out = _accept(ph, T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if out is not None:
+            return out
+    return None
+
+
+def _mirror(ph: tuple[float, ...]) -> tuple[float, ...]:
+    return (ph[0], *(-x for x in ph[1:]))
+
+
+def solve(
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    T: float,
+) -> tuple[Phases, str] | None:
+    """The first verified profile of duration T over the closed-form families (in the order
+    of the module docstring, each in both orientations), as (phases, kind), or None when no
+    family yields one (the caller's fallback then decides)."""
+    if J == _INF or not T > 0.0:
+        return None
+    up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J, T)
+    ph = none_free_jerk(*up)
+    if ph is not None:
+        return ph, "none-j"
+    down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, T)
+    for fam, name in ((vel_free_jerk, "vel-j"), (acc0_acc1_free_jerk, "acc0_acc1-j")):
+        ph = fam(*up)
+        if ph is not None:
+            return ph, name
+        ph = fam(*down)
+        if ph is not None:
+            return [_mirror(x) for x in ph], name + "-down"
+    return None
