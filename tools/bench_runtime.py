@@ -30,10 +30,16 @@ CPU time of the other processes during the run.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import resource
+import shutil
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
 from motionplc.blocks import BufferMode, MC_MoveAbsolute, MC_Power, MC_ReadStatus
 from motionplc.blocks.axis import planner_calls
@@ -43,17 +49,67 @@ LEGS = ((400.0, 120.0), (1000.0, 80.0), (600.0, 150.0), (0.0, 100.0))
 
 
 class AxisProgram:
-    """Per axis: power on, then keep two blended moves queued at all times."""
+    """Per axis: power on, then keep two blended moves queued at all times.
 
-    def __init__(self, rt: Runtime, name: str) -> None:
-        self.x = rt.add_axis(name, v_max=200.0, a_max=1000.0, j_max=20_000.0)
-        self.power = MC_Power()
-        self.status = MC_ReadStatus()
-        self.moves = [MC_MoveAbsolute(buffer_mode=BufferMode.BLENDING_LOW) for _ in range(2)]
+    ``calls="attr"``: the FB inputs are attributes set when they change, every FB is called
+    as ``fb()`` (the lean hot path); ``"kw"``: every call passes its inputs as keywords
+    (``fb(axis=x, execute=True, ...)``, as before issue 15). Both give the same motion.
+    ``scale`` multiplies positions, speeds and limits (the CAN rig moves metres, not 1000s).
+    """
+
+    def __init__(
+        self, rt: Runtime, name: str, calls: str = "attr", scale: float = 1.0, drive=None
+    ) -> None:
+        self.x = rt.add_axis(
+            name, v_max=200.0 * scale, a_max=1000.0 * scale, j_max=20_000.0 * scale, drive=drive
+        )
+        self.scale = scale
+        self.acc = 800.0 * scale
+        self.kw = calls == "kw"
+        if self.kw:
+            self.power = MC_Power()
+            self.status = MC_ReadStatus()
+            self.moves = [MC_MoveAbsolute(buffer_mode=BufferMode.BLENDING_LOW) for _ in range(2)]
+        else:
+            self.power = MC_Power(axis=self.x, enable=True)
+            self.status = MC_ReadStatus(axis=self.x, enable=True)
+            self.moves = [
+                MC_MoveAbsolute(
+                    axis=self.x,
+                    buffer_mode=BufferMode.BLENDING_LOW,
+                    acceleration=self.acc,
+                    deceleration=self.acc,
+                )
+                for _ in range(2)
+            ]
         self.leg = 0
         self.turn = 0
 
     def __call__(self) -> None:
+        if self.kw:
+            self._kw_scan()
+            return
+        power = self.power
+        power()
+        self.status()
+        if not power.status:
+            return
+        cur = self.moves[self.turn]
+        other = self.moves[1 - self.turn]
+        if not cur.busy and not cur.execute:
+            pos, vel = LEGS[self.leg % len(LEGS)]
+            self.leg += 1
+            cur.position = pos * self.scale
+            cur.velocity = vel * self.scale
+            cur.execute = True
+        else:
+            cur.execute = False
+        cur()
+        other()
+        if cur.active:  # queue the next leg behind the running one
+            self.turn = 1 - self.turn
+
+    def _kw_scan(self) -> None:
         x = self.x
         self.power(axis=x, enable=True)
         self.status(axis=x, enable=True)
@@ -67,10 +123,10 @@ class AxisProgram:
             cur(
                 axis=x,
                 execute=True,
-                position=pos,
-                velocity=vel,
-                acceleration=800.0,
-                deceleration=800.0,
+                position=pos * self.scale,
+                velocity=vel * self.scale,
+                acceleration=self.acc,
+                deceleration=self.acc,
             )
         else:
             cur(axis=x, execute=False)
@@ -79,13 +135,30 @@ class AxisProgram:
             self.turn = 1 - self.turn
 
 
-def build(n_axes: int, clock=None, seconds: float = 0.0, default_trace: bool = False) -> Runtime:
+CAN_SCALE = 0.01  # CAN rig: legs of 4 to 10 m at 0.8 to 1.5 m/s, 1000 counts per metre
+
+
+def build(
+    n_axes: int,
+    clock=None,
+    seconds: float = 0.0,
+    default_trace: bool = False,
+    calls: str = "attr",
+    drives: str = "ideal",
+) -> Runtime:
+    """The benchmark's runtime: ``n_axes`` axes on ideal drives or (``drives="can"``) on
+    virtual CiA 402 drives behind our CANopen master on one python-can ``virtual`` bus (in
+    process, lockstep: one SYNC per cycle). ``rt.close()`` closes the drives."""
     if default_trace:
         rt = Runtime(cycle=0.001, clock=clock)
     else:
         cap = max(70_000, int(seconds * 1000) + 10)
         rt = Runtime(cycle=0.001, clock=clock, trace_capacity=cap)
-    programs = [AxisProgram(rt, f"a{i}") for i in range(n_axes)]
+    if drives == "can":
+        drv = _can_drives(rt, n_axes)
+        programs = [AxisProgram(rt, f"a{i}", calls, CAN_SCALE, drv[i]) for i in range(n_axes)]
+    else:
+        programs = [AxisProgram(rt, f"a{i}", calls) for i in range(n_axes)]
 
     def main(ctx) -> None:
         for p in programs:
@@ -95,14 +168,103 @@ def build(n_axes: int, clock=None, seconds: float = 0.0, default_trace: bool = F
     return rt
 
 
-def sim_throughput(n_axes: int, cycles: int) -> tuple[float, float]:
+def _can_drives(rt: Runtime, n_axes: int) -> list:
+    import can
+
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+
+    channel = f"bench-runtime-{os.getpid()}-{id(rt)}"
+    rack = VirtualCanBus(
+        can.Bus(interface="virtual", channel=channel),
+        [VirtualCia402Drive(i) for i in range(1, n_axes + 1)],
+    )
+    master = CanopenMaster(
+        can.Bus(interface="virtual", channel=channel), peer=rack, heartbeat_period=0.01
+    )
+    drives = [
+        CanopenDrive(
+            f"a{i - 1}",
+            master,
+            CanopenDriveConfig(node_id=i, counts_per_unit=1000.0, cycle_time=rt.cycle),
+        )
+        for i in range(1, n_axes + 1)
+    ]
+    rt._bench_closers = [master.close, rack.close]  # type: ignore[attr-defined]
+    return drives
+
+
+def close(rt: Runtime) -> None:
+    """Close the drives and (CAN rig) the buses."""
+    rt.close()
+    for c in getattr(rt, "_bench_closers", ()):
+        c()
+
+
+def sim_throughput(
+    n_axes: int, cycles: int, calls: str = "attr", drives: str = "ideal"
+) -> tuple[float, float]:
     """(cycles per wall second, cycles per CPU second of this process)."""
-    rt = build(n_axes)
-    rt.run(cycles=200)  # warm-up
-    w0, c0 = time.perf_counter(), time.process_time()
-    rt.run(cycles=cycles)
-    w, c = time.perf_counter() - w0, time.process_time() - c0
-    return cycles / w, cycles / max(c, 1e-9)
+    rt = build(n_axes, calls=calls, drives=drives)
+    try:
+        rt.run(cycles=200)  # warm-up
+        w0, c0 = time.perf_counter(), time.process_time()
+        rt.run(cycles=cycles)
+        w, c = time.perf_counter() - w0, time.process_time() - c0
+        bad = [ax.name for ax in rt.axes.values() if ax.axis_error.value != 0]
+        if bad:
+            raise SystemExit(f"axes in error after the run: {bad}")
+        return cycles / w, cycles / max(c, 1e-9)
+    finally:
+        close(rt)
+
+
+def _child(root: Path, n: int, cycles: int, calls: str, drives: str) -> tuple[float, float]:
+    """One ``sim_throughput`` measurement in a fresh process importing ``motionplc`` from
+    ``root`` (this checkout or a worktree of an older commit)."""
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(root)]
+    cmd += ["--axes", str(n), "--cycles", str(cycles), "--calls", calls, "--drives", drives]
+    env = dict(os.environ, PYTHONPATH=str(root))
+    out = subprocess.run(cmd, cwd=root, env=env, check=True, capture_output=True, text=True)
+    wall, cpu = json.loads(out.stdout.strip().splitlines()[-1])
+    return wall, cpu
+
+
+def against(ref: str, axes: list[int], cycles: int, repeats: int, calls: str, drives: str) -> None:
+    """Before/after in one run: alternately this checkout and a temporary detached worktree
+    of ``ref``, each measurement in its own process; medians of the CPU-second rates and the
+    median of the per-pair ratios."""
+    here = Path(__file__).resolve().parent.parent
+    tmp = Path(tempfile.mkdtemp(prefix="bench-runtime-"))
+    base = tmp / "base"
+    subprocess.run(
+        ["git", "-C", str(here), "worktree", "add", "--detach", str(base), ref],
+        check=True,
+        capture_output=True,
+    )
+    try:
+        for n in axes:
+            new_r: list[float] = []
+            old_r: list[float] = []
+            for _ in range(repeats):
+                old_r.append(_child(base, n, cycles, calls, drives)[1])
+                new_r.append(_child(here, n, cycles, calls, drives)[1])
+            ratios = [a / b for a, b in zip(new_r, old_r, strict=True)]
+            print(
+                f"{drives} drives, {calls} calls, {n:2d} axes, {cycles} cycles x {repeats}:"
+                f" {ref} {statistics.median(old_r):7.0f} cycles per CPU-second (median),"
+                f" this checkout {statistics.median(new_r):7.0f};"
+                f" ratio {statistics.median(ratios):.2f}x (median of {repeats} pairs,"
+                f" {min(ratios):.2f}-{max(ratios):.2f})",
+                flush=True,
+            )
+    finally:
+        subprocess.run(
+            ["git", "-C", str(here), "worktree", "remove", "--force", str(base)],
+            check=False,
+            capture_output=True,
+        )
+        shutil.rmtree(tmp, ignore_errors=True)
 
 
 def _rss_mb() -> float:
@@ -273,14 +435,36 @@ def main() -> None:
         help="also run this many cycles with the default trace and report the RSS",
     )
     ap.add_argument("--rss-axes", type=int, default=8, help="axes of the --rss-cycles run")
+    ap.add_argument("--calls", choices=("attr", "kw"), default="attr", help="FB call style")
+    ap.add_argument("--drives", choices=("ideal", "can"), default="ideal")
+    ap.add_argument(
+        "--against",
+        metavar="REF",
+        default=None,
+        help="also time a worktree of this git ref, alternately, and print the ratio",
+    )
+    ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.child is not None:  # one measurement for --against (motionplc from --child)
+        import motionplc
+
+        if not Path(motionplc.__file__).resolve().is_relative_to(args.child.resolve()):
+            raise SystemExit(f"motionplc imported from {motionplc.__file__}, not {args.child}")
+        print(json.dumps(sim_throughput(args.axes[0], args.cycles, args.calls, args.drives)))
+        return
+    if args.against is not None:
+        against(args.against, args.axes, args.cycles, args.repeats, args.calls, args.drives)
+        return
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     for n in args.axes:
-        runs = [sim_throughput(n, args.cycles) for _ in range(args.repeats)]
+        runs = [
+            sim_throughput(n, args.cycles, args.calls, args.drives) for _ in range(args.repeats)
+        ]
         wall = [w for w, _ in runs]
         cpu = [c for _, c in runs]
         print(
-            f"simulated clock, {n:2d} axes: {max(wall):7.0f} cycles/s wall best"
+            f"simulated clock, {args.drives} drives, {args.calls} calls, {n:2d} axes:"
+            f" {max(wall):7.0f} cycles/s wall best"
             f" ({statistics.median(wall):7.0f} median), {max(cpu):7.0f} per CPU-second best"
             f" ({statistics.median(cpu):7.0f} median) = {max(wall) / 1000:.1f}x real time"
         )
