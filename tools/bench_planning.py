@@ -8,14 +8,19 @@ times::
 
     python tools/bench_planning.py --cases 100000 --seed 42
 
-Synchronised planning (issue 3): ``plan_sync`` (time synchronisation) against Ruckig's
-``Synchronization.Time`` on the same 3- and 6-axis cases, rest to rest (every v and a zero:
-exact limit scaling) and general (Ruckig's ``random_3`` distributions); each is also
-expressed per axis relative to the single-axis ``plan`` mean of the same run and kind
-(targets: rest to rest <= 2x, general <= 10x). Finally ``OnlineGenerator.update`` when the
-target is unchanged (no re-plan), per axis (target: <= 3 us)::
+Synchronised planning (issues 3 and 15): ``plan_sync`` (time synchronisation) against
+Ruckig's ``Synchronization.Time`` on the same 3-, 6-, 12- and 24-axis cases, rest to rest
+(every v and a zero: exact limit scaling) and general (Ruckig's ``random_3`` distributions);
+each is also expressed per axis relative to the single-axis ``plan`` mean of the same run and
+kind (issue 15 targets: rest to rest <= 1.5x, general <= 3x). The general rows are timed with
+both fixed-duration methods in the same run, interleaved per case: ``direct`` (the closed-form
+families of ``motionplc.planning._fixed``, the default) and ``bisection`` (the seed 004 jerk
+bisection, the previous code), with their ratio and the fallback rate of ``direct`` (axes
+whose profile still came from the bisection or a scan). Finally ``OnlineGenerator.update``
+when the target is unchanged (no re-plan), per axis (target: <= 3 us)::
 
     python tools/bench_planning.py --sync-cases 2000 --update-calls 200000
+    python tools/bench_planning.py --cases 20000 --sync-only   # the synchronisation part only
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from motionplc.planning import Limits, OnlineGenerator, Profile, State, plan, plan_sync  # noqa: E402
+from motionplc.planning.sync import is_fallback_kind  # noqa: E402
 from tests.planning._cases import (  # noqa: E402
     MultiCase,
     RuckigOracle,
@@ -59,7 +65,19 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--sync-cases",
         type=int,
         default=2000,
-        help="plan_sync calls per configuration (3/6 axes x rest/general) (2000; 0 skips)",
+        help="plan_sync calls per configuration (3/6/12/24 axes x rest/general) (2000; 0 skips)",
+    )
+    ap.add_argument(
+        "--sync-axes",
+        type=int,
+        nargs="+",
+        default=[3, 6, 12, 24],
+        help="axis counts of the plan_sync rows (3 6 12 24)",
+    )
+    ap.add_argument(
+        "--sync-only",
+        action="store_true",
+        help="time only the single-axis plan (as the reference) and plan_sync",
     )
     ap.add_argument(
         "--update-calls",
@@ -142,6 +160,33 @@ def time_sync(cases: list[MultiCase]) -> np.ndarray:
     return out
 
 
+def time_sync_methods(cases: list[MultiCase]) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """Both fixed-duration methods on the same cases, interleaved per case (so that the load
+    of the machine hits both alike): ns of ``direct``, ns of ``bisection``, the number of
+    axes ``direct`` solved by its fallback and the number of axes slowed at all (not already
+    ending at the synchronised duration)."""
+    args = [(c.starts(), c.targets(), c.limits()) for c in cases]
+    for s, t, lim in args[:20]:  # warm-up
+        plan_sync(s, t, lim)
+        plan_sync(s, t, lim, method="bisection")
+    direct = np.empty(len(args), dtype=np.int64)
+    bisect = np.empty(len(args), dtype=np.int64)
+    clock = time.perf_counter_ns
+    fallback = slowed = 0
+    for i, (s, t, lim) in enumerate(args):
+        t0 = clock()
+        traj = plan_sync(s, t, lim)
+        direct[i] = clock() - t0
+        t0 = clock()
+        plan_sync(s, t, lim, method="bisection")
+        bisect[i] = clock() - t0
+        for prof, tmin in zip(traj.profiles, traj.independent_min_durations, strict=True):
+            if prof.duration > tmin + 1e-9:
+                slowed += 1
+                fallback += is_fallback_kind(prof.kind)
+    return direct, bisect, fallback, slowed
+
+
 def time_ruckig_sync(rk: Any, cases: list[MultiCase]) -> np.ndarray:
     dofs = cases[0].dofs
     otg, traj = rk.Ruckig(dofs), rk.Trajectory(dofs)
@@ -158,8 +203,9 @@ def time_ruckig_sync(rk: Any, cases: list[MultiCase]) -> np.ndarray:
 
 
 def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> None:
-    """plan_sync vs Ruckig, rest to rest and general, 3 and 6 axes; per axis vs ``single``
-    (single-axis plan means of the same kind, in us)."""
+    """plan_sync vs Ruckig, rest to rest and general, at ``args.sync_axes`` axes; per axis vs
+    ``single`` (single-axis plan means of the same kind, in us); the general rows with both
+    fixed-duration methods (before/after) and the fallback rate."""
     print(
         f"\nsynchronised planning (time sync), {args.sync_cases} cases per row; "
         f"single-axis plan mean: general {single['general']:.1f} us, "
@@ -169,13 +215,24 @@ def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> N
         f"{'':22}{'motionplc mean':>15}{'p99':>10}{'ruckig mean':>13}{'p99':>9}"
         f"{'ratio':>8}{'per axis / single':>19}{'target':>8}"
     )
-    for kind, target in (("rest", 2.0), ("general", 10.0)):
-        for dofs in (3, 6):
+    before: list[str] = []
+    for kind, target in (("rest", 1.5), ("general", 3.0)):
+        for dofs in args.sync_axes:
             stream = iter_multi_cases(args.seed + dofs, dofs, sync="time")
             cases = [next(stream) for _ in range(args.sync_cases)]
             if kind == "rest":
                 cases = [rest_to_rest(c) for c in cases]
-            ours = stats_us(time_sync(cases))
+                ours = stats_us(time_sync(cases))
+            else:
+                d_ns, b_ns, fallback, slowed = time_sync_methods(cases)
+                ours, old = stats_us(d_ns), stats_us(b_ns)
+                before.append(
+                    f"general {dofs} axes: bisection (before) mean {old['mean']:.1f} us, "
+                    f"direct (after) {ours['mean']:.1f} us, before/after "
+                    f"{old['mean'] / ours['mean']:.2f}x (per axis / single: before "
+                    f"{old['mean'] / (dofs * single[kind]):.2f}x); fallback {fallback} of "
+                    f"{slowed} slowed axes ({100.0 * fallback / max(slowed, 1):.2f} %)"
+                )
             row = f"{kind + f' {dofs} axes':<22}{ours['mean']:>12.1f} us{ours['p99']:>7.0f} us"
             if rk is not None:
                 theirs = stats_us(time_ruckig_sync(rk, cases))
@@ -189,6 +246,8 @@ def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> N
             ok = "ok" if per_axis <= target else "MISSED"
             row += f"{per_axis:>16.2f}x{f'<= {target:g}x':>9} {ok}"
             print(row)
+    for line in before:
+        print(line)
 
 
 def time_updates(gen: OnlineGenerator, target: Any, calls: int) -> float:
@@ -266,48 +325,49 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print("ruckig not installed: no comparison")
 
-        # Profile.at: random profile, random t (batch-timed, per-call mean)
-        rng = np.random.default_rng(args.seed)
-        idx = rng.integers(len(profs), size=args.at_calls)
-        u = rng.random(args.at_calls)
-        calls = [(profs[i], float(x * profs[i].duration)) for i, x in zip(idx, u, strict=True)]
-        t0 = time.perf_counter_ns()
-        for prof, t in calls:
-            prof.at(t)
-        at_ns = time.perf_counter_ns() - t0
-        t0 = time.perf_counter_ns()
-        for _prof, _t in calls:
-            pass
-        loop_ns = time.perf_counter_ns() - t0
-        print(
-            f"Profile.at      mean {(at_ns - loop_ns) / args.at_calls / 1e3:9.3f} us per call "
-            f"({args.at_calls} calls)"
-        )
+        if not args.sync_only:
+            # Profile.at: random profile, random t (batch-timed, per-call mean)
+            rng = np.random.default_rng(args.seed)
+            idx = rng.integers(len(profs), size=args.at_calls)
+            u = rng.random(args.at_calls)
+            calls = [(profs[i], float(x * profs[i].duration)) for i, x in zip(idx, u, strict=True)]
+            t0 = time.perf_counter_ns()
+            for prof, t in calls:
+                prof.at(t)
+            at_ns = time.perf_counter_ns() - t0
+            t0 = time.perf_counter_ns()
+            for _prof, _t in calls:
+                pass
+            loop_ns = time.perf_counter_ns() - t0
+            print(
+                f"Profile.at      mean {(at_ns - loop_ns) / args.at_calls / 1e3:9.3f} us per call "
+                f"({args.at_calls} calls)"
+            )
 
-        # Profile.sample on sample_times times spanning each profile
-        per_call: list[int] = []
-        for k in range(args.sample_calls):
-            prof = profs[k]
-            ts = np.linspace(0.0, prof.duration, args.sample_times)
-            t0 = time.perf_counter_ns()
-            prof.sample(ts)
-            per_call.append(time.perf_counter_ns() - t0)
-        sm = np.asarray(per_call) / 1e3
-        print(
-            f"Profile.sample  mean {sm.mean():9.1f} us per call of {args.sample_times} times "
-            f"({sm.mean() * 1e3 / args.sample_times:.1f} ns per time, p99 "
-            f"{np.percentile(sm, 99):.1f} us, {args.sample_calls} calls)"
-        )
-        if rk is not None:
-            inp = cases[0].ruckig_input(rk)
-            otg, traj = rk.Ruckig(1), rk.Trajectory(1)
-            otg.calculate(inp, traj)
-            ts_list = [float(x) for x in np.linspace(0.0, traj.duration, args.sample_times)]
-            t0 = time.perf_counter_ns()
-            for t in ts_list:
-                traj.at_time(t)
-            dt = (time.perf_counter_ns() - t0) / len(ts_list) / 1e3
-            print(f"(ruckig Trajectory.at_time for reference: mean {dt:.3f} us per call)")
+            # Profile.sample on sample_times times spanning each profile
+            per_call: list[int] = []
+            for k in range(args.sample_calls):
+                prof = profs[k]
+                ts = np.linspace(0.0, prof.duration, args.sample_times)
+                t0 = time.perf_counter_ns()
+                prof.sample(ts)
+                per_call.append(time.perf_counter_ns() - t0)
+            sm = np.asarray(per_call) / 1e3
+            print(
+                f"Profile.sample  mean {sm.mean():9.1f} us per call of {args.sample_times} times "
+                f"({sm.mean() * 1e3 / args.sample_times:.1f} ns per time, p99 "
+                f"{np.percentile(sm, 99):.1f} us, {args.sample_calls} calls)"
+            )
+            if rk is not None:
+                inp = cases[0].ruckig_input(rk)
+                otg, traj = rk.Ruckig(1), rk.Trajectory(1)
+                otg.calculate(inp, traj)
+                ts_list = [float(x) for x in np.linspace(0.0, traj.duration, args.sample_times)]
+                t0 = time.perf_counter_ns()
+                for t in ts_list:
+                    traj.at_time(t)
+                dt = (time.perf_counter_ns() - t0) / len(ts_list) / 1e3
+                print(f"(ruckig Trajectory.at_time for reference: mean {dt:.3f} us per call)")
 
         if args.sync_cases > 0:
             rest_problems = [

@@ -904,6 +904,32 @@ def _solve_for(
     return None
 
 
+# Profile kinds made by the fallback of _solve_for (the jerk/acceleration/velocity bisections,
+# their one-sided variants, the scans and the velocity hold), for benchmarks and tests.
+_FALLBACK_SUFFIXES = ("+j", "+a", "+v", "+a+", "+a-", "+v+", "+v-", "+hold", "+family-j")
+_FALLBACK_PREFIXES = (
+    "cruise-sync",
+    "free-",
+    "udud",
+    "acc0-free-trough",
+    "monotone-free-plateau",
+    "amax-then-free",
+    "amin-then-free",
+)
+
+
+def is_fallback_kind(kind: str) -> bool:
+    """True if a profile of this ``kind`` (``Profile.kind``, any "+phase" suffix removed) was
+    made by the fallback of the fixed-duration solver (bisection or scan), False if by a
+    closed form: an extremal profile, the rest-to-rest scaling, a single ramp or a family of
+    ``_fixed``."""
+    if kind.endswith("+phase"):
+        kind = kind[: -len("+phase")]
+    if kind == "ramp+j":
+        return False  # _free_ramp: an exact check
+    return kind.endswith(_FALLBACK_SUFFIXES) or kind.startswith(_FALLBACK_PREFIXES)
+
+
 def _free_ramp(ax: _Axis, T: float) -> tuple[Phases, str] | None:
     """The target on one ramp of a lowered jerk, lasting T (within the synchronisation
     tolerance): the rest of a jerk-lowered profile re-planned in its last phase. The velocity
