@@ -1,0 +1,776 @@
+"""Batch planning: N independent single-axis position problems at once, as arrays.
+
+:func:`plan_batch` takes the start and target states and the limits as scalars or 1-D arrays
+(broadcast to a common length N) and returns a :class:`BatchPlan`: durations, the constant-jerk
+segments of every profile (start times, durations, jerks and the state at each segment start)
+as ``(N, K)`` arrays, a vectorised sampler and :meth:`BatchPlan.profile` for the ordinary
+immutable :class:`~motionplc.planning.profile.Profile` of one problem.
+
+Dispatch per element:
+
+* rest to rest (``v0 = a0 = vf = af = 0``, finite ``j_max``; symmetric or asymmetric limits)
+  is solved in numpy for all such elements at once: the closed form without any limit reached
+  (four ramps of ``cbrt(|d| / 2J)``), the cruise at the velocity limit (seven phases) and the
+  two acceleration plateaus without cruise. These repeat the arithmetic of :func:`plan`
+  operation for operation, so their results are bit-identical to it, including which family
+  wins a tie.
+* every other element (any non-zero velocity or acceleration, ``j_max = inf``, and the
+  rest-to-rest cases with a single acceleration plateau or an asymmetric velocity limit, which
+  :func:`plan` solves with quartic roots) goes through the planning core per element
+  (``plan.position_phases``: compiled when the package is built with mypyc), so it is
+  :func:`plan`'s result exactly.
+
+Input validation is vectorised and raises the same :class:`PlanningError` as :func:`plan` and
+:class:`Limits` for the same inputs, naming the field, the index of the first bad element and
+the allowed range.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from motionplc.errors import PlanningError
+from motionplc.planning.limits import _NEG_RANGE, _RANGE, LIMIT_MAX, LIMIT_MIN, STATE_MAX
+from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
+from motionplc.planning.profile import Profile, Samples
+from motionplc.planning.state import State
+
+__all__ = ["BatchPlan", "plan_batch"]
+
+_INF = math.inf
+_EPS = 2.220446049250313e-16
+_KEEP = 1.0 - 1e-12  # time_optimal: a later family must be faster by more than rounding
+_T_TOL = 1e-12  # _third._T_TOL
+_LIM_TOL = 1e-12  # _third._LIM_TOL
+MIN_WIDTH = 7  # columns of the segment arrays: the seven phases of a third-order profile
+
+ArrayLike = float | int | Sequence[float] | np.ndarray
+
+
+class BatchPlan:
+    """The profiles of N independent single-axis problems, as read-only numpy arrays.
+
+    Row ``i`` holds problem ``i``. Its ``n_segments[i]`` constant-jerk segments are the columns
+    ``0 .. n_segments[i] - 1`` of the ``(N, K)`` arrays (``K >= 7``, the longest profile's
+    segment count); they equal ``profile(i).knots`` and ``profile(i).segments`` exactly. The
+    remaining columns are padding: duration 0, jerk 0, start time ``duration[i]`` and the end
+    state. A profile of no duration has ``n_segments = 0`` and its state in column 0.
+
+    Attributes (all read-only): ``duration`` (N,), ``t`` (N, K) segment start times [s],
+    ``durations`` (N, K) [s], ``j`` (N, K) jerks, ``p``, ``v``, ``a`` (N, K) the state at each
+    segment start (after any jump), ``end_p``, ``end_v``, ``end_a`` (N,) the end state,
+    ``n_segments`` (N,) and ``kind`` (a tuple of N family names, as :attr:`Profile.kind`).
+    """
+
+    __slots__ = (
+        "duration",
+        "t",
+        "durations",
+        "j",
+        "p",
+        "v",
+        "a",
+        "end_p",
+        "end_v",
+        "end_a",
+        "n_segments",
+        "kind",
+        "_t_search",
+    )
+
+    duration: np.ndarray
+    t: np.ndarray
+    durations: np.ndarray
+    j: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    end_p: np.ndarray
+    end_v: np.ndarray
+    end_a: np.ndarray
+    n_segments: np.ndarray
+    kind: tuple[str, ...]
+    _t_search: np.ndarray
+
+    def __init__(
+        self,
+        t: np.ndarray,
+        durations: np.ndarray,
+        j: np.ndarray,
+        p: np.ndarray,
+        v: np.ndarray,
+        a: np.ndarray,
+        n_segments: np.ndarray,
+        duration: np.ndarray,
+        end: tuple[np.ndarray, np.ndarray, np.ndarray],
+        kind: Sequence[str],
+    ) -> None:
+        """Internal: built by :func:`plan_batch` (the arrays are taken over, made read-only)."""
+        cols = np.arange(t.shape[1])
+        search = np.where(cols[None, :] < n_segments[:, None], t, np.inf)
+        values: dict[str, Any] = {
+            "duration": duration,
+            "t": t,
+            "durations": durations,
+            "j": j,
+            "p": p,
+            "v": v,
+            "a": a,
+            "end_p": end[0],
+            "end_v": end[1],
+            "end_a": end[2],
+            "n_segments": n_segments,
+            "_t_search": search,
+        }
+        for name, arr in values.items():
+            arr.flags.writeable = False
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "kind", tuple(kind))
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError("BatchPlan is immutable")
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError("BatchPlan is immutable")
+
+    def __len__(self) -> int:
+        return int(self.duration.shape[0])
+
+    def __repr__(self) -> str:
+        n = len(self)
+        if n == 0:
+            return "BatchPlan(n=0)"
+        return (
+            f"BatchPlan(n={n}, duration in [{self.duration.min():.6g}, "
+            f"{self.duration.max():.6g}] s, width={self.t.shape[1]})"
+        )
+
+    def profile(self, i: int) -> Profile:
+        """The ordinary immutable :class:`Profile` of problem ``i`` (negative ``i`` counts from
+        the end); its knots, segments, end state, duration and kind are those of the batch
+        row, which are those :func:`plan` returns for the same problem."""
+        n = len(self)
+        if isinstance(i, bool) or not isinstance(i, (int, np.integer)) or not -n <= i < n:
+            raise IndexError(f"problem index must be an integer in [{-n}, {n - 1}], got {i!r}")
+        i = int(i) % n
+        m = int(self.n_segments[i])
+        kind = self.kind[i]
+        if m == 0:
+            p, v, a = float(self.p[i, 0]), float(self.v[i, 0]), float(self.a[i, 0])
+            return Profile(State(p, v, a), [(0.0, 0.0, a, v)], kind)
+        d = self.durations[i, :m].tolist()
+        j = self.j[i, :m].tolist()
+        a = self.a[i, :m].tolist()
+        v = self.v[i, :m].tolist()
+        phases = list(zip(d, j, a, v, strict=True))
+        return Profile(State(float(self.p[i, 0]), v[0], a[0]), phases, kind)
+
+    def sample(self, t: ArrayLike) -> Samples:
+        """Position, velocity, acceleration and jerk of every problem at the times ``t`` [s].
+
+        ``t`` is a scalar (one time for all problems: arrays of shape (N,)), a 1-D array of M
+        times (the same times for all: (N, M)) or an (N, M) array (its own times per problem:
+        (N, M)). Equal, element by element, to :meth:`Profile.sample` of each problem: clamped
+        to the start for t < 0, the end state with zero jerk for t >= duration.
+        """
+        tt = np.asarray(t, dtype=float)
+        n = len(self)
+        scalar = tt.ndim == 0
+        if scalar:
+            tt = np.broadcast_to(tt, (n, 1))
+        elif tt.ndim == 1:
+            tt = np.broadcast_to(tt[None, :], (n, tt.shape[0]))
+        elif tt.ndim != 2 or tt.shape[0] != n:
+            raise PlanningError(
+                f"t must be a scalar, a 1-D array of times or an array of shape ({n}, M), "
+                f"got shape {tt.shape}"
+            )
+        T = self.duration[:, None]
+        tc = np.clip(tt, 0.0, T)
+        search = self._t_search
+        idx = np.zeros(tt.shape, dtype=np.intp)
+        for k in range(1, search.shape[1]):
+            idx += tc >= search[:, k : k + 1]
+        idx = np.minimum(idx, np.maximum(self.n_segments - 1, 0)[:, None])
+        dt = tc - np.take_along_axis(self.t, idx, axis=1)
+        p0 = np.take_along_axis(self.p, idx, axis=1)
+        v0 = np.take_along_axis(self.v, idx, axis=1)
+        a0 = np.take_along_axis(self.a, idx, axis=1)
+        j0 = np.take_along_axis(self.j, idx, axis=1)
+        p = p0 + dt * (v0 + dt * (0.5 * a0 + dt * j0 / 6.0))
+        v = v0 + dt * (a0 + 0.5 * dt * j0)
+        a = a0 + dt * j0
+        j = j0
+        past = (tt >= T) | (self.n_segments == 0)[:, None]
+        if past.any():
+            rows = np.broadcast_to(np.arange(n)[:, None], tt.shape)[past]
+            p[past] = self.end_p[rows]
+            v[past] = self.end_v[rows]
+            a[past] = self.end_a[rows]
+            j[past] = 0.0
+        if scalar:
+            return Samples(p[:, 0], v[:, 0], a[:, 0], j[:, 0])
+        return Samples(p, v, a, j)
+
+
+# -- validation ------------------------------------------------------------------------------
+def _as_array(name: str, value: object) -> np.ndarray:
+    """``value`` as a float64 array of at most one dimension; PlanningError naming it else."""
+    if isinstance(value, bool):
+        raise PlanningError(f"{name} must be a number or a 1-D array of numbers, got {value!r}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise PlanningError(f"{name} must be a number or a 1-D array of numbers: {exc}") from exc
+    if arr.dtype.kind not in "fiu":
+        raise PlanningError(
+            f"{name} must be a number or a 1-D array of numbers, got dtype {arr.dtype}"
+        )
+    if arr.ndim > 1:
+        raise PlanningError(f"{name} must be a number or a 1-D array, got shape {arr.shape}")
+    return arr.astype(float, copy=False)
+
+
+def _first(bad: np.ndarray) -> int:
+    return int(np.flatnonzero(bad)[0])
+
+
+def _check_state(name: str, x: np.ndarray) -> None:
+    bad = ~((x >= -STATE_MAX) & (x <= STATE_MAX))  # also NaN
+    if bad.any():
+        i = _first(bad)
+        raise PlanningError(
+            f"{name}[{i}] must be a finite number in [{-STATE_MAX:g}, {STATE_MAX:g}], "
+            f"got {float(x[i])!r}"
+        )
+
+
+def _check_positive(name: str, x: np.ndarray) -> None:
+    bad = ~(((x >= LIMIT_MIN) & (x <= LIMIT_MAX)) | (x == _INF))
+    if bad.any():
+        i = _first(bad)
+        raise PlanningError(f"{name}[{i}] must be in {_RANGE}, got {float(x[i])!r}")
+
+
+def _check_negative(name: str, x: np.ndarray) -> None:
+    bad = ~(((x <= -LIMIT_MIN) & (x >= -LIMIT_MAX)) | (x == -_INF))
+    if bad.any():
+        i = _first(bad)
+        raise PlanningError(f"{name}[{i}] must be in {_NEG_RANGE}, got {float(x[i])!r}")
+
+
+def _raise_at(bad: np.ndarray, message: Any) -> None:
+    if bad.any():
+        raise PlanningError(message(_first(bad)))
+
+
+def _validate(
+    vf: np.ndarray,
+    af: np.ndarray,
+    vmax: np.ndarray,
+    vmin: np.ndarray,
+    amax: np.ndarray,
+    amin: np.ndarray,
+    J: np.ndarray,
+) -> None:
+    """The checks of Limits and plan (``_check_target_va``) for every element at once."""
+    _raise_at(
+        np.isinf(amax) != np.isinf(amin),
+        lambda i: (
+            f"a_min[{i}] and a_max[{i}] must both be finite or both infinite, "
+            f"got a_min={float(amin[i])!r}, a_max={float(amax[i])!r}"
+        ),
+    )
+    _raise_at(
+        np.isinf(vmax) & np.isinf(amax) & np.isinf(J),
+        lambda i: (
+            f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a position move"
+        ),
+    )
+    _raise_at(
+        ~((vmin <= vf) & (vf <= vmax)),
+        lambda i: (
+            f"vf[{i}] = {float(vf[i])!r} is outside the allowed range "
+            f"[{float(vmin[i])}, {float(vmax[i])}]"
+        ),
+    )
+    _raise_at(
+        ~((amin <= af) & (af <= amax)),
+        lambda i: (
+            f"af[{i}] = {float(af[i])!r} is outside the allowed range "
+            f"[{float(amin[i])}, {float(amax[i])}]"
+        ),
+    )
+    jinf = np.isinf(J)
+    _raise_at(
+        jinf & (af != 0.0),
+        lambda i: (
+            f"af[{i}] = {float(af[i])!r} must be 0 when j_max is infinite (second-order profile)"
+        ),
+    )
+    _raise_at(
+        jinf & np.isinf(amax) & (vf != 0.0),
+        lambda i: (
+            f"vf[{i}] = {float(vf[i])!r} must be 0 when a_max and j_max are infinite "
+            "(first-order profile)"
+        ),
+    )
+    with np.errstate(all="ignore"):
+        half = 0.5 * af * af / J
+        _raise_at(
+            ~jinf & (af < 0.0) & (vf + half > vmax * (1.0 + 1e-12)),
+            lambda i: (
+                f"target state {i} (vf={float(vf[i])!r}, af={float(af[i])!r}) cannot be reached "
+                f"without exceeding v_max={float(vmax[i])}: it needs v + a^2/(2 j_max) <= v_max"
+            ),
+        )
+        _raise_at(
+            ~jinf & (af > 0.0) & (vf - half < vmin * (1.0 + 1e-12)),
+            lambda i: (
+                f"target state {i} (vf={float(vf[i])!r}, af={float(af[i])!r}) cannot be reached "
+                f"without going below v_min={float(vmin[i])}: it needs v - a^2/(2 j_max) >= "
+                "v_min"
+            ),
+        )
+
+
+# -- rest to rest in numpy -------------------------------------------------------------------
+def _rest_to_rest(
+    d: np.ndarray,
+    vmax: np.ndarray,
+    vmin: np.ndarray,
+    amax: np.ndarray,
+    amin: np.ndarray,
+    J: np.ndarray,
+) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
+    """Rest-to-rest problems (finite J, d != 0 beyond ``arrived``) in :func:`plan`'s arithmetic.
+
+    Returns (solved mask, the canonical seven-phase arrays of the solved rows, family code):
+    family 0 none-rest, 1 vel, 2 acc0_acc1 (the ``-down`` variants where d < 0). A row not
+    solved (a single plateau or an asymmetric velocity limit without any plateau: quartic
+    families in :func:`plan`) is left to the core.
+    """
+    n = d.shape[0]
+    with np.errstate(all="ignore"):
+        # -- none-rest: _third.time_optimal's closed form -------------------------------
+        ad = np.abs(d)
+        tr = (ad / (2.0 * J)) ** (1.0 / 3.0)
+        nr = (J * tr <= np.minimum(amax, -amin)) & (J * tr * tr <= np.minimum(vmax, -vmin))
+        # -- the "up" problem of the families (mirrored where d < 0) ---------------------
+        down = d < 0.0
+        D = np.where(down, -d, d)
+        Vmax = np.where(down, -vmin, vmax)
+        Amax = np.where(down, -amin, amax)
+        Amin = np.where(down, -amax, amin)
+        # vel: _half_up(0, 0, Vmax) and _half_down_from(Vmax, 0, 0)
+        P = np.sqrt(J * Vmax)
+        hp = (Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax
+        cap = P <= Amax
+        h1 = np.where(cap, 0.0, np.maximum(hp, 0.0))
+        P = np.where(cap, P, Amax)
+        Q = -np.sqrt(J * Vmax)
+        hq = (-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin
+        capq = Q >= Amin
+        h2 = np.where(capq, 0.0, np.maximum(hq, 0.0))
+        Q = np.where(capq, Q, Amin)
+        t1 = P / J
+        t5 = -Q / J
+        v1 = t1 * (0.5 * t1 * J)
+        v2 = v1 + h1 * P
+        d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+        d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
+        v5 = Vmax - 0.5 * t5 * t5 * J
+        v6 = v5 + h2 * Q
+        d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+        d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
+        cruise = (D - d1 - d2) / Vmax
+        vel = np.isfinite(Vmax) & (cruise >= -_T_TOL * np.maximum(1.0, np.abs(D / Vmax)))
+        cruise = np.maximum(cruise, 0.0)
+        vel_dur = np.stack([t1, h1, t1, cruise, t5, h2, t5], axis=1)
+        t_vel = _seq_sum(vel_dur)
+        t_best = np.where(vel, t_vel * _KEEP, _INF)
+        # acc0_acc1: both plateaus, a quadratic in h2 (_third._fam_acc0_acc1 with zero v, a)
+        ramps = (2.0 * Amax - 2.0 * Amin) / J
+        A2 = Amax * Amax
+        N2 = Amin * Amin
+        JJ = J * J
+        denom = 12.0 * JJ * Amin * (Amax - Amin)
+        b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
+        c = (
+            24.0 * JJ * Amax * D
+            - 12.0 * A2 * N2
+            + 24.0 * Amax * Amin**3
+            - 12.0 * N2 * N2
+        ) / denom  # fmt: skip
+        roots = _quadratic_roots(b, c)
+        tA = (Amax - 0.0) / J
+        tB = (Amax - Amin) / J
+        tC = (0.0 - Amin) / J
+        acc = np.zeros(n, dtype=bool)
+        acc_h1 = np.zeros(n)
+        acc_h2 = np.zeros(n)
+        vhi = Vmax + _LIM_TOL * np.where(Vmax > 1.0, Vmax, 1.0)
+        pre = np.isfinite(Amax) & (ramps < t_best)
+        for r in roots:
+            g = pre & ~np.isnan(r) & (r >= -_T_TOL)
+            r = np.maximum(r, 0.0)
+            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+            g &= hh1 >= -_T_TOL
+            hh1 = np.maximum(hh1, 0.0)
+            g &= ramps + hh1 + r < t_best
+            # _verify's velocity check at the zero crossing of the acceleration (phase 3)
+            vz = tA * (0.5 * tA * J)
+            az = 0.0 + tA * J
+            az = np.where(hh1 > 0.0, Amax, az)
+            vz = np.where(hh1 > 0.0, vz + hh1 * az, vz)
+            tz = -az / -J
+            vz = vz + tz * (az + 0.5 * tz * -J)
+            g &= ~(vz > vhi)
+            dur = np.stack([tA, hh1, tB, r, tC], axis=1)
+            tt = _seq_sum(dur)
+            g &= tt < t_best
+            acc_h1 = np.where(g, hh1, acc_h1)
+            acc_h2 = np.where(g, r, acc_h2)
+            t_best = np.where(g, tt, t_best)
+            acc |= g
+    family = np.where(nr, 0, np.where(acc, 2, 1))
+    solved = nr | vel | acc
+    s = np.where(down, -1.0, 1.0)
+    sj = s * J
+    zero = np.zeros(n)
+    zj = s * 0.0  # a plateau's jerk: -0.0 in a mirrored profile, as _third.mirror gives
+    nan = np.full(n, np.nan)
+    fam0, fam2 = family == 0, family == 2
+    dur = np.where(
+        fam0[:, None],
+        np.stack([tr, 2.0 * tr, tr, zero, zero, zero, zero], axis=1),
+        np.where(
+            fam2[:, None], np.stack([tA, acc_h1, tB, acc_h2, tC, zero, zero], axis=1), vel_dur
+        ),
+    )
+    jerk_vel = np.stack([sj, zj, -sj, zj, -sj, zj, sj], axis=1)
+    jerk_acc = np.stack([sj, zj, -sj, zj, sj, zero, zero], axis=1)
+    jerk_nr = np.stack([np.where(d > 0.0, J, -J), zero, zero, zero, zero, zero, zero], axis=1)
+    jerk_nr[:, 1] = -jerk_nr[:, 0]
+    jerk_nr[:, 2] = jerk_nr[:, 0]
+    jerk = np.where(fam0[:, None], jerk_nr, np.where(fam2[:, None], jerk_acc, jerk_vel))
+    # exact values a phase sets at its start (plateaus: the limit; cruise: a = 0, v = Vmax)
+    ova_vel = np.stack([nan, s * P, nan, zero, nan, s * Q, nan], axis=1)
+    ovv_vel = np.stack([nan, nan, nan, s * Vmax, nan, nan, nan], axis=1)
+    ova_acc = np.stack([nan, s * Amax, nan, s * Amin, nan, nan, nan], axis=1)
+    ova = np.where(fam0[:, None], np.nan, np.where(fam2[:, None], ova_acc, ova_vel))
+    ovv = np.where(fam0[:, None] | fam2[:, None], np.nan, ovv_vel)
+    # the cruise phase sets a = 0.0 exactly; in the mirrored problem -0.0 (mirror negates it)
+    ova[:, 3] = np.where(family == 1, np.where(down, -0.0, 0.0), ova[:, 3])
+    return solved, {"dur": dur, "j": jerk, "ova": ova, "ovv": ovv}, family
+
+
+def _seq_sum(dur: np.ndarray) -> np.ndarray:
+    """Sum of the positive durations column by column, left to right (as _verify adds)."""
+    t = np.zeros(dur.shape[0])
+    for k in range(dur.shape[1]):
+        x = dur[:, k]
+        t = np.where(x > 0.0, t + x, t)
+    return t
+
+
+def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """roots.quadratic_roots(1, b, c) element-wise: (lower, upper), NaN where absent."""
+    disc = b * b - 4.0 * c
+    neg = disc < 0.0
+    double = neg & (disc > -1e-14 * (b * b + np.abs(4.0 * c)))
+    sq = np.sqrt(np.where(neg, 0.0, disc))
+    q = np.where(b >= 0.0, -0.5 * (b + sq), -0.5 * (b - sq))
+    r1 = q
+    r2 = np.where(q != 0.0, c / q, r1)
+    lo = np.minimum(r1, r2)
+    hi = np.maximum(r1, r2)
+    lo = np.where(neg, np.where(double, -b / 2.0, np.nan), lo)
+    hi = np.where(neg, np.nan, hi)
+    return lo, hi
+
+
+def _integrate(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    dur: np.ndarray,
+    jerk: np.ndarray,
+    ova: np.ndarray,
+    ovv: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """Profile's integration of phases, column by column, with rest at the start: knots
+    (t, p, v, a) of every phase (positive-duration ones are the segments) and the end state.
+    A phase of no duration is dropped whole, as _verify drops it before Profile sees it."""
+    n, k = dur.shape
+    p = p0.copy()
+    v = v0.copy()
+    a = a0.copy()
+    t = np.zeros(n)
+    kt = np.empty((n, k))
+    kp = np.empty((n, k))
+    kv = np.empty((n, k))
+    ka = np.empty((n, k))
+    for c in range(k):
+        x = dur[:, c]
+        pos = x > 0.0
+        a = np.where(pos & ~np.isnan(ova[:, c]), ova[:, c], a)
+        v = np.where(pos & ~np.isnan(ovv[:, c]), ovv[:, c], v)
+        kt[:, c] = t
+        kp[:, c] = p
+        kv[:, c] = v
+        ka[:, c] = a
+        jj = jerk[:, c]
+        p = np.where(pos, p + x * (v + x * (0.5 * a + x * jj / 6.0)), p)
+        v2 = np.where(pos, v + x * (a + 0.5 * x * jj), v)
+        a = np.where(pos, a + x * jj, a)
+        v = v2
+        t = np.where(pos, t + x, t)
+    return kt, kp, kv, ka, p, v, a, t
+
+
+def _compact(pos: np.ndarray, *cols: np.ndarray) -> list[np.ndarray]:
+    """The columns with ``pos`` moved to the front in order (stable), the rest after."""
+    order = np.argsort(~pos, axis=1, kind="stable")
+    return [np.take_along_axis(c, order, axis=1) for c in cols]
+
+
+_FAMILY_NAMES = ("none-rest", "vel", "acc0_acc1")
+
+
+# -- the public function ---------------------------------------------------------------------
+def plan_batch(
+    p0: ArrayLike,
+    v0: ArrayLike,
+    a0: ArrayLike,
+    pf: ArrayLike,
+    vf: ArrayLike,
+    af: ArrayLike,
+    v_max: ArrayLike,
+    a_max: ArrayLike,
+    j_max: ArrayLike,
+    v_min: ArrayLike | None = None,
+    a_min: ArrayLike | None = None,
+) -> BatchPlan:
+    """Time-optimal profiles of N independent single-axis position problems at once.
+
+    Each argument is a number or a 1-D array; all are broadcast to a common length N (scalars
+    only: N = 1). Problem ``i`` is ``plan(State(p0[i], v0[i], a0[i]), State(pf[i], vf[i],
+    af[i]), Limits(v_max[i], a_max[i], j_max[i], v_min[i], a_min[i]))``; ``v_min`` / ``a_min``
+    default to ``-v_max`` / ``-a_max``. Guarantees: every row equals that :func:`plan`
+    result (duration, segments, knots, end state and kind; bit for bit, see the module
+    docstring); invalid input raises the :class:`PlanningError` of :func:`plan` / ``Limits``
+    naming the field, the index of its first bad element and the allowed range, before any
+    planning. Rest-to-rest rows are solved in numpy, the others by the core per row.
+    """
+    names = ("p0", "v0", "a0", "pf", "vf", "af", "v_max", "a_max", "j_max")
+    raw = [
+        _as_array(nm, x)
+        for nm, x in zip(names, (p0, v0, a0, pf, vf, af, v_max, a_max, j_max), strict=True)
+    ]
+    if v_min is not None:
+        raw.append(_as_array("v_min", v_min))
+    if a_min is not None:
+        raw.append(_as_array("a_min", a_min))
+    try:
+        arrs = np.broadcast_arrays(*raw)
+    except ValueError as exc:
+        shapes = ", ".join(f"{nm}{x.shape}" for nm, x in zip(names, raw, strict=False))
+        raise PlanningError(
+            f"plan_batch: the inputs do not broadcast to one length: {shapes}"
+        ) from exc
+    arrs = [np.atleast_1d(x) for x in arrs]
+    P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
+    for nm, x in zip(names[:6], arrs[:6], strict=True):
+        _check_state(nm, x)
+    _check_positive("v_max", VMAX)
+    _check_positive("a_max", AMAX)
+    _check_positive("j_max", J)
+    rest_args = arrs[9:]
+    if v_min is not None:
+        VMIN = rest_args.pop(0)
+        _check_negative("v_min", VMIN)
+    else:
+        VMIN = -VMAX
+    if a_min is not None:
+        AMIN = rest_args.pop(0)
+        _check_negative("a_min", AMIN)
+    else:
+        AMIN = -AMAX
+    _validate(VF, AF, VMAX, VMIN, AMAX, AMIN, J)
+    n = P0.shape[0]
+    d = PF - P0
+    eps = 8.0 * _EPS
+    at_rest = (V0 == 0.0) & (A0 == 0.0) & (VF == 0.0) & (AF == 0.0)
+    done = at_rest & (np.abs(d) <= np.maximum(1e-15, eps * np.maximum(np.abs(P0), np.abs(PF))))
+    fast = at_rest & ~done & np.isfinite(J)
+    kinds: list[str] = [""] * n
+    rows: dict[int, tuple[list[tuple[float, ...]], str]] = {}
+    width = MIN_WIDTH
+    # -- rest to rest in numpy ----------------------------------------------------------------
+    fi = np.flatnonzero(fast)
+    solved_rows = np.zeros(0, dtype=np.intp)
+    res: tuple[np.ndarray, ...] | None = None
+    if fi.size:
+        solved, ph, family = _rest_to_rest(d[fi], VMAX[fi], VMIN[fi], AMAX[fi], AMIN[fi], J[fi])
+        solved_rows = fi[solved]
+        sel = np.flatnonzero(solved)
+        res = _integrate(
+            P0[solved_rows],
+            V0[solved_rows],
+            A0[solved_rows],
+            ph["dur"][sel],
+            ph["j"][sel],
+            ph["ova"][sel],
+            ph["ovv"][sel],
+        )
+        total = res[7]
+        too_long = ~(total <= MAX_DURATION)
+        if too_long.any():
+            k = _first(too_long)
+            raise _too_long(int(solved_rows[k]), float(total[k]))
+        fam = family[sel]
+        neg = d[solved_rows] < 0.0
+        for r, f, dn in zip(solved_rows.tolist(), fam.tolist(), neg.tolist(), strict=True):
+            kinds[r] = _FAMILY_NAMES[f] + ("-down" if dn and f != 0 else "")
+        dur_s = ph["dur"][sel]
+        j_s = ph["j"][sel]
+    # -- every other row through the core, per element --------------------------------------
+    slow = np.ones(n, dtype=bool)
+    slow[solved_rows] = False
+    lists = [x.tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
+    for i in np.flatnonzero(slow).tolist():
+        p0i, v0i, a0i, pfi, vfi, afi, vmax, vmin, amax, amin, jm = (x[i] for x in lists)
+        if arrived(p0i, v0i, a0i, pfi, vfi, afi):
+            rows[i] = ([(0.0, 0.0, afi, vfi)], "arrived")
+            kinds[i] = "arrived"
+            continue
+        try:
+            T, phases, kind = position_phases(
+                v0i, a0i, pfi - p0i, vfi, afi, vmax, vmin, amax, amin, jm
+            )
+        except PlanningError as exc:
+            raise PlanningError(f"problem {i}: {exc}") from exc
+        except ArithmeticError as exc:
+            raise PlanningError(
+                f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) for "
+                f"problem {i} (planner defect: please report these inputs)"
+            ) from exc
+        if not T <= MAX_DURATION:
+            raise _too_long(i, T)
+        rows[i] = (phases, kind)
+        kinds[i] = kind
+    segs = {i: _segments(lists[0][i], lists[1][i], lists[2][i], ph) for i, (ph, _) in rows.items()}
+    for s in segs.values():
+        width = max(width, len(s[0]))
+    # -- assemble -----------------------------------------------------------------------------
+    t_arr = np.zeros((n, width))
+    d_arr = np.zeros((n, width))
+    j_arr = np.zeros((n, width))
+    p_arr = np.zeros((n, width))
+    v_arr = np.zeros((n, width))
+    a_arr = np.zeros((n, width))
+    nseg = np.zeros(n, dtype=np.intp)
+    T_arr = np.zeros(n)
+    ep = np.zeros(n)
+    ev = np.zeros(n)
+    ea = np.zeros(n)
+    if res is not None and solved_rows.size:
+        kt, kp, kv, ka, pe, ve, ae, total = res
+        pos = dur_s > 0.0
+        kt, kd, kj, kp, kv, ka = _compact(pos, kt, dur_s, j_s, kp, kv, ka)
+        m = pos.sum(axis=1)
+        pad = np.arange(MIN_WIDTH)[None, :] >= m[:, None]
+        r = solved_rows
+        t_arr[r, :MIN_WIDTH] = np.where(pad, total[:, None], kt)
+        d_arr[r, :MIN_WIDTH] = np.where(pad, 0.0, kd)
+        j_arr[r, :MIN_WIDTH] = np.where(pad, 0.0, kj)
+        p_arr[r, :MIN_WIDTH] = np.where(pad, pe[:, None], kp)
+        v_arr[r, :MIN_WIDTH] = np.where(pad, ve[:, None], kv)
+        a_arr[r, :MIN_WIDTH] = np.where(pad, ae[:, None], ka)
+        if width > MIN_WIDTH:
+            t_arr[r, MIN_WIDTH:] = total[:, None]
+            p_arr[r, MIN_WIDTH:] = pe[:, None]
+            v_arr[r, MIN_WIDTH:] = ve[:, None]
+            a_arr[r, MIN_WIDTH:] = ae[:, None]
+        nseg[r] = m
+        T_arr[r] = total
+        ep[r], ev[r], ea[r] = pe, ve, ae
+    for i, (ts, ds, js, ps, vs, as_, end, T) in segs.items():
+        m = len(ds)
+        nseg[i] = m
+        T_arr[i] = T
+        ep[i], ev[i], ea[i] = end
+        t_arr[i, :m] = ts
+        d_arr[i, :m] = ds
+        j_arr[i, :m] = js
+        p_arr[i, : max(m, 1)] = ps
+        v_arr[i, : max(m, 1)] = vs
+        a_arr[i, : max(m, 1)] = as_
+        lo = max(m, 1)
+        t_arr[i, m:] = T
+        p_arr[i, lo:] = end[0]
+        v_arr[i, lo:] = end[1]
+        a_arr[i, lo:] = end[2]
+    return BatchPlan(t_arr, d_arr, j_arr, p_arr, v_arr, a_arr, nseg, T_arr, (ep, ev, ea), kinds)
+
+
+def _too_long(i: int, T: float) -> PlanningError:
+    return PlanningError(
+        f"problem {i}: the profile would last {T:.6g} s, beyond the supported "
+        f"{MAX_DURATION:g} s (limits far too small for the states: double precision cannot keep "
+        "its end state and continuity)"
+    )
+
+
+def _segments(
+    p: float, v: float, a: float, phases: Sequence[tuple[float, ...]]
+) -> tuple[
+    list[float],
+    list[float],
+    list[float],
+    list[float],
+    list[float],
+    list[float],
+    tuple[float, float, float],
+    float,
+]:
+    """Profile.__init__'s integration of the phases (the same operations, so the same bits):
+    segment start times, durations, jerks, the states at the segment starts, end state and
+    duration. No segment: the (possibly jumped) start state as the only knot."""
+    ts: list[float] = []
+    ds: list[float] = []
+    js: list[float] = []
+    ps: list[float] = []
+    vs: list[float] = []
+    as_: list[float] = []
+    t = 0.0
+    for ph in phases:
+        dur = ph[0]
+        k = len(ph)
+        if k > 2:
+            a = ph[2]
+            if k > 3:
+                v = ph[3]
+        if dur <= 0.0:
+            continue
+        j = ph[1]
+        ts.append(t)
+        ps.append(p)
+        vs.append(v)
+        as_.append(a)
+        js.append(j)
+        ds.append(dur)
+        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
+        v += dur * (a + 0.5 * dur * j)
+        a += dur * j
+        t += dur
+    if not ds:
+        ps.append(p)
+        vs.append(v)
+        as_.append(a)
+    return ts, ds, js, ps, vs, as_, (p, v, a), t
