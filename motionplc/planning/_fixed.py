@@ -51,6 +51,70 @@ Phases = list[tuple[float, ...]]
 _INF = math.inf
 
 
+def _cubic_max_root(b: float, c: float, d: float) -> float:
+    """The largest real root of m^3 + b m^2 + c m + d (Cardano / trigonometric form, polished
+    by Newton steps)."""
+    P = c - b * b / 3.0
+    Q = (2.0 * b * b / 27.0 - c / 3.0) * b + d
+    disc = 0.25 * Q * Q + P * P * P / 27.0
+    if disc > 0.0:
+        sq = math.sqrt(disc)
+        w = -0.5 * Q - sq if Q > 0.0 else -0.5 * Q + sq
+        u = math.copysign(abs(w) ** (1.0 / 3.0), w)
+        t = u - P / (3.0 * u) if u != 0.0 else 0.0
+    elif P < 0.0:
+        r = math.sqrt(-P / 3.0)
+        cos3 = max(-1.0, min(1.0, -0.5 * Q / (r * r * r)))
+        t = 2.0 * r * math.cos(math.acos(cos3) / 3.0)
+    else:
+        t = 0.0
+    m = t - b / 3.0
+    for _ in range(2):
+        f = ((m + b) * m + c) * m + d
+        df = (3.0 * m + 2.0 * b) * m + c
+        if df == 0.0:
+            break
+        m -= f / df
+    return m
+
+
+def quartic_real_roots(c3: float, c2: float, c1: float, c0: float) -> list[float]:
+    """Real roots of the monic quartic x^4 + c3 x^3 + c2 x^2 + c1 x + c0, ascending, by
+    Ferrari's factorisation into two quadratics and two Newton steps per root on the quartic
+    (fast; near-double roots are only good to about sqrt(eps), which the caller's
+    verification judges -- :func:`motionplc.planning.roots.quartic_roots_in` is the robust
+    solver)."""
+    sh = 0.25 * c3
+    # depressed y^4 + p y^2 + q y + r with x = y - c3 / 4
+    p = c2 - 6.0 * sh * sh
+    q = c1 - 2.0 * c2 * sh + 8.0 * sh * sh * sh
+    r = c0 - c1 * sh + c2 * sh * sh - 3.0 * sh * sh * sh * sh
+    ys: list[float] = []
+    m = _cubic_max_root(p, 0.25 * p * p - r, -0.125 * q * q)
+    if m > 1e-14 * (abs(p) + 1e-300) and m > 0.0:
+        sr = math.sqrt(2.0 * m)
+        k = q / (2.0 * sr)
+        ys.extend(quadratic_roots(1.0, -sr, 0.5 * p + m + k))
+        ys.extend(quadratic_roots(1.0, sr, 0.5 * p + m - k))
+    else:
+        for y2 in quadratic_roots(1.0, p, r):
+            if y2 >= 0.0:
+                y = math.sqrt(y2)
+                ys.extend((-y, y))
+    out: list[float] = []
+    for y in ys:
+        x = y - sh
+        for _ in range(2):
+            f = (((x + c3) * x + c2) * x + c1) * x + c0
+            df = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
+            if df == 0.0:
+                break
+            x -= f / df
+        out.append(x)
+    out.sort()
+    return out
+
+
 def _dur_tol(T: float) -> float:
     """The synchronisation tolerance on a duration (as in ``sync``): 2e-10 s or 1e-13 T."""
     return max(2e-10, 1e-13 * T)
@@ -106,32 +170,64 @@ def none_free_jerk(
     c2 = -(6.0 * D * D + 48.0 * e * e - 96.0 * f * D) / 3.0
     c1 = 4.0 * D * D * D / 3.0
     c0 = -(D * D * D * D) / 3.0
-    zmax = J * T
-    ph_best: Phases | None = None
+    zmax = J * T * (1.0 + 1e-12)
+    fast = quartic_real_roots(c3, c2, c1, c0)
+    tried = False
+    for z in fast:
+        if z == 0.0 or not -zmax <= z <= zmax:
+            continue
+        tried = True
+        out = _none_phases(z, T, D, E, v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
+        if out is not None:
+            return out
+    if not tried:
+        return None
+    # a root in range that failed: perhaps a near-double root the fast solver got only to
+    # sqrt(eps); the robust solver decides
     for z in quartic_roots_in(c3, c2, c1, c0, -zmax, zmax):
         if z == 0.0:
             continue
-        j = z / T
-        if abs(j) > J:
-            j = J if j > 0.0 else -J  # a rounding error beyond the limit
-        delta = 0.5 * (T - D / j)
-        if not delta > 0.0:
-            continue
-        sigma = (T * T - 2.0 * E / j) / (2.0 * delta)
-        r2 = 0.5 * (sigma + delta)
-        r3 = 0.5 * (sigma - delta)
-        tol = 1e-12 * T
-        if r3 < -tol or r2 > T + tol:
-            continue
-        r3 = max(r3, 0.0)
-        r2 = min(r2, T)
-        t1 = T - r2
-        t2 = r2 - r3
-        ph: Phases = [(t1, j), (t2, -j), (r3, j)]
-        out = _accept(ph, T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        out = _none_phases(z, T, D, E, v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
         if out is not None:
             return out
-    return ph_best
+    return None
+
+
+def _none_phases(
+    z: float,
+    T: float,
+    D: float,
+    E: float,
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+) -> Phases | None:
+    """The three ramps of jerk j = z / T of :func:`none_free_jerk`, verified, or None."""
+    j = z / T
+    if abs(j) > J:
+        j = J if j > 0.0 else -J  # a rounding error beyond the limit
+    delta = 0.5 * (T - D / j)
+    if not delta > 0.0:
+        return None
+    sigma = (T * T - 2.0 * E / j) / (2.0 * delta)
+    r2 = 0.5 * (sigma + delta)
+    r3 = 0.5 * (sigma - delta)
+    tol = 1e-12 * T
+    if r3 < -tol or r2 > T + tol:
+        return None
+    r3 = max(r3, 0.0)
+    r2 = min(r2, T)
+    t1 = T - r2
+    t2 = r2 - r3
+    ph: Phases = [(t1, j), (t2, -j), (r3, j)]
+    return _accept(ph, T, v0, a0, d, vf, af, vmax, vmin, amax, amin)
 
 
 def _vel_duration(
