@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -339,42 +339,83 @@ def _validate(
 
 
 # -- rest to rest in numpy -------------------------------------------------------------------
+# Kind codes of the rows solved in numpy (Profile.kind names as plan gives them).
+_KINDS = np.array(["none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down"], dtype=object)
+
+
+class _Group(NamedTuple):
+    """Rows solved in numpy with one phase layout: their batch rows, (m, k) phase durations
+    and jerks, the exact acceleration / velocity a phase sets at its start (NaN: none; None:
+    no phase sets any) and the kind codes."""
+
+    rows: np.ndarray
+    dur: np.ndarray
+    jerk: np.ndarray
+    ova: np.ndarray | None
+    ovv: np.ndarray | None
+    code: np.ndarray
+
+
 def _rest_to_rest(
+    rows: np.ndarray,
     d: np.ndarray,
     vmax: np.ndarray,
     vmin: np.ndarray,
     amax: np.ndarray,
     amin: np.ndarray,
     J: np.ndarray,
-) -> tuple[np.ndarray, dict[str, np.ndarray], np.ndarray]:
-    """Rest-to-rest problems (finite J, d != 0 beyond ``arrived``) in :func:`plan`'s arithmetic.
+) -> tuple[list[_Group], np.ndarray]:
+    """Rest-to-rest rows (finite J, d beyond ``arrived``) in :func:`plan`'s arithmetic.
 
-    Returns (solved mask, the canonical seven-phase arrays of the solved rows, family code):
-    family 0 none-rest, 1 vel, 2 acc0_acc1 (the ``-down`` variants where d < 0). A row not
-    solved (a single plateau or an asymmetric velocity limit without any plateau: quartic
-    families in :func:`plan`) is left to the core.
+    Returns the groups solved (none-rest: three ramps; vel / acc0_acc1: the canonical seven
+    phases, some of no duration) and the rows left to the core (a single acceleration plateau,
+    or an asymmetric velocity limit without any plateau: quartic families in :func:`plan`).
     """
-    n = d.shape[0]
+    groups: list[_Group] = []
     with np.errstate(all="ignore"):
-        # -- none-rest: _third.time_optimal's closed form -------------------------------
-        ad = np.abs(d)
-        tr = (ad / (2.0 * J)) ** (1.0 / 3.0)
+        # -- none-rest: _third.time_optimal's closed form, tried first ----------------------
+        tr = (np.abs(d) / (2.0 * J)) ** (1.0 / 3.0)
         nr = (J * tr <= np.minimum(amax, -amin)) & (J * tr * tr <= np.minimum(vmax, -vmin))
-        # -- the "up" problem of the families (mirrored where d < 0) ---------------------
+        if nr.any():
+            t = tr[nr]
+            sj = np.where(d[nr] > 0.0, J[nr], -J[nr])
+            groups.append(
+                _Group(
+                    rows[nr],
+                    np.stack([t, 2.0 * t, t], axis=1),
+                    np.stack([sj, -sj, sj], axis=1),
+                    None,
+                    None,
+                    np.zeros(t.shape[0], dtype=np.intp),
+                )
+            )
+        rest = ~nr
+        if not rest.any():
+            return groups, rows[:0]
+        rows = rows[rest]
+        d, vmax, vmin, amax, amin, J = (
+            d[rest],
+            vmax[rest],
+            vmin[rest],
+            amax[rest],
+            amin[rest],
+            J[rest],
+        )
+        n = d.shape[0]
+        # -- the "up" problem of the families (mirrored where d < 0) -------------------------
         down = d < 0.0
         D = np.where(down, -d, d)
         Vmax = np.where(down, -vmin, vmax)
         Amax = np.where(down, -amin, amax)
         Amin = np.where(down, -amax, amin)
-        # vel: _half_up(0, 0, Vmax) and _half_down_from(Vmax, 0, 0)
+        # vel: _half_up(0, 0, Vmax) and _half_down_from(Vmax, 0, 0), then the cruise
         P = np.sqrt(J * Vmax)
-        hp = (Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax
         cap = P <= Amax
-        h1 = np.where(cap, 0.0, np.maximum(hp, 0.0))
+        h1 = np.where(cap, 0.0, np.maximum((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax, 0.0))
         P = np.where(cap, P, Amax)
         Q = -np.sqrt(J * Vmax)
-        hq = (-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin
         capq = Q >= Amin
+        hq = (-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin
         h2 = np.where(capq, 0.0, np.maximum(hq, 0.0))
         Q = np.where(capq, Q, Amin)
         t1 = P / J
@@ -391,23 +432,20 @@ def _rest_to_rest(
         vel = np.isfinite(Vmax) & (cruise >= -_T_TOL * np.maximum(1.0, np.abs(D / Vmax)))
         cruise = np.maximum(cruise, 0.0)
         vel_dur = np.stack([t1, h1, t1, cruise, t5, h2, t5], axis=1)
-        t_vel = _seq_sum(vel_dur)
-        t_best = np.where(vel, t_vel * _KEEP, _INF)
-        # acc0_acc1: both plateaus, a quadratic in h2 (_third._fam_acc0_acc1 with zero v, a)
+        t_best = np.where(vel, _seq_sum(vel_dur) * _KEEP, _INF)
+        # acc0_acc1: both plateaus, a quadratic in h2 (_third._fam_acc0_acc1, v = a = 0)
         ramps = (2.0 * Amax - 2.0 * Amin) / J
         A2 = Amax * Amax
         N2 = Amin * Amin
         JJ = J * J
-        denom = 12.0 * JJ * Amin * (Amax - Amin)
         b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
         c = (
             24.0 * JJ * Amax * D
             - 12.0 * A2 * N2
             + 24.0 * Amax * Amin**3
             - 12.0 * N2 * N2
-        ) / denom  # fmt: skip
-        roots = _quadratic_roots(b, c)
-        tA = (Amax - 0.0) / J
+        ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
+        tA = Amax / J
         tB = (Amax - Amin) / J
         tC = (0.0 - Amin) / J
         acc = np.zeros(n, dtype=bool)
@@ -415,58 +453,84 @@ def _rest_to_rest(
         acc_h2 = np.zeros(n)
         vhi = Vmax + _LIM_TOL * np.where(Vmax > 1.0, Vmax, 1.0)
         pre = np.isfinite(Amax) & (ramps < t_best)
-        for r in roots:
-            g = pre & ~np.isnan(r) & (r >= -_T_TOL)
-            r = np.maximum(r, 0.0)
-            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
-            g &= hh1 >= -_T_TOL
-            hh1 = np.maximum(hh1, 0.0)
-            g &= ramps + hh1 + r < t_best
-            # _verify's velocity check at the zero crossing of the acceleration (phase 3)
-            vz = tA * (0.5 * tA * J)
-            az = 0.0 + tA * J
-            az = np.where(hh1 > 0.0, Amax, az)
-            vz = np.where(hh1 > 0.0, vz + hh1 * az, vz)
-            tz = -az / -J
-            vz = vz + tz * (az + 0.5 * tz * -J)
-            g &= ~(vz > vhi)
-            dur = np.stack([tA, hh1, tB, r, tC], axis=1)
-            tt = _seq_sum(dur)
-            g &= tt < t_best
-            acc_h1 = np.where(g, hh1, acc_h1)
-            acc_h2 = np.where(g, r, acc_h2)
-            t_best = np.where(g, tt, t_best)
-            acc |= g
-    family = np.where(nr, 0, np.where(acc, 2, 1))
-    solved = nr | vel | acc
-    s = np.where(down, -1.0, 1.0)
-    sj = s * J
-    zero = np.zeros(n)
-    zj = s * 0.0  # a plateau's jerk: -0.0 in a mirrored profile, as _third.mirror gives
-    nan = np.full(n, np.nan)
-    fam0, fam2 = family == 0, family == 2
-    dur = np.where(
-        fam0[:, None],
-        np.stack([tr, 2.0 * tr, tr, zero, zero, zero, zero], axis=1),
-        np.where(
-            fam2[:, None], np.stack([tA, acc_h1, tB, acc_h2, tC, zero, zero], axis=1), vel_dur
-        ),
-    )
-    jerk_vel = np.stack([sj, zj, -sj, zj, -sj, zj, sj], axis=1)
-    jerk_acc = np.stack([sj, zj, -sj, zj, sj, zero, zero], axis=1)
-    jerk_nr = np.stack([np.where(d > 0.0, J, -J), zero, zero, zero, zero, zero, zero], axis=1)
-    jerk_nr[:, 1] = -jerk_nr[:, 0]
-    jerk_nr[:, 2] = jerk_nr[:, 0]
-    jerk = np.where(fam0[:, None], jerk_nr, np.where(fam2[:, None], jerk_acc, jerk_vel))
-    # exact values a phase sets at its start (plateaus: the limit; cruise: a = 0, v = Vmax)
-    ova_vel = np.stack([nan, s * P, nan, zero, nan, s * Q, nan], axis=1)
-    ovv_vel = np.stack([nan, nan, nan, s * Vmax, nan, nan, nan], axis=1)
-    ova_acc = np.stack([nan, s * Amax, nan, s * Amin, nan, nan, nan], axis=1)
-    ova = np.where(fam0[:, None], np.nan, np.where(fam2[:, None], ova_acc, ova_vel))
-    ovv = np.where(fam0[:, None] | fam2[:, None], np.nan, ovv_vel)
-    # the cruise phase sets a = 0.0 exactly; in the mirrored problem -0.0 (mirror negates it)
-    ova[:, 3] = np.where(family == 1, np.where(down, -0.0, 0.0), ova[:, 3])
-    return solved, {"dur": dur, "j": jerk, "ova": ova, "ovv": ovv}, family
+        if pre.any():
+            for r in _quadratic_roots(b, c):
+                g = pre & (r >= -_T_TOL)  # NaN: no root
+                r = np.maximum(r, 0.0)
+                hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+                g &= hh1 >= -_T_TOL
+                hh1 = np.maximum(hh1, 0.0)
+                g &= ramps + hh1 + r < t_best
+                # _verify's velocity check where the acceleration crosses zero (phase 3)
+                vz = tA * (0.5 * tA * J)
+                plateau = hh1 > 0.0
+                az = np.where(plateau, Amax, tA * J)
+                vz = np.where(plateau, vz + hh1 * az, vz)
+                tz = -az / -J
+                vz = vz + tz * (az + 0.5 * tz * -J)
+                g &= ~(vz > vhi)
+                tt = _seq_sum(np.stack([tA, hh1, tB, r, tC], axis=1))
+                g &= tt < t_best
+                acc_h1 = np.where(g, hh1, acc_h1)
+                acc_h2 = np.where(g, r, acc_h2)
+                t_best = np.where(g, tt, t_best)
+                acc |= g
+    solved = vel | acc
+    if solved.any():
+        s = np.where(down, -1.0, 1.0)[solved]
+        sj = s * J[solved]
+        zj = s * 0.0  # a plateau's jerk: -0.0 in a mirrored profile, as _third.mirror gives
+        zero = np.zeros(s.shape[0])
+        nan = np.full(s.shape[0], np.nan)
+        ac = acc[solved]
+        a2 = ac[:, None]
+        dur = np.where(
+            a2,
+            np.stack(
+                [tA[solved], acc_h1[solved], tB[solved], acc_h2[solved], tC[solved], zero, zero],
+                axis=1,
+            ),
+            vel_dur[solved],
+        )
+        jerk = np.where(
+            a2,
+            np.stack([sj, zj, -sj, zj, sj, zero, zero], axis=1),
+            np.stack([sj, zj, -sj, zj, -sj, zj, sj], axis=1),
+        )
+        # exact values a phase sets at its start (plateau: its acceleration; cruise: a = 0
+        # (-0.0 mirrored) and v at the limit)
+        ova = np.where(
+            a2,
+            np.stack([nan, s * Amax[solved], nan, s * Amin[solved], nan, nan, nan], axis=1),
+            np.stack([nan, s * P[solved], nan, zj, nan, s * Q[solved], nan], axis=1),
+        )
+        ovv = np.where(a2, np.nan, np.stack([nan, nan, nan, s * Vmax[solved], nan, nan, nan], 1))
+        # drop the phases of no duration (as _verify does before Profile sees them): the
+        # others move left in order, a phase of no duration fills the freed columns
+        order = _ORDER[(dur > 0.0).astype(np.intp) @ _BITS] + 8 * np.arange(s.shape[0])[:, None]
+        nil = np.zeros((s.shape[0], 1))
+        dur = np.hstack([dur, nil]).ravel()[order]
+        jerk = np.hstack([jerk, nil]).ravel()[order]
+        ova = np.hstack([ova, nil + np.nan]).ravel()[order]
+        ovv = np.hstack([ovv, nil + np.nan]).ravel()[order]
+        code = np.where(ac, 3, 1) + down[solved]
+        groups.append(_Group(rows[solved], dur, jerk, ova, ovv, code))
+    return groups, rows[~solved]
+
+
+def _compaction_orders() -> np.ndarray:
+    """For each of the 128 patterns of positive durations among seven phases (bit k: phase
+    k), the source columns of the compacted phases: the positive ones in order, then column
+    7 (a phase of no duration) for the rest."""
+    table = np.full((128, 7), 7, dtype=np.intp)
+    for pattern in range(128):
+        cols = [k for k in range(7) if pattern >> k & 1]
+        table[pattern, : len(cols)] = cols
+    return table
+
+
+_ORDER = _compaction_orders()
+_BITS = 1 << np.arange(7)
 
 
 def _seq_sum(dur: np.ndarray) -> np.ndarray:
@@ -485,31 +549,26 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
     double = neg & (disc > -1e-14 * (b * b + np.abs(4.0 * c)))
     sq = np.sqrt(np.where(neg, 0.0, disc))
     q = np.where(b >= 0.0, -0.5 * (b + sq), -0.5 * (b - sq))
-    r1 = q
-    r2 = np.where(q != 0.0, c / q, r1)
-    lo = np.minimum(r1, r2)
-    hi = np.maximum(r1, r2)
+    r2 = np.where(q != 0.0, c / q, q)
+    lo = np.minimum(q, r2)
+    hi = np.maximum(q, r2)
     lo = np.where(neg, np.where(double, -b / 2.0, np.nan), lo)
     hi = np.where(neg, np.nan, hi)
     return lo, hi
 
 
 def _integrate(
-    p0: np.ndarray,
-    v0: np.ndarray,
-    a0: np.ndarray,
-    dur: np.ndarray,
-    jerk: np.ndarray,
-    ova: np.ndarray,
-    ovv: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """Profile's integration of phases, column by column, with rest at the start: knots
-    (t, p, v, a) of every phase (positive-duration ones are the segments) and the end state.
-    A phase of no duration is dropped whole, as _verify drops it before Profile sees it."""
+    p0: np.ndarray, g: _Group
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Profile's integration of a group's phases column by column from rest at ``p0``: the
+    knots (t, p, v, a) of every phase, the end state (p, v, a) as arrays. A phase of no
+    duration is dropped whole (no knot, no exact value), as _verify drops it before Profile
+    sees it; a group without exact values and zero durations (none-rest) needs no masks."""
+    dur, jerk, ova, ovv = g.dur, g.jerk, g.ova, g.ovv
     n, k = dur.shape
-    p = p0.copy()
-    v = v0.copy()
-    a = a0.copy()
+    p = p0
+    v = np.zeros(n)
+    a = np.zeros(n)
     t = np.zeros(n)
     kt = np.empty((n, k))
     kp = np.empty((n, k))
@@ -517,29 +576,34 @@ def _integrate(
     ka = np.empty((n, k))
     for c in range(k):
         x = dur[:, c]
+        jj = jerk[:, c]
+        if ova is None or ovv is None:
+            kt[:, c] = t
+            kp[:, c] = p
+            kv[:, c] = v
+            ka[:, c] = a
+            p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
+            v = v + x * (a + 0.5 * x * jj)
+            a = a + x * jj
+            t = t + x
+            continue
         pos = x > 0.0
-        a = np.where(pos & ~np.isnan(ova[:, c]), ova[:, c], a)
-        v = np.where(pos & ~np.isnan(ovv[:, c]), ovv[:, c], v)
+        oa = ova[:, c]
+        if not np.isnan(oa).all():
+            a = np.where(pos & ~np.isnan(oa), oa, a)
+        ov = ovv[:, c]
+        if not np.isnan(ov).all():
+            v = np.where(pos & ~np.isnan(ov), ov, v)
         kt[:, c] = t
         kp[:, c] = p
         kv[:, c] = v
         ka[:, c] = a
-        jj = jerk[:, c]
         p = np.where(pos, p + x * (v + x * (0.5 * a + x * jj / 6.0)), p)
         v2 = np.where(pos, v + x * (a + 0.5 * x * jj), v)
         a = np.where(pos, a + x * jj, a)
         v = v2
         t = np.where(pos, t + x, t)
-    return kt, kp, kv, ka, p, v, a, t
-
-
-def _compact(pos: np.ndarray, *cols: np.ndarray) -> list[np.ndarray]:
-    """The columns with ``pos`` moved to the front in order (stable), the rest after."""
-    order = np.argsort(~pos, axis=1, kind="stable")
-    return [np.take_along_axis(c, order, axis=1) for c in cols]
-
-
-_FAMILY_NAMES = ("none-rest", "vel", "acc0_acc1")
+    return kt, kp, kv, ka, p, v, a, t  # type: ignore[return-value]
 
 
 # -- the public function ---------------------------------------------------------------------
@@ -579,9 +643,11 @@ def plan_batch(
     try:
         arrs = np.broadcast_arrays(*raw)
     except ValueError as exc:
-        shapes = ", ".join(f"{nm}{x.shape}" for nm, x in zip(names, raw, strict=False))
+        shapes = ", ".join(f"{x.shape}" for x in raw)
         raise PlanningError(
-            f"plan_batch: the inputs do not broadcast to one length: {shapes}"
+            f"plan_batch: the inputs do not broadcast to one length (shapes {shapes} for "
+            f"{', '.join(names)}{', v_min' if v_min is not None else ''}"
+            f"{', a_min' if a_min is not None else ''})"
         ) from exc
     arrs = [np.atleast_1d(x) for x in arrs]
     P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
@@ -590,133 +656,104 @@ def plan_batch(
     _check_positive("v_max", VMAX)
     _check_positive("a_max", AMAX)
     _check_positive("j_max", J)
-    rest_args = arrs[9:]
+    extra = arrs[9:]
     if v_min is not None:
-        VMIN = rest_args.pop(0)
+        VMIN = extra.pop(0)
         _check_negative("v_min", VMIN)
     else:
         VMIN = -VMAX
     if a_min is not None:
-        AMIN = rest_args.pop(0)
+        AMIN = extra.pop(0)
         _check_negative("a_min", AMIN)
     else:
         AMIN = -AMAX
     _validate(VF, AF, VMAX, VMIN, AMAX, AMIN, J)
     n = P0.shape[0]
     d = PF - P0
-    eps = 8.0 * _EPS
     at_rest = (V0 == 0.0) & (A0 == 0.0) & (VF == 0.0) & (AF == 0.0)
-    done = at_rest & (np.abs(d) <= np.maximum(1e-15, eps * np.maximum(np.abs(P0), np.abs(PF))))
-    fast = at_rest & ~done & np.isfinite(J)
-    kinds: list[str] = [""] * n
-    rows: dict[int, tuple[list[tuple[float, ...]], str]] = {}
-    width = MIN_WIDTH
+    eps = 8.0 * _EPS
+    here = np.abs(d) <= np.maximum(1e-15, eps * np.maximum(np.abs(P0), np.abs(PF)))
     # -- rest to rest in numpy ----------------------------------------------------------------
-    fi = np.flatnonzero(fast)
-    solved_rows = np.zeros(0, dtype=np.intp)
-    res: tuple[np.ndarray, ...] | None = None
+    fi = np.flatnonzero(at_rest & ~here & np.isfinite(J))
+    groups: list[_Group] = []
+    slow = np.ones(n, dtype=bool)
     if fi.size:
-        solved, ph, family = _rest_to_rest(d[fi], VMAX[fi], VMIN[fi], AMAX[fi], AMIN[fi], J[fi])
-        solved_rows = fi[solved]
-        sel = np.flatnonzero(solved)
-        res = _integrate(
-            P0[solved_rows],
-            V0[solved_rows],
-            A0[solved_rows],
-            ph["dur"][sel],
-            ph["j"][sel],
-            ph["ova"][sel],
-            ph["ovv"][sel],
-        )
-        total = res[7]
-        too_long = ~(total <= MAX_DURATION)
+        groups, left = _rest_to_rest(fi, d[fi], VMAX[fi], VMIN[fi], AMAX[fi], AMIN[fi], J[fi])
+        slow[fi] = False
+        slow[left] = True
+    # -- every other row through the core, per row --------------------------------------------
+    si = np.flatnonzero(slow)
+    slow_kinds: list[str] = []
+    segs: list[tuple[Any, ...]] = []
+    if si.size:
+        cols = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
+        for k, i in enumerate(si.tolist()):
+            p0i, v0i, a0i, pfi, vfi, afi, vmax, vmin, amax, amin, jm = (x[k] for x in cols)
+            if arrived(p0i, v0i, a0i, pfi, vfi, afi):
+                phases: Sequence[tuple[float, ...]] = [(0.0, 0.0, afi, vfi)]
+                kind = "arrived"
+            else:
+                try:
+                    T, phases, kind = position_phases(
+                        v0i, a0i, pfi - p0i, vfi, afi, vmax, vmin, amax, amin, jm
+                    )
+                except PlanningError as exc:
+                    raise PlanningError(f"problem {i}: {exc}") from exc
+                except ArithmeticError as exc:
+                    raise PlanningError(
+                        f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                        f"for problem {i} (planner defect: please report these inputs)"
+                    ) from exc
+                if not T <= MAX_DURATION:
+                    raise _too_long(i, T)
+            slow_kinds.append(kind)
+            segs.append(_segments(p0i, v0i, a0i, phases))
+    width = max([MIN_WIDTH, *(len(s[1]) for s in segs)])
+    # -- assemble -----------------------------------------------------------------------------
+    out = np.zeros((6, n, width))  # t, durations, j, p, v, a
+    nseg = np.zeros(n, dtype=np.intp)
+    total = np.zeros(n)
+    end = np.zeros((3, n))
+    code = np.zeros(n, dtype=np.intp)
+    for g in groups:
+        kt, kp, kv, ka, pe, ve, ae, te = _integrate(P0[g.rows], g)
+        too_long = ~(te <= MAX_DURATION)
         if too_long.any():
             k = _first(too_long)
-            raise _too_long(int(solved_rows[k]), float(total[k]))
-        fam = family[sel]
-        neg = d[solved_rows] < 0.0
-        for r, f, dn in zip(solved_rows.tolist(), fam.tolist(), neg.tolist(), strict=True):
-            kinds[r] = _FAMILY_NAMES[f] + ("-down" if dn and f != 0 else "")
-        dur_s = ph["dur"][sel]
-        j_s = ph["j"][sel]
-    # -- every other row through the core, per element --------------------------------------
-    slow = np.ones(n, dtype=bool)
-    slow[solved_rows] = False
-    lists = [x.tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-    for i in np.flatnonzero(slow).tolist():
-        p0i, v0i, a0i, pfi, vfi, afi, vmax, vmin, amax, amin, jm = (x[i] for x in lists)
-        if arrived(p0i, v0i, a0i, pfi, vfi, afi):
-            rows[i] = ([(0.0, 0.0, afi, vfi)], "arrived")
-            kinds[i] = "arrived"
-            continue
-        try:
-            T, phases, kind = position_phases(
-                v0i, a0i, pfi - p0i, vfi, afi, vmax, vmin, amax, amin, jm
-            )
-        except PlanningError as exc:
-            raise PlanningError(f"problem {i}: {exc}") from exc
-        except ArithmeticError as exc:
-            raise PlanningError(
-                f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) for "
-                f"problem {i} (planner defect: please report these inputs)"
-            ) from exc
-        if not T <= MAX_DURATION:
-            raise _too_long(i, T)
-        rows[i] = (phases, kind)
-        kinds[i] = kind
-    segs = {i: _segments(lists[0][i], lists[1][i], lists[2][i], ph) for i, (ph, _) in rows.items()}
-    for s in segs.values():
-        width = max(width, len(s[0]))
-    # -- assemble -----------------------------------------------------------------------------
-    t_arr = np.zeros((n, width))
-    d_arr = np.zeros((n, width))
-    j_arr = np.zeros((n, width))
-    p_arr = np.zeros((n, width))
-    v_arr = np.zeros((n, width))
-    a_arr = np.zeros((n, width))
-    nseg = np.zeros(n, dtype=np.intp)
-    T_arr = np.zeros(n)
-    ep = np.zeros(n)
-    ev = np.zeros(n)
-    ea = np.zeros(n)
-    if res is not None and solved_rows.size:
-        kt, kp, kv, ka, pe, ve, ae, total = res
-        pos = dur_s > 0.0
-        kt, kd, kj, kp, kv, ka = _compact(pos, kt, dur_s, j_s, kp, kv, ka)
-        m = pos.sum(axis=1)
-        pad = np.arange(MIN_WIDTH)[None, :] >= m[:, None]
-        r = solved_rows
-        t_arr[r, :MIN_WIDTH] = np.where(pad, total[:, None], kt)
-        d_arr[r, :MIN_WIDTH] = np.where(pad, 0.0, kd)
-        j_arr[r, :MIN_WIDTH] = np.where(pad, 0.0, kj)
-        p_arr[r, :MIN_WIDTH] = np.where(pad, pe[:, None], kp)
-        v_arr[r, :MIN_WIDTH] = np.where(pad, ve[:, None], kv)
-        a_arr[r, :MIN_WIDTH] = np.where(pad, ae[:, None], ka)
-        if width > MIN_WIDTH:
-            t_arr[r, MIN_WIDTH:] = total[:, None]
-            p_arr[r, MIN_WIDTH:] = pe[:, None]
-            v_arr[r, MIN_WIDTH:] = ve[:, None]
-            a_arr[r, MIN_WIDTH:] = ae[:, None]
-        nseg[r] = m
-        T_arr[r] = total
-        ep[r], ev[r], ea[r] = pe, ve, ae
-    for i, (ts, ds, js, ps, vs, as_, end, T) in segs.items():
+            raise _too_long(int(g.rows[k]), float(te[k]))
+        r = g.rows
+        total[r] = te
+        end[0, r], end[1, r], end[2, r] = pe, ve, ae
+        code[r] = g.code
+        k = g.dur.shape[1]
+        for q, x in enumerate((kt, g.dur, g.jerk, kp, kv, ka)):
+            out[q, r, :k] = x
+        if k < width:  # padding: start time = duration, state = end state
+            out[0, r, k:] = te[:, None]
+            out[3, r, k:] = pe[:, None]
+            out[4, r, k:] = ve[:, None]
+            out[5, r, k:] = ae[:, None]
+        nseg[r] = np.count_nonzero(g.dur > 0.0, axis=1)
+    kinds = _KINDS[code]
+    for k, i in enumerate(si.tolist()):
+        ts, ds, js, ps, vs, as_, e, T = segs[k]
         m = len(ds)
-        nseg[i] = m
-        T_arr[i] = T
-        ep[i], ev[i], ea[i] = end
-        t_arr[i, :m] = ts
-        d_arr[i, :m] = ds
-        j_arr[i, :m] = js
-        p_arr[i, : max(m, 1)] = ps
-        v_arr[i, : max(m, 1)] = vs
-        a_arr[i, : max(m, 1)] = as_
         lo = max(m, 1)
-        t_arr[i, m:] = T
-        p_arr[i, lo:] = end[0]
-        v_arr[i, lo:] = end[1]
-        a_arr[i, lo:] = end[2]
-    return BatchPlan(t_arr, d_arr, j_arr, p_arr, v_arr, a_arr, nseg, T_arr, (ep, ev, ea), kinds)
+        nseg[i] = m
+        total[i] = T
+        end[:, i] = e
+        out[0, i, :m] = ts
+        out[0, i, m:] = T
+        out[1, i, :m] = ds
+        out[2, i, :m] = js
+        out[3, i, :lo] = ps
+        out[4, i, :lo] = vs
+        out[5, i, :lo] = as_
+        out[3, i, lo:] = e[0]
+        out[4, i, lo:] = e[1]
+        out[5, i, lo:] = e[2]
+        kinds[i] = slow_kinds[k]
+    return BatchPlan(*out, nseg, total, (end[0], end[1], end[2]), kinds.tolist())
 
 
 def _too_long(i: int, T: float) -> PlanningError:
@@ -727,18 +764,7 @@ def _too_long(i: int, T: float) -> PlanningError:
     )
 
 
-def _segments(
-    p: float, v: float, a: float, phases: Sequence[tuple[float, ...]]
-) -> tuple[
-    list[float],
-    list[float],
-    list[float],
-    list[float],
-    list[float],
-    list[float],
-    tuple[float, float, float],
-    float,
-]:
+def _segments(p: float, v: float, a: float, phases: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
     """Profile.__init__'s integration of the phases (the same operations, so the same bits):
     segment start times, durations, jerks, the states at the segment starts, end state and
     duration. No segment: the (possibly jumped) start state as the only knot."""
