@@ -79,6 +79,7 @@ from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.fieldbus.error_codes import describe
+from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
 
 if TYPE_CHECKING:
@@ -99,6 +100,7 @@ def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
 
 
 _KEY = struct.Struct("<11d")
+_PACK_ROW = struct.Struct("=8d").pack_into  # one axis' trace row part (AXIS_FIELDS)
 _MEMO_SIZE = 64
 
 # the names importable from here before the kernel was split into modules (re-exported)
@@ -185,6 +187,8 @@ class Axis:
             config.sw_limit_pos is not None or config.sw_limit_neg is not None
         )
         self.drive = drive
+        # the in-process fast path (see motionplc.fieldbus.ideal): exactly an IdealDrive
+        self._ideal: IdealDrive | None = drive if type(drive) is IdealDrive else None
         self.task_name: str | None = None
         self.group: Any = None  # the axes group (AxesGroup) this axis belongs to, if any
         self.fbs: list[Any] = []
@@ -307,6 +311,25 @@ class Axis:
         # the state as a plain float: numpy converts an IntEnum member much more slowly
         return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, float(self.state))
 
+    def pack_trace(self, buf: Any, offset: int) -> None:
+        """Write :meth:`trace_values` as eight float64 into ``buf`` at byte ``offset`` (the
+        trace's staging row; no tuple is built)."""
+        if self._modulo is None:
+            _PACK_ROW(
+                buf,
+                offset,
+                self.p,
+                self.v,
+                self.a,
+                self.j,
+                self.act_p,
+                self.act_v,
+                self.following_error,
+                self.state,
+            )
+        else:
+            _PACK_ROW(buf, offset, *self.trace_values())
+
     def open(self) -> None:
         """Open the drive and take its position as the initial set position."""
         self.drive.open()
@@ -321,6 +344,10 @@ class Axis:
     # -- input phase -----------------------------------------------------------------------
     def read_inputs(self, t: float) -> None:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
+        d = self._ideal
+        if d is not None and d._feedback is None:
+            self._read_healthy(t, d._position, d._velocity, d._enabled)
+            return
         fb = self.drive.read_inputs(t)
         act_p = fb.position + self.offset
         act_v = fb.velocity
@@ -363,6 +390,53 @@ class Axis:
         self.img_a = self.a
         self.img_act_p = act_p
         self.img_act_v = act_v
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
+        self.img_error = self.axis_error
+        self.img_enabled = enabled
+        self.img_homed = self.homed
+
+    def _read_healthy(self, t: float, position: float, velocity: float, enabled: bool) -> None:
+        """:meth:`read_inputs` for a healthy feedback ``DriveFeedback(position, velocity,
+        enabled)`` (communication good, no fault, fresh, no warning, no reset pending): the
+        same steps in the same order, without the object."""
+        act_p = position + self.offset
+        dt_act = t - self._act_t
+        if dt_act > 0.0:  # actual acceleration: backward difference
+            self.act_v_prev = self.act_v
+            self.act_a = (velocity - self.act_v) / dt_act
+            self._act_t = t
+        self.act_p = act_p
+        self.act_v = velocity
+        self.drive_enabled = enabled
+        self.drive_fault = False
+        self.comm_ok = True
+        if self.drive_warning != "":
+            self._drive_warning_changed(t, "")
+        self.following_error = self._sent_p - act_p if enabled else 0.0
+        state = self.state
+        if (
+            not enabled
+            and state is not S.ERROR_STOP
+            and state is not S.DISABLED
+            and self.power_request
+            and self._was_enabled
+        ):
+            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+        self._was_enabled = enabled
+        if self._reset_handle is not None and self._reset_sent:
+            self._try_finish_reset(False, True)
+        state = self.state
+        if state is S.DISABLED:
+            if self.power_request and enabled:
+                state = self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
+            self._resync()
+        self.img_state = state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = act_p
+        self.img_act_v = velocity
         self.img_act_a = self.act_a
         self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error
@@ -1427,6 +1501,30 @@ class Axis:
         self.drive.write_outputs(
             t, _drive_command(self.p - self.offset, self.v, self.a, self.power_request, reset)
         )
+
+    def step_write(self, dt: float, t: float) -> None:
+        """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
+        task without axes groups). For a healthy in-process ideal drive the setpoints go
+        straight into it, with the arithmetic of ``IdealDrive.write_outputs`` (no command
+        object); otherwise through :meth:`write_outputs`."""
+        self.step(dt)
+        d = self._ideal
+        if d is None or not d._comm_ok or d._fault:
+            self.write_outputs(t)
+            return
+        if self._reset_pulse:
+            self._reset_pulse = False
+            self._reset_sent = True
+        p = self._sent_p = self.p
+        d.commands_written += 1
+        enable = self.power_request
+        d._enabled = enable and not d._fault
+        if enable:
+            d._position = p - self.offset
+            d._velocity = self.v
+        else:
+            d._velocity = 0.0
+        d._feedback = None
 
     # -- diagnostics -----------------------------------------------------------------------
     def _drive_warning_changed(self, t: float, text: str) -> None:

@@ -87,13 +87,19 @@ class FunctionBlock:
                 f"{type(self).__name__}() got an unknown input {k!r}; "
                 f"inputs: {', '.join(self.INPUTS)}"
             )
-        self.__dict__.update(kw)
+        # setattr, not ``__dict__.update``: touching ``__dict__`` turns the instance's inline
+        # attribute values into a dict, and every later attribute access gets slower
+        for k, v in kw.items():
+            setattr(self, k, v)
 
     def __call__(self, **inputs: Any) -> Any:
-        if inputs:  # inlined _set_inputs (the hot path of every scan)
+        """One scan. Keyword arguments update the (persistent) inputs first; the lean hot
+        path is ``fb()`` with the inputs set as attributes when they change."""
+        if inputs:  # inlined _set_inputs
             if not self._input_set.issuperset(inputs):
                 self._set_inputs(inputs)  # raises TypeError naming the unknown input
-            self.__dict__.update(inputs)
+            for k, v in inputs.items():
+                setattr(self, k, v)
         axis = self.axis
         if axis is not self._registered and axis is not None:
             if not isinstance(axis, Axis):

@@ -6,6 +6,14 @@ fault (:meth:`IdealDrive.inject_fault`) or to lose communication; a fault stays 
 ``fault_reset`` request arrives (unless it is ``persistent``). While faulted it reports
 ``enabled=False`` but keeps following the setpoints as long as enable is requested (an ideal
 fault reaction, so the controller's jerk-limited stop ramp is executed).
+
+In-process fast path (issue 15): while the drive is healthy (communication good, no fault) its
+feedback is built lazily: ``_feedback`` is None and :meth:`IdealDrive.read_inputs` builds
+``DriveFeedback(_position, _velocity, _enabled)`` on demand. The axis kernel
+(``Axis.read_inputs`` / ``Axis.step_write``) reads and writes these three fields directly for
+an ``IdealDrive`` (exactly that class, not a subclass) whose ``_feedback`` is None, with the same
+arithmetic as :meth:`IdealDrive.write_outputs`, so no command or feedback object is built per
+cycle. Any other state (fault, communication lost, a subclass) goes through the objects.
 """
 
 from __future__ import annotations
@@ -70,7 +78,7 @@ class IdealDrive(Drive):
         self._fault_detail = ""
         self._persistent = False
         self._comm_ok = True
-        self._feedback = DriveFeedback(self._position, 0.0, False)
+        self._feedback: DriveFeedback | None = None  # healthy: built lazily by read_inputs
         self.commands_written = 0
 
     # -- fault injection (tests) -------------------------------------------------------------
@@ -102,7 +110,7 @@ class IdealDrive(Drive):
     # -- Drive interface -----------------------------------------------------------------------
     def _refresh(self) -> None:
         if self._comm_ok and not self._fault:
-            self._feedback = _healthy_feedback(self._position, self._velocity, self._enabled)
+            self._feedback = None  # built by read_inputs when asked for (see the module doc)
             return
         self._feedback = DriveFeedback(
             self._position,
@@ -115,7 +123,10 @@ class IdealDrive(Drive):
         )
 
     def read_inputs(self, t: float) -> DriveFeedback:
-        return self._feedback
+        fb = self._feedback
+        if fb is None:
+            fb = self._feedback = _healthy_feedback(self._position, self._velocity, self._enabled)
+        return fb
 
     def write_outputs(self, t: float, command: DriveCommand) -> None:
         self.commands_written += 1

@@ -24,6 +24,7 @@ import gc
 import inspect
 import math
 import os
+import struct
 import traceback
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
@@ -43,6 +44,11 @@ if TYPE_CHECKING:
 CycleHook = Callable[["Runtime", int], None]
 
 OVERRUN_POLICIES = ("skip", "catch_up")
+
+_PACK_HEAD = struct.Struct("=2d").pack_into  # trace row: cycle, t
+_AXIS_ROW = 8 * len(AXIS_FIELDS)  # bytes of one axis' trace row part
+_GROUP_PACK = struct.Struct(f"={len(GROUP_DTYPES)}d").pack_into
+_GROUP_ROW = 8 * len(GROUP_DTYPES)
 
 
 def _ticks(name: str, seconds: float, tick_ns: int) -> int:
@@ -288,6 +294,10 @@ class Runtime:
                 )
             task_name = next(iter(tasks)) if tasks else self.tasks[0].name
             next(t for t in self.tasks if t.name == task_name).groups.append(g)
+        for task in self.tasks:
+            # no axes group: each axis steps and writes its drive in one go (Axis.step_write;
+            # a group steps after all its task's axes and before their outputs)
+            task.fused = not task.groups
         self._order = sorted(self.tasks, key=lambda t: t.sort_key)
         # every task runs every tick (the common case): no per-tick selection
         self._all_every_tick = all(t.period_ticks == 1 for t in self._order)
@@ -439,15 +449,22 @@ class Runtime:
                 except Exception as exc:  # noqa: BLE001 - the task halts, the axes stop
                     self._program_failed(task, exc)
             n_plans = planner_calls()
-            for ax in axes:
-                ax.step(dt)
-            for g in task.groups:
-                g.step(dt)
-            for ax in axes:
-                try:
-                    ax.write_outputs(t_virtual)
-                except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
-                    _drive_failed(ax, "write", exc)
+            if task.fused:
+                for ax in axes:
+                    try:
+                        ax.step_write(dt, t_virtual)  # step has its own fault barrier
+                    except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
+                        _drive_failed(ax, "write", exc)
+            else:
+                for ax in axes:
+                    ax.step(dt)
+                for g in task.groups:
+                    g.step(dt)
+                for ax in axes:
+                    try:
+                        ax.write_outputs(t_virtual)
+                    except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
+                        _drive_failed(ax, "write", exc)
             if planner_calls() == n_plans:
                 # a quiet cycle: plan (at most) one queued move's start profile ahead of its
                 # hand-over, so axes handing over in the same cycle do not plan all at once
@@ -462,21 +479,22 @@ class Runtime:
                 self.error_reason = reason
                 for ax in axes:
                     ax.raise_axis_error("WATCHDOG", reason)
-        row: list[float] = [k, t_virtual]
+        # the trace row, packed straight into the trace's staging block (no row list)
         trace = self.trace
+        buf, off = trace.reserve_row()
+        _PACK_HEAD(buf, off, k, t_virtual)
+        off += 16
+        for ax in self._axis_list:
+            ax.pack_trace(buf, off)
+            off += _AXIS_ROW
+        for g in self._group_list:
+            _GROUP_PACK(buf, off, *g.trace_values())
+            off += _GROUP_ROW
         if self.trace_edges:
             for ax in self._axis_list:
-                row += ax.trace_values()
                 ax.emit_fb_edges(trace, k)
             for g in self._group_list:
-                row += g.trace_values()
                 g.emit_fb_edges(trace, k)
-        else:
-            for ax in self._axis_list:
-                row += ax.trace_values()
-            for g in self._group_list:
-                row += g.trace_values()
-        trace.record(row)
 
     def _program_failed(self, task: Task, exc: Exception) -> None:
         """A program raised: halt its task (the program is not called again), put the task's

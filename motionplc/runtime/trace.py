@@ -185,6 +185,7 @@ class Trace:
         self._frozen = False
         # row storage (allocated by _freeze): float64 staging block + one 2-D ring per dtype
         self._stage = np.empty((0, 0))
+        self._stage_bytes = memoryview(bytearray())
         self._stage_rows = 0
         self._fill = 0  # rows in the staging block
         self._ring_rows = 0
@@ -309,6 +310,7 @@ class Trace:
         self._frozen = True
         self._stage_rows, self._ring_rows, self._chunk_rows = self._plan()
         self._stage = np.empty((self._stage_rows, len(self._columns)))
+        self._stage_bytes = memoryview(self._stage).cast("B")  # for struct.pack_into
         by_type: dict[np.dtype, list[int]] = {}
         for i, d in enumerate(self._dtypes):
             by_type.setdefault(d, []).append(i)
@@ -331,6 +333,22 @@ class Trace:
                 self._flush()
         self._stage[self._fill] = row
         self._fill += 1
+
+    def reserve_row(self) -> tuple[memoryview, int]:
+        """Append one row to be written in place: returns the staging block's bytes and the
+        byte offset of the row (native float64, one per column in :attr:`columns` order).
+
+        The caller must fill the whole row (e.g. with ``struct.pack_into``) before anything
+        else touches the trace; the values are stored exactly as :meth:`record` stores them
+        (float64 staging, the same exact conversion into the ring)."""
+        if self._fill == self._stage_rows:
+            if not self._frozen:
+                self._freeze()
+            else:
+                self._flush()
+        i = self._fill
+        self._fill = i + 1
+        return self._stage_bytes, i * 8 * len(self._columns)
 
     def _flush(self) -> None:
         """Move the full staging block into the ring (column by column, exact conversion)."""
