@@ -3,9 +3,11 @@
 Public API::
 
     from motionplc.planning import State, Limits, Profile, plan, plan_velocity, PlanningError
+    from motionplc.planning import plan_batch, BatchPlan  # N problems at once, as arrays
 """
 
 from motionplc.errors import PlanningError
+from motionplc.planning.batch import BatchPlan, plan_batch
 from motionplc.planning.limits import Limits
 from motionplc.planning.otg import OnlineGenerator
 from motionplc.planning.plan import plan, plan_velocity
@@ -16,6 +18,7 @@ from motionplc.planning.tracking import Tracker, track
 from motionplc.planning.trajectory import Trajectory, TrajectorySamples
 
 __all__ = [
+    "BatchPlan",
     "Knot",
     "Limits",
     "OnlineGenerator",
@@ -29,6 +32,7 @@ __all__ = [
     "Trajectory",
     "TrajectorySamples",
     "plan",
+    "plan_batch",
     "plan_fixed_duration",
     "plan_sync",
     "plan_velocity",

@@ -166,7 +166,10 @@ class BatchPlan:
         j = self.j[i, :m].tolist()
         a = self.a[i, :m].tolist()
         v = self.v[i, :m].tolist()
-        phases = list(zip(d, j, a, v, strict=True))
+        phases: list[tuple[float, ...]] = list(zip(d, j, a, v, strict=True))
+        # a jump at the end (second order: the acceleration back to 0) as a phase of no
+        # duration setting the end values
+        phases.append((0.0, 0.0, float(self.end_a[i]), float(self.end_v[i])))
         return Profile(State(float(self.p[i, 0]), v[0], a[0]), phases, kind)
 
     def sample(self, t: ArrayLike) -> Samples:

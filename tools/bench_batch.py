@@ -1,0 +1,167 @@
+"""Time ``plan_batch`` per plan against Ruckig's own loop and a Python loop of ``plan``.
+
+For each N (default 10, 1e3, 1e4, 1e5) and each kind of problem, in one run on the same cases:
+
+* ``batch``: one ``plan_batch`` call on the N problems (arrays built beforehand), per plan;
+* ``ruckig``: ``Ruckig(1).calculate(inp, traj)`` in a Python loop over prebuilt
+  ``InputParameter`` objects (Ruckig's per-plan time as a Python user sees it);
+* ``plan``: ``plan(start, target, limits)`` in a Python loop over prebuilt ``State``/``Limits``.
+
+Kinds: ``rest`` rest to rest (v0 = a0 = vf = af = 0) with Ruckig's position and limit
+distributions, symmetric limits; ``rest-asym`` the same with asymmetric limits (v_min, a_min
+drawn independently: single-plateau rows go through the core); ``general`` Ruckig's
+``position-random`` distributions (tests/planning/_cases.py). Every timing is repeated
+``--repeat`` times and the median is printed, with the ratios of the medians (the machine is
+noisy: compare ratios of one run). ``--check`` also asserts that every batch duration equals
+``plan``'s bit for bit::
+
+    python tools/bench_batch.py --repeat 5
+    python tools/bench_batch.py --sizes 10000 --kinds rest --repeat 9
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import statistics
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from motionplc.planning import plan  # noqa: E402
+from motionplc.planning.batch import plan_batch  # noqa: E402
+from tests.planning._cases import Case, generate_cases, import_ruckig  # noqa: E402
+
+KINDS = ("rest", "rest-asym", "general")
+
+
+def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument(
+        "--sizes",
+        type=int,
+        nargs="+",
+        default=[10, 1000, 10_000, 100_000],
+        help="batch sizes N (10 1000 10000 100000)",
+    )
+    ap.add_argument("--kinds", nargs="+", choices=KINDS, default=list(KINDS), help="problem kinds")
+    ap.add_argument("--repeat", type=int, default=3, help="repetitions; medians reported (3)")
+    ap.add_argument("--seed", type=int, default=42, help="numpy Generator seed (42)")
+    ap.add_argument(
+        "--loop-max",
+        type=int,
+        default=20_000,
+        help="at most this many cases in the plan loop per N (per-plan mean; 20000)",
+    )
+    ap.add_argument("--check", action="store_true", help="assert batch durations == plan's")
+    return ap.parse_args(argv)
+
+
+def rest_cases(n: int, seed: int, asymmetric: bool) -> list[Case]:
+    """Rest-to-rest cases: Ruckig's position and limit distributions, every v and a zero."""
+    rng = np.random.default_rng(seed)
+    p0 = rng.normal(0.0, 4.0, n)
+    pf = rng.normal(0.0, 4.0, n)
+    vmax = rng.uniform(0.08, 16.0, n)
+    amax = rng.uniform(0.08, 16.0, n)
+    jmax = rng.uniform(0.08, 16.0, n)
+    vmin = -rng.uniform(0.08, 16.0, n)
+    amin = -rng.uniform(0.08, 16.0, n)
+    out = []
+    for i in range(n):
+        out.append(
+            Case(
+                float(p0[i]), 0.0, 0.0, float(pf[i]), 0.0, 0.0,
+                float(vmax[i]), float(amax[i]), float(jmax[i]),
+                float(vmin[i]) if asymmetric else None,
+                float(amin[i]) if asymmetric else None,
+                tag="rest",
+            )
+        )  # fmt: skip
+    return out
+
+
+def columns(cases: list[Case]) -> list[np.ndarray]:
+    """The eleven plan_batch arguments as arrays."""
+    cols = [np.array([getattr(c, f) for c in cases]) for f in Case.__slots__[:9]]
+    cols.append(np.array([c.lo_v for c in cases]))
+    cols.append(np.array([c.lo_a for c in cases]))
+    return cols
+
+
+def timed(fn: Callable[[], object]) -> float:
+    gc.collect()
+    gc.disable()
+    try:
+        t0 = time.perf_counter_ns()
+        fn()
+        return float(time.perf_counter_ns() - t0)
+    finally:
+        gc.enable()
+
+
+def bench(kind: str, n: int, args: argparse.Namespace, rk: object) -> dict[str, float]:
+    if kind == "general":
+        cases = generate_cases(n, args.seed)
+    else:
+        cases = rest_cases(n, args.seed, asymmetric=kind == "rest-asym")
+    cols = columns(cases)
+    m = min(n, args.loop_max)
+    problems = [(c.start(), c.target(), c.limits()) for c in cases[:m]]
+    res: dict[str, list[float]] = {"batch": [], "ruckig": [], "plan": []}
+    inputs = [c.ruckig_input(rk) for c in cases] if rk is not None else []
+    if rk is not None:
+        otg = rk.Ruckig(1)  # type: ignore[attr-defined]
+        traj = rk.Trajectory(1)  # type: ignore[attr-defined]
+    for _ in range(args.repeat):
+        res["batch"].append(timed(lambda: plan_batch(*cols)) / n)
+        if rk is not None:
+
+            def loop_rk() -> None:
+                calc = otg.calculate
+                for inp in inputs:
+                    calc(inp, traj)
+
+            res["ruckig"].append(timed(loop_rk) / n)
+
+        def loop_plan() -> None:
+            for s, t, lim in problems:
+                plan(s, t, lim)
+
+        res["plan"].append(timed(loop_plan) / m)
+    if args.check:
+        b = plan_batch(*cols)
+        for i, (s, t, lim) in enumerate(problems):
+            assert plan(s, t, lim).duration == b.duration[i], (kind, i, cases[i])
+    return {k: statistics.median(v) / 1e3 for k, v in res.items() if v}
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    rk = import_ruckig()
+    print(
+        f"plan_batch per plan [us], medians of {args.repeat}; ruckig: Ruckig(1).calculate loop, "
+        f"plan: Python loop of plan (at most {args.loop_max} cases)"
+    )
+    if rk is None:
+        print("ruckig is not installed: no Ruckig column")
+    head = f"{'kind':10s} {'N':>7s} {'batch':>9s} {'ruckig':>9s} {'plan':>9s}"
+    print(head + f" {'batch/ruckig':>13s} {'plan/batch':>11s}")
+    for kind in args.kinds:
+        for n in args.sizes:
+            r = bench(kind, n, args, rk)
+            rr = r.get("ruckig", float("nan"))
+            print(
+                f"{kind:10s} {n:7d} {r['batch']:9.3f} {rr:9.3f} {r['plan']:9.3f} "
+                f"{r['batch'] / rr:13.2f} {r['plan'] / r['batch']:11.1f}"
+            )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
