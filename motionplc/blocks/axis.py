@@ -1504,10 +1504,28 @@ class Axis:
 
     def step_write(self, dt: float, t: float) -> None:
         """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
-        task without axes groups). For a healthy in-process ideal drive the setpoints go
-        straight into it, with the arithmetic of ``IdealDrive.write_outputs`` (no command
-        object); otherwise through :meth:`write_outputs`."""
-        self.step(dt)
+        task without axes groups).
+
+        The common cycle (a one-profile move running unscaled, nothing submitted, no feed or
+        software-limit checks due) samples its profile here with the very arithmetic of
+        :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
+        in-process ideal drive the setpoints then go straight into it, with the arithmetic
+        of ``IdealDrive.write_outputs`` (no command object); otherwise through
+        :meth:`write_outputs`."""
+        mq = self.mq
+        job = mq.active
+        if (
+            job is None
+            or job.single is None
+            or mq.inbox
+            or mq.pending
+            or self._junction_due is not None
+            or not self._feed_all
+            or self._sw_check
+            or self.ts.prof is not None
+            or not self._steady(job, dt)
+        ):
+            self.step(dt)
         d = self._ideal
         if d is None or not d._comm_ok or d._fault:
             self.write_outputs(t)
@@ -1525,6 +1543,34 @@ class Axis:
         else:
             d._velocity = 0.0
         d._feedback = None
+
+    def _steady(self, job: AxisJob, dt: float) -> bool:
+        """:meth:`step` for a running one-profile job that stays inside its profile in this
+        step, unscaled (no override ramp, factor 1 or a job the override does not scale),
+        not a velocity or homing job, the axis neither Disabled nor braking for a limit;
+        the caller checked that nothing else is due. False (nothing done): the general
+        :meth:`step` must run."""
+        kind = job.kind
+        if kind == "velocity" or kind == "home" or not (job.no_override or self.ts.f == 1.0):
+            return False
+        tau = job.tau + dt
+        state = self.state
+        if not tau < job.duration or state is S.DISABLED:
+            return False
+        try:
+            job.tau = tau
+            p, self.v, self.a, self.j = job.single.at(tau)  # type: ignore[union-attr]
+            self.p = p + job.shift
+            if state is not S.ERROR_STOP:
+                lim = self._fe_limit
+                if lim is not None and abs(self.following_error) > lim:
+                    self.raise_axis_error(
+                        "FOLLOWING_ERROR",
+                        f"following error {self.following_error:.6g} exceeds {lim:.6g}",
+                    )
+        except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
+            self._kernel_failed(exc)
+        return True
 
     # -- diagnostics -----------------------------------------------------------------------
     def _drive_warning_changed(self, t: float, text: str) -> None:

@@ -29,6 +29,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from motionplc._fastinit import slot_setters
 from motionplc.blocks.axis import ReplanBudget, planner_calls
 from motionplc.errors import ProgramError
 from motionplc.runtime.clock import Clock, SimClock
@@ -44,6 +45,34 @@ if TYPE_CHECKING:
 CycleHook = Callable[["Runtime", int], None]
 
 OVERRUN_POLICIES = ("skip", "catch_up")
+
+_new = object.__new__
+try:
+    (_sc, _st, _sd, _sk, _si, _ss), _ = slot_setters(
+        CycleContext, ("cycle", "t", "dt", "task", "image", "_spend")
+    )
+
+    def _context(
+        cycle: int,
+        t: float,
+        dt: float,
+        task: str,
+        image: ProcessImage,
+        spend: Callable[[float], None],
+    ) -> CycleContext:
+        """``CycleContext(cycle, t, dt, task, image, spend)``, built cheaply (once per task
+        and cycle; see ``motionplc._fastinit``)."""
+        ctx = _new(CycleContext)
+        _sc(ctx, cycle)
+        _st(ctx, t)
+        _sd(ctx, dt)
+        _sk(ctx, task)
+        _si(ctx, image)
+        _ss(ctx, spend)
+        return ctx
+
+except TypeError:  # CycleContext changed: the normal constructor (slower, same values)
+    _context = CycleContext  # type: ignore[assignment]
 
 _PACK_HEAD = struct.Struct("=2d").pack_into  # trace row: cycle, t
 _AXIS_ROW = 8 * len(AXIS_FIELDS)  # bytes of one axis' trace row part
@@ -132,7 +161,6 @@ class Runtime:
         self.tick = 0  # next base tick to run
         self._started = False
         self._hooks: list[CycleHook] = []
-        self._last_run_tick: dict[str, int] = {}
         self.last_due: list[str] = []  # names of the tasks run in the last tick, in run order
         self.error_reason = ""  # set when a watchdog tripped or a program raised
         self._failed_tasks: list[Task] = []  # programs that raised, their axes still stopping
@@ -432,10 +460,10 @@ class Runtime:
         for task in due:
             t0 = clock.now_ns()
             lateness = t0 - deadline
-            prev = self._last_run_tick.get(task.name)
+            prev = task.last_tick
             dt = task.period if prev is None else (k - prev) * self.cycle
-            self._last_run_tick[task.name] = k
-            ctx = CycleContext(k, t_virtual, dt, task.name, image, self._spend)
+            task.last_tick = k
+            ctx = _context(k, t_virtual, dt, task.name, image, self._spend)
             image.latch_inputs()
             axes = task.axes
             for ax in axes:

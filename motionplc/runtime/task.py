@@ -90,6 +90,7 @@ class Task:
         self.watchdog_sensitivity = watchdog_sensitivity
         self.axes: list[Any] = []
         self.groups: list[Any] = []  # axes groups stepped after the task's axes
+        self.last_tick: int | None = None  # base tick of the task's last cycle
         self.fused = False  # set by the runtime at start: no groups, Axis.step_write per axis
         # statistics
         self.cycle_count = 0
