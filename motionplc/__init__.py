@@ -6,8 +6,25 @@ The planning core lives in :mod:`motionplc.planning`; PLCopen function blocks in
 (``load_config``, ``build``), motion sequences in :mod:`motionplc.sequence`.
 """
 
-from motionplc.config import build, load_config
-from motionplc.errors import ConfigError, MotionPlcError, PlanningError
+from motionplc import _purepy
 
-__all__ = ["ConfigError", "MotionPlcError", "PlanningError", "build", "load_config"]
+_purepy.install()  # before any planning module: compiled core or the pure-Python sources
+
+from motionplc.config import build, load_config  # noqa: E402
+from motionplc.errors import ConfigError, MotionPlcError, PlanningError  # noqa: E402
+
+__all__ = [
+    "ConfigError",
+    "MotionPlcError",
+    "PlanningError",
+    "build",
+    "compiled_core",
+    "load_config",
+]
 __version__ = "0.1.0"
+
+
+def compiled_core() -> _purepy.CoreStatus:
+    """Whether the planning core in use is the mypyc-compiled one (``.compiled``) and why
+    (``.reason``: compiled, or why the pure-Python sources are used)."""
+    return _purepy.status()

@@ -52,7 +52,7 @@ def second_order(
     best: tuple[float, Phases] | None = _up_second(v0, d, vf, vmax, amax, amin)
     down = _up_second(-v0, -d, -vf, -vmin, -amin, -amax)
     if down is not None:
-        ph = [(t, j, -a) for t, j, a in down[1]]
+        ph: Phases = [(t, j, -a) for t, j, a in down[1]]
         if best is None or down[0] < best[0]:
             best = (down[0], ph)
     if best is None:  # cannot happen for finite limits: one of the shapes always fits

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+from operator import attrgetter
+from typing import SupportsFloat
 
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _lower, _third, _velocity
@@ -13,6 +15,9 @@ from motionplc.planning.state import State
 _INF = math.inf
 MAX_DURATION = 1e8  # [s] the longest single-axis profile planned (about 3 years)
 _NEG_STATE_MAX = -STATE_MAX
+# the state's fields as untyped values, so that a compiled build validates them here (and
+# raises PlanningError) instead of converting them on access (TypeError, or a silent float())
+_STATE_FIELDS = attrgetter("p", "v", "a")
 
 
 def _finite(name: str, value: object) -> float:
@@ -53,7 +58,8 @@ def _check_duration(T: float, inputs: str) -> None:
 def _check_state(name: str, s: object) -> tuple[float, float, float]:
     if not isinstance(s, State):
         raise PlanningError(f"{name} must be a State(p, v, a), got {type(s).__name__}")
-    return _finite(f"{name}.p", s.p), _finite(f"{name}.v", s.v), _finite(f"{name}.a", s.a)
+    p, v, a = _STATE_FIELDS(s)
+    return _finite(f"{name}.p", p), _finite(f"{name}.v", v), _finite(f"{name}.a", a)
 
 
 def _check_limits(limits: object) -> Limits:
@@ -188,7 +194,9 @@ def position_phases(
     return t + t_brake, pre3 + phases, ("brake+" if pre3 else "") + family
 
 
-def plan_velocity(start: State, v_target: float, limits: Limits, a_target: float = 0.0) -> Profile:
+def plan_velocity(
+    start: State, v_target: SupportsFloat, limits: Limits, a_target: SupportsFloat = 0.0
+) -> Profile:
     """Time-optimal change of velocity (velocity interface); the position is free.
 
     Velocity limits bound the target only; the acceleration is first brought inside
