@@ -14,7 +14,14 @@ Method (time synchronisation, the product's specified method after seed 004)
 3. Every other axis is slowed to exactly that duration:
    * rest-to-rest axes exactly, by scaling their limits (jerk / k^3, acceleration / k^2,
      velocity / k with k = T_sync / T_min), which scales the time of the optimal profile by k;
-   * otherwise by bisection on the jerk limit: the minimum duration T(J') is non-increasing
+   * otherwise (issue 15, ``method="direct"``, the default) each profile family is solved
+     directly for the duration (Ruckig's step 2, ``_fixed``): three ramps of a reduced jerk
+     (one quartic), a cruise at v_max or both acceleration plateaus with a reduced jerk, one
+     plateau with a reduced jerk, a cruise at a free velocity -- every candidate verified by
+     integration; the first verified profile is taken. Only where no family yields one (about
+     0.1 % of the random benchmark's slowed axes) the methods below run as the fallback;
+     ``method="bisection"`` runs them alone (seed 004's method, the test oracle):
+   * by bisection on the jerk limit: the minimum duration T(J') is non-increasing
      in J' (a lower jerk limit only removes profiles), so a bracket [J_lo, J_hi] with
      T(J_lo) >= T_sync >= T(J_hi) always contains the answer where T is continuous. The
      bracket is searched in log J' with the Illinois variant of regula falsi (a safeguarded
