@@ -9,16 +9,19 @@ immutable :class:`~motionplc.planning.profile.Profile` of one problem.
 Dispatch per element:
 
 * rest to rest (``v0 = a0 = vf = af = 0``, finite ``j_max``; symmetric or asymmetric limits)
-  is solved in numpy for all such elements at once: the closed form without any limit reached
-  (four ramps of ``cbrt(|d| / 2J)``), the cruise at the velocity limit (seven phases) and the
-  two acceleration plateaus without cruise. These repeat the arithmetic of :func:`plan`
-  operation for operation, so their results are bit-identical to it, including which family
-  wins a tie.
-* every other element (any non-zero velocity or acceleration, ``j_max = inf``, and the
-  rest-to-rest cases with a single acceleration plateau or an asymmetric velocity limit, which
-  :func:`plan` solves with quartic roots) goes through the planning core per element
-  (``plan.position_phases``: compiled when the package is built with mypyc), so it is
-  :func:`plan`'s result exactly.
+  is solved in numpy for all such elements at once (in chunks that stay in the CPU cache),
+  with a vectorised choice of the case: no limit reached (four ramps of ``cbrt(|d| / 2J)``),
+  a cruise at the velocity limit (seven phases), both acceleration plateaus without a cruise,
+  one plateau only or no plateau with asymmetric limits. The first three repeat the
+  arithmetic of :func:`plan` operation for operation: bit-identical to it, including which
+  family wins a tie. The last two :func:`plan` solves with quartic roots; their closed forms
+  here (a quadratic in the square root of the peak velocity) agree to rounding (measured:
+  worst 7e-16 of the duration on 3,000 random asymmetric cases; tests/planning/test_batch.py
+  holds them to 1e-12) with the same segments and family name.
+* every other element (a non-zero velocity or acceleration, ``j_max = inf``, zero distance,
+  and the rare rest-to-rest row no closed form accepts) goes through the planning core per
+  element (``plan.position_phases``: compiled when the package is built with mypyc), so it is
+  :func:`plan`'s result bit for bit.
 
 Input validation is vectorised and raises the same :class:`PlanningError` as :func:`plan` and
 :class:`Limits` for the same inputs, naming the field, the index of the first bad element and
@@ -46,6 +49,7 @@ _EPS = 2.220446049250313e-16
 _KEEP = 1.0 - 1e-12  # time_optimal: a later family must be faster by more than rounding
 _T_TOL = 1e-12  # _third._T_TOL
 _LIM_TOL = 1e-12  # _third._LIM_TOL
+_CHUNK = 4096  # rest-to-rest rows per numpy pass (the temporaries stay in a 512 kB L2 cache)
 MIN_WIDTH = 7  # columns of the segment arrays: the seven phases of a third-order profile
 
 ArrayLike = float | int | Sequence[float] | np.ndarray
@@ -342,105 +346,204 @@ def _validate(
 
 
 # -- rest to rest in numpy -------------------------------------------------------------------
-# Kind codes of the rows solved in numpy (Profile.kind names as plan gives them).
-_KINDS = np.array(["none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down"], dtype=object)
+# Kind codes of the rows solved in numpy (Profile.kind as plan names them); odd: mirrored
+_KINDS = np.array(
+    [
+        "none-rest", "none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down",
+        "none", "none-down", "acc0", "acc0-down", "acc1", "acc1-down",
+    ],
+    dtype=object,
+)  # fmt: skip
+_NR, _VEL, _ACC, _NONE, _ACC0, _ACC1 = 0, 2, 4, 6, 8, 10
 
 
-class _Group(NamedTuple):
-    """Rows solved in numpy with one phase layout: their batch rows, (m, k) phase durations
-    and jerks, the exact acceleration / velocity a phase sets at its start (NaN: none; None:
-    no phase sets any) and the kind codes."""
+class _Rest(NamedTuple):
+    """Rest-to-rest rows solved in numpy: (m, 7) segment arrays (compacted, padded as in
+    BatchPlan), end state, duration, segment count and kind code per row."""
 
-    rows: np.ndarray
+    t: np.ndarray
     dur: np.ndarray
-    jerk: np.ndarray
-    ova: np.ndarray | None
-    ovv: np.ndarray | None
+    j: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    end_p: np.ndarray
+    end_v: np.ndarray
+    end_a: np.ndarray
+    total: np.ndarray
+    nseg: np.ndarray
     code: np.ndarray
 
 
+def _compaction_orders() -> tuple[np.ndarray, np.ndarray]:
+    """For each of the 128 patterns of positive durations among seven phases (bit k: phase
+    k), the source columns of the compacted phases (the positive ones in order, then column
+    7, the end) and the number of positive phases."""
+    table = np.full((128, 7), 7, dtype=np.intp)
+    count = np.zeros(128, dtype=np.intp)
+    for pattern in range(128):
+        cols = [k for k in range(7) if pattern >> k & 1]
+        table[pattern, : len(cols)] = cols
+        count[pattern] = len(cols)
+    return table, count
+
+
+_ORDER, _COUNT = _compaction_orders()
+
+
 def _rest_to_rest(
-    rows: np.ndarray,
+    p0: np.ndarray,
     d: np.ndarray,
     vmax: np.ndarray,
     vmin: np.ndarray,
     amax: np.ndarray,
     amin: np.ndarray,
     J: np.ndarray,
-) -> tuple[list[_Group], np.ndarray]:
-    """Rest-to-rest rows (finite J, d beyond ``arrived``) in :func:`plan`'s arithmetic.
+) -> tuple[np.ndarray, _Rest]:
+    """Rest-to-rest rows (finite J, d beyond ``arrived``): (solved mask, their profiles).
 
-    Returns the groups solved (none-rest: three ramps; vel / acc0_acc1: the canonical seven
-    phases, some of no duration) and the rows left to the core (a single acceleration plateau,
-    or an asymmetric velocity limit without any plateau: quartic families in :func:`plan`).
+    Every profile is written in one layout of seven phases (up coordinates, mirrored where
+    d < 0): ramp T0 up to P, plateau H1 at P, ramp T2 down (to 0, or to Q without a cruise),
+    cruise C at the velocity limit, ramp T4 down to Q, plateau H2 at Q, ramp T6 back to 0;
+    phases of no duration are then dropped. The none-rest, vel and acc0_acc1 families follow
+    :func:`plan`'s arithmetic operation for operation (bit-identical); the single-plateau and
+    asymmetric no-plateau cases, which :func:`plan` solves with quartic roots, use their
+    closed forms here (equal to rounding). A row no family solves is left to the core.
     """
-    groups: list[_Group] = []
+    n = d.shape[0]
     with np.errstate(all="ignore"):
-        # -- none-rest: _third.time_optimal's closed form, tried first ----------------------
+        # none-rest: _third.time_optimal's closed form, tried before any family
         tr = (np.abs(d) / (2.0 * J)) ** (1.0 / 3.0)
         nr = (J * tr <= np.minimum(amax, -amin)) & (J * tr * tr <= np.minimum(vmax, -vmin))
-        if nr.any():
-            t = tr[nr]
-            sj = np.where(d[nr] > 0.0, J[nr], -J[nr])
-            groups.append(
-                _Group(
-                    rows[nr],
-                    np.stack([t, 2.0 * t, t], axis=1),
-                    np.stack([sj, -sj, sj], axis=1),
-                    None,
-                    None,
-                    np.zeros(t.shape[0], dtype=np.intp),
-                )
-            )
-        rest = ~nr
-        if not rest.any():
-            return groups, rows[:0]
-        rows = rows[rest]
-        d, vmax, vmin, amax, amin, J = (
-            d[rest],
-            vmax[rest],
-            vmin[rest],
-            amax[rest],
-            amin[rest],
-            J[rest],
-        )
-        n = d.shape[0]
-        # -- the "up" problem of the families (mirrored where d < 0) -------------------------
         down = d < 0.0
-        D = np.where(down, -d, d)
-        Vmax = np.where(down, -vmin, vmax)
-        Amax = np.where(down, -amin, amax)
-        Amin = np.where(down, -amax, amin)
-        # vel: _half_up(0, 0, Vmax) and _half_down_from(Vmax, 0, 0), then the cruise
-        P = np.sqrt(J * Vmax)
-        cap = P <= Amax
-        h1 = np.where(cap, 0.0, np.maximum((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax, 0.0))
-        P = np.where(cap, P, Amax)
-        Q = -np.sqrt(J * Vmax)
-        capq = Q >= Amin
-        hq = (-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin
-        h2 = np.where(capq, 0.0, np.maximum(hq, 0.0))
-        Q = np.where(capq, Q, Amin)
-        t1 = P / J
-        t5 = -Q / J
-        v1 = t1 * (0.5 * t1 * J)
-        v2 = v1 + h1 * P
-        d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
-        d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
-        v5 = Vmax - 0.5 * t5 * t5 * J
-        v6 = v5 + h2 * Q
-        d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
-        d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
-        cruise = (D - d1 - d2) / Vmax
-        vel = np.isfinite(Vmax) & (cruise >= -_T_TOL * np.maximum(1.0, np.abs(D / Vmax)))
-        cruise = np.maximum(cruise, 0.0)
-        vel_dur = np.stack([t1, h1, t1, cruise, t5, h2, t5], axis=1)
-        t_best = np.where(vel, _seq_sum(vel_dur) * _KEEP, _INF)
-        # acc0_acc1: both plateaus, a quadratic in h2 (_third._fam_acc0_acc1, v = a = 0)
-        ramps = (2.0 * Amax - 2.0 * Amin) / J
-        A2 = Amax * Amax
-        N2 = Amin * Amin
-        JJ = J * J
+        zero = np.zeros(n)
+        cols = [tr, zero, 2.0 * tr, zero, zero, zero, tr]
+        P = zero
+        Q = zero
+        VC = zero
+        code = np.zeros(n, dtype=np.intp)
+        solved = nr
+        o = np.flatnonzero(~nr)
+        if o.size:
+            ok, fc, fcode, fP, fQ, fV = _families(
+                d[o], vmax[o], vmin[o], amax[o], amin[o], J[o], tr[o]
+            )
+            oi = o[ok]
+            cols = [c.copy() for c in cols]
+            for c, x in zip(cols, fc, strict=True):
+                c[oi] = x[ok]
+            P, Q, VC = np.zeros(n), np.zeros(n), np.zeros(n)
+            P[oi], Q[oi], VC[oi] = fP[ok], fQ[ok], fV[ok]
+            code[oi] = fcode[ok] + down[oi]
+            solved = nr.copy()
+            solved[oi] = True
+        # Profile's integration in the original coordinates. A phase of no duration changes
+        # nothing (x = 0 adds exact zeros) and sets no exact value: _verify drops it.
+        s = np.where(down, -1.0, 1.0)
+        sj = s * J
+        zj = s * 0.0  # a plateau's jerk: -0.0 mirrored, as _third.mirror gives
+        # knots phase-major (8, n): row c holds the state at the start of phase c, row 7
+        # the end state (the padding of the compacted rows)
+        kt = np.empty((8, n))
+        kp = np.empty((8, n))
+        kv = np.empty((8, n))
+        ka = np.empty((8, n))
+        p = p0
+        v = np.zeros(n)
+        a = np.zeros(n)
+        t = np.zeros(n)
+        jerks = (sj, None, -sj, None, -sj, None, sj)
+        for c in range(7):
+            x = cols[c]
+            if c == 1:
+                a = np.where(x > 0.0, s * P, a)
+            elif c == 3:
+                a = np.where(x > 0.0, zj, a)
+                v = np.where(x > 0.0, s * VC, v)
+            elif c == 5:
+                a = np.where(x > 0.0, s * Q, a)
+            kt[c] = t
+            kp[c] = p
+            kv[c] = v
+            ka[c] = a
+            jj = jerks[c]
+            if jj is None:  # zero jerk: the same bits as with the jerk terms of 0
+                p = p + x * (v + x * (0.5 * a))
+                v = v + x * a
+            else:
+                p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
+                v = v + x * (a + 0.5 * x * jj)
+                a = a + x * jj
+            t = t + x
+        kt[7] = t
+        kp[7] = p
+        kv[7] = v
+        ka[7] = a
+        dur = np.stack([*cols, zero])
+        jerk = np.stack([sj, zj, -sj, zj, -sj, zj, sj, zero])
+    # drop the phases of no duration: the others move left in order, the end fills the rest
+    pattern = np.packbits(dur[:7] > 0.0, axis=0, bitorder="little")[0]
+    sel = np.flatnonzero(solved) if not solved.all() else np.arange(n)
+    pattern = pattern[sel]
+    order = _ORDER[pattern] * n + sel[:, None]
+    out = [np.take(x, order) for x in (kt, dur, jerk, kp, kv, ka)]
+    return solved, _Rest(*out, p[sel], v[sel], a[sel], t[sel], _COUNT[pattern], code[sel])
+
+
+def _families(
+    d: np.ndarray,
+    vmax: np.ndarray,
+    vmin: np.ndarray,
+    amax: np.ndarray,
+    amin: np.ndarray,
+    J: np.ndarray,
+    tr: np.ndarray,
+) -> tuple[np.ndarray, list[np.ndarray], np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The families after none-rest, in the up problem (mirrored where d < 0): (solved, the
+    seven phase columns, kind code, P, Q, cruise velocity). Call under np.errstate."""
+    m = d.shape[0]
+    down = d < 0.0
+    D = np.where(down, -d, d)
+    Vmax = np.where(down, -vmin, vmax)
+    Amax = np.where(down, -amin, amax)
+    Amin = np.where(down, -amax, amin)
+    # vel: _half_up(0, 0, Vmax) and _half_down_from(Vmax, 0, 0), then the cruise
+    P = np.sqrt(J * Vmax)
+    cap = P <= Amax
+    h1 = np.where(cap, 0.0, np.maximum((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax, 0.0))
+    P = np.where(cap, P, Amax)
+    Q = -np.sqrt(J * Vmax)
+    capq = Q >= Amin
+    hq = (-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin
+    h2 = np.where(capq, 0.0, np.maximum(hq, 0.0))
+    Q = np.where(capq, Q, Amin)
+    t1 = P / J
+    t5 = -Q / J
+    v1 = t1 * (0.5 * t1 * J)
+    v2 = v1 + h1 * P
+    d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+    d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
+    v5 = Vmax - 0.5 * t5 * t5 * J
+    v6 = v5 + h2 * Q
+    d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+    d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
+    cruise = (D - d1 - d2) / Vmax
+    vel = np.isfinite(Vmax) & (cruise >= -_T_TOL * np.maximum(1.0, np.abs(D / Vmax)))
+    cruise = np.maximum(cruise, 0.0)
+    t_best = np.where(vel, _seq_sum((t1, h1, t1, cruise, t5, h2, t5)) * _KEEP, _INF)
+    # acc0_acc1: both plateaus, a quadratic in h2 (_third._fam_acc0_acc1, v = a = 0)
+    ramps = (2.0 * Amax - 2.0 * Amin) / J
+    A2 = Amax * Amax
+    N2 = Amin * Amin
+    JJ = J * J
+    tA = Amax / J
+    tB = (Amax - Amin) / J
+    tC = (0.0 - Amin) / J
+    acc = np.zeros(m, dtype=bool)
+    acc_h1 = np.zeros(m)
+    acc_h2 = np.zeros(m)
+    pre = np.isfinite(Amax) & (ramps < t_best)
+    if pre.any():
         b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
         c = (
             24.0 * JJ * Amax * D
@@ -448,99 +551,92 @@ def _rest_to_rest(
             + 24.0 * Amax * Amin**3
             - 12.0 * N2 * N2
         ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
-        tA = Amax / J
-        tB = (Amax - Amin) / J
-        tC = (0.0 - Amin) / J
-        acc = np.zeros(n, dtype=bool)
-        acc_h1 = np.zeros(n)
-        acc_h2 = np.zeros(n)
         vhi = Vmax + _LIM_TOL * np.where(Vmax > 1.0, Vmax, 1.0)
-        pre = np.isfinite(Amax) & (ramps < t_best)
-        if pre.any():
-            for r in _quadratic_roots(b, c):
-                g = pre & (r >= -_T_TOL)  # NaN: no root
-                r = np.maximum(r, 0.0)
-                hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
-                g &= hh1 >= -_T_TOL
-                hh1 = np.maximum(hh1, 0.0)
-                g &= ramps + hh1 + r < t_best
-                # _verify's velocity check where the acceleration crosses zero (phase 3)
-                vz = tA * (0.5 * tA * J)
-                plateau = hh1 > 0.0
-                az = np.where(plateau, Amax, tA * J)
-                vz = np.where(plateau, vz + hh1 * az, vz)
-                tz = -az / -J
-                vz = vz + tz * (az + 0.5 * tz * -J)
-                g &= ~(vz > vhi)
-                tt = _seq_sum(np.stack([tA, hh1, tB, r, tC], axis=1))
-                g &= tt < t_best
-                acc_h1 = np.where(g, hh1, acc_h1)
-                acc_h2 = np.where(g, r, acc_h2)
-                t_best = np.where(g, tt, t_best)
-                acc |= g
-    solved = vel | acc
-    if solved.any():
-        s = np.where(down, -1.0, 1.0)[solved]
-        sj = s * J[solved]
-        zj = s * 0.0  # a plateau's jerk: -0.0 in a mirrored profile, as _third.mirror gives
-        zero = np.zeros(s.shape[0])
-        nan = np.full(s.shape[0], np.nan)
-        ac = acc[solved]
-        a2 = ac[:, None]
-        dur = np.where(
-            a2,
-            np.stack(
-                [tA[solved], acc_h1[solved], tB[solved], acc_h2[solved], tC[solved], zero, zero],
-                axis=1,
-            ),
-            vel_dur[solved],
+        for r in _quadratic_roots(b, c):
+            g = pre & (r >= -_T_TOL)  # NaN: no root
+            r = np.maximum(r, 0.0)
+            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+            g &= hh1 >= -_T_TOL
+            hh1 = np.maximum(hh1, 0.0)
+            g &= ramps + hh1 + r < t_best
+            # _verify's velocity check where the acceleration crosses zero (phase 3)
+            vz = tA * (0.5 * tA * J)
+            plateau = hh1 > 0.0
+            az = np.where(plateau, Amax, tA * J)
+            vz = np.where(plateau, vz + hh1 * az, vz)
+            tz = -az / -J
+            vz = vz + tz * (az + 0.5 * tz * -J)
+            g &= ~(vz > vhi)
+            tt = _seq_sum((tA, hh1, tB, r, tC))
+            g &= tt < t_best
+            acc_h1 = np.where(g, hh1, acc_h1)
+            acc_h2 = np.where(g, r, acc_h2)
+            t_best = np.where(g, tt, t_best)
+            acc |= g
+    cols = [
+        np.where(acc, tA, t1),
+        np.where(acc, acc_h1, h1),
+        np.where(acc, tB, t1),
+        np.where(acc, 0.0, cruise),
+        np.where(acc, 0.0, t5),
+        np.where(acc, acc_h2, h2),
+        np.where(acc, tC, t5),
+    ]
+    code = np.where(acc, _ACC, _VEL)
+    outP = np.where(acc, Amax, P)
+    outQ = np.where(acc, Amin, Q)
+    ok = vel | acc
+    rem = np.flatnonzero(~ok)
+    if rem.size:
+        # no cruise, at most one plateau: the peak velocity V solves
+        # D = V/2 (T_up(V) + T_down(V)) with T = 2 sqrt(V/J) without a plateau and
+        # A/J + V/A with one at A; one plateau makes it a quadratic in sqrt(V)
+        Dr, Vr, Ar, Br, Jr, t = D[rem], Vmax[rem], Amax[rem], -Amin[rem], J[rem], tr[rem]
+        vtol = Vr * (1.0 + 1e-12)
+        sJ = np.sqrt(Jr)
+        # none (asymmetric limits: none-rest was refused by the other side's limits)
+        k_none = (Jr * t <= Ar) & (Jr * t <= Br) & (Jr * t * t <= vtol)
+        # acc0: plateau at A, peak velocity V = s^2 with s^2 + s A/sqrt(J) = sqrt(2 A D)
+        bb = Ar / sJ
+        cc = np.sqrt(2.0 * Ar * Dr)
+        s0 = 2.0 * cc / (bb + np.sqrt(bb * bb + 4.0 * cc))
+        V0 = s0 * s0
+        q0 = sJ * s0
+        h0 = V0 / Ar - Ar / Jr
+        k_acc0 = ~k_none & (h0 >= -_T_TOL * np.maximum(1.0, Ar / Jr)) & (q0 <= Br * (1.0 + 1e-12))
+        k_acc0 &= V0 <= vtol
+        # acc1: plateau at -B
+        bb = Br / sJ
+        cc = np.sqrt(2.0 * Br * Dr)
+        s1 = 2.0 * cc / (bb + np.sqrt(bb * bb + 4.0 * cc))
+        V1 = s1 * s1
+        p1 = sJ * s1
+        h1r = V1 / Br - Br / Jr
+        k_acc1 = ~k_none & ~k_acc0 & (h1r >= -_T_TOL * np.maximum(1.0, Br / Jr))
+        k_acc1 &= (p1 <= Ar * (1.0 + 1e-12)) & (V1 <= vtol)
+        z = np.zeros(rem.size)
+        new = (
+            np.where(k_none, t, np.where(k_acc0, Ar / Jr, p1 / Jr)),
+            np.where(k_acc0, np.maximum(h0, 0.0), 0.0),
+            np.where(k_none, 2.0 * t, np.where(k_acc0, (Ar + q0) / Jr, (p1 + Br) / Jr)),
+            z,
+            z,
+            np.where(k_acc1, np.maximum(h1r, 0.0), 0.0),
+            np.where(k_none, t, np.where(k_acc0, q0 / Jr, Br / Jr)),
         )
-        jerk = np.where(
-            a2,
-            np.stack([sj, zj, -sj, zj, sj, zero, zero], axis=1),
-            np.stack([sj, zj, -sj, zj, -sj, zj, sj], axis=1),
-        )
-        # exact values a phase sets at its start (plateau: its acceleration; cruise: a = 0
-        # (-0.0 mirrored) and v at the limit)
-        ova = np.where(
-            a2,
-            np.stack([nan, s * Amax[solved], nan, s * Amin[solved], nan, nan, nan], axis=1),
-            np.stack([nan, s * P[solved], nan, zj, nan, s * Q[solved], nan], axis=1),
-        )
-        ovv = np.where(a2, np.nan, np.stack([nan, nan, nan, s * Vmax[solved], nan, nan, nan], 1))
-        # drop the phases of no duration (as _verify does before Profile sees them): the
-        # others move left in order, a phase of no duration fills the freed columns
-        order = _ORDER[(dur > 0.0).astype(np.intp) @ _BITS] + 8 * np.arange(s.shape[0])[:, None]
-        nil = np.zeros((s.shape[0], 1))
-        dur = np.hstack([dur, nil]).ravel()[order]
-        jerk = np.hstack([jerk, nil]).ravel()[order]
-        ova = np.hstack([ova, nil + np.nan]).ravel()[order]
-        ovv = np.hstack([ovv, nil + np.nan]).ravel()[order]
-        code = np.where(ac, 3, 1) + down[solved]
-        groups.append(_Group(rows[solved], dur, jerk, ova, ovv, code))
-    return groups, rows[~solved]
+        for col, x in zip(cols, new, strict=True):
+            col[rem] = x
+        outP[rem] = np.where(k_acc0, Ar, p1)
+        outQ[rem] = np.where(k_acc1, -Br, -q0)
+        code[rem] = np.where(k_none, _NONE, np.where(k_acc0, _ACC0, _ACC1))
+        ok[rem] = k_none | k_acc0 | k_acc1
+    return ok, cols, code, outP, outQ, Vmax
 
 
-def _compaction_orders() -> np.ndarray:
-    """For each of the 128 patterns of positive durations among seven phases (bit k: phase
-    k), the source columns of the compacted phases: the positive ones in order, then column
-    7 (a phase of no duration) for the rest."""
-    table = np.full((128, 7), 7, dtype=np.intp)
-    for pattern in range(128):
-        cols = [k for k in range(7) if pattern >> k & 1]
-        table[pattern, : len(cols)] = cols
-    return table
-
-
-_ORDER = _compaction_orders()
-_BITS = 1 << np.arange(7)
-
-
-def _seq_sum(dur: np.ndarray) -> np.ndarray:
-    """Sum of the positive durations column by column, left to right (as _verify adds)."""
-    t = np.zeros(dur.shape[0])
-    for k in range(dur.shape[1]):
-        x = dur[:, k]
+def _seq_sum(cols: tuple[np.ndarray, ...]) -> np.ndarray:
+    """Sum of the positive durations, phase by phase, left to right (as _verify adds)."""
+    t = np.zeros(cols[0].shape[0])
+    for x in cols:
         t = np.where(x > 0.0, t + x, t)
     return t
 
@@ -558,55 +654,6 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
     lo = np.where(neg, np.where(double, -b / 2.0, np.nan), lo)
     hi = np.where(neg, np.nan, hi)
     return lo, hi
-
-
-def _integrate(
-    p0: np.ndarray, g: _Group
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Profile's integration of a group's phases column by column from rest at ``p0``: the
-    knots (t, p, v, a) of every phase, the end state (p, v, a) as arrays. A phase of no
-    duration is dropped whole (no knot, no exact value), as _verify drops it before Profile
-    sees it; a group without exact values and zero durations (none-rest) needs no masks."""
-    dur, jerk, ova, ovv = g.dur, g.jerk, g.ova, g.ovv
-    n, k = dur.shape
-    p = p0
-    v = np.zeros(n)
-    a = np.zeros(n)
-    t = np.zeros(n)
-    kt = np.empty((n, k))
-    kp = np.empty((n, k))
-    kv = np.empty((n, k))
-    ka = np.empty((n, k))
-    for c in range(k):
-        x = dur[:, c]
-        jj = jerk[:, c]
-        if ova is None or ovv is None:
-            kt[:, c] = t
-            kp[:, c] = p
-            kv[:, c] = v
-            ka[:, c] = a
-            p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
-            v = v + x * (a + 0.5 * x * jj)
-            a = a + x * jj
-            t = t + x
-            continue
-        pos = x > 0.0
-        oa = ova[:, c]
-        if not np.isnan(oa).all():
-            a = np.where(pos & ~np.isnan(oa), oa, a)
-        ov = ovv[:, c]
-        if not np.isnan(ov).all():
-            v = np.where(pos & ~np.isnan(ov), ov, v)
-        kt[:, c] = t
-        kp[:, c] = p
-        kv[:, c] = v
-        ka[:, c] = a
-        p = np.where(pos, p + x * (v + x * (0.5 * a + x * jj / 6.0)), p)
-        v2 = np.where(pos, v + x * (a + 0.5 * x * jj), v)
-        a = np.where(pos, a + x * jj, a)
-        v = v2
-        t = np.where(pos, t + x, t)
-    return kt, kp, kv, ka, p, v, a, t  # type: ignore[return-value]
 
 
 # -- the public function ---------------------------------------------------------------------
@@ -628,8 +675,9 @@ def plan_batch(
     Each argument is a number or a 1-D array; all are broadcast to a common length N (scalars
     only: N = 1). Problem ``i`` is ``plan(State(p0[i], v0[i], a0[i]), State(pf[i], vf[i],
     af[i]), Limits(v_max[i], a_max[i], j_max[i], v_min[i], a_min[i]))``; ``v_min`` / ``a_min``
-    default to ``-v_max`` / ``-a_max``. Guarantees: every row equals that :func:`plan`
-    result (duration, segments, knots, end state and kind; bit for bit, see the module
+    default to ``-v_max`` / ``-a_max``. Guarantees: every row is that :func:`plan` result
+    (duration, segments, knots, end state and kind; bit for bit, but for rest-to-rest rows
+    with one acceleration plateau or asymmetric limits, equal to rounding: see the module
     docstring); invalid input raises the :class:`PlanningError` of :func:`plan` / ``Limits``
     naming the field, the index of its first bad element and the allowed range, before any
     planning. Rest-to-rest rows are solved in numpy, the others by the core per row.
@@ -678,12 +726,28 @@ def plan_batch(
     here = np.abs(d) <= np.maximum(1e-15, eps * np.maximum(np.abs(P0), np.abs(PF)))
     # -- rest to rest in numpy ----------------------------------------------------------------
     fi = np.flatnonzero(at_rest & ~here & np.isfinite(J))
-    groups: list[_Group] = []
+    every = fi.size == n  # every row at rest: chunks are slices, no gather or scatter
+    fo = np.zeros((6, n, MIN_WIDTH))  # t, durations, j, p, v, a
+    total = np.zeros(n)
+    end = np.zeros((3, n))
+    nseg = np.zeros(n, dtype=np.intp)
+    code = np.zeros(n, dtype=np.intp)
     slow = np.ones(n, dtype=bool)
-    if fi.size:
-        groups, left = _rest_to_rest(fi, d[fi], VMAX[fi], VMIN[fi], AMAX[fi], AMIN[fi], J[fi])
-        slow[fi] = False
-        slow[left] = True
+    for start in range(0, fi.size, _CHUNK):  # chunks that stay in the CPU cache
+        stop = min(start + _CHUNK, fi.size)
+        ci = slice(start, stop) if every else fi[start:stop]
+        solved, rest = _rest_to_rest(P0[ci], d[ci], VMAX[ci], VMIN[ci], AMAX[ci], AMIN[ci], J[ci])
+        r = ci if every and solved.all() else np.arange(n)[ci][solved]
+        too_long = ~(rest.total <= MAX_DURATION)
+        if too_long.any():
+            raise _too_long(int(np.arange(n)[r][_first(too_long)]), float(rest.total[too_long][0]))
+        for q, x in enumerate((rest.t, rest.dur, rest.j, rest.p, rest.v, rest.a)):
+            fo[q, r] = x
+        total[r] = rest.total
+        end[0, r], end[1, r], end[2, r] = rest.end_p, rest.end_v, rest.end_a
+        nseg[r] = rest.nseg
+        code[r] = rest.code
+        slow[r] = False
     # -- every other row through the core, per row --------------------------------------------
     si = np.flatnonzero(slow)
     slow_kinds: list[str] = []
@@ -713,49 +777,41 @@ def plan_batch(
             segs.append(_segments(p0i, v0i, a0i, phases))
     width = max([MIN_WIDTH, *(len(s[1]) for s in segs)])
     # -- assemble -----------------------------------------------------------------------------
-    out = np.zeros((6, n, width))  # t, durations, j, p, v, a
-    nseg = np.zeros(n, dtype=np.intp)
-    total = np.zeros(n)
-    end = np.zeros((3, n))
-    code = np.zeros(n, dtype=np.intp)
-    for g in groups:
-        kt, kp, kv, ka, pe, ve, ae, te = _integrate(P0[g.rows], g)
-        too_long = ~(te <= MAX_DURATION)
-        if too_long.any():
-            k = _first(too_long)
-            raise _too_long(int(g.rows[k]), float(te[k]))
-        r = g.rows
-        total[r] = te
-        end[0, r], end[1, r], end[2, r] = pe, ve, ae
-        code[r] = g.code
-        k = g.dur.shape[1]
-        for q, x in enumerate((kt, g.dur, g.jerk, kp, kv, ka)):
-            out[q, r, :k] = x
-        if k < width:  # padding: start time = duration, state = end state
-            out[0, r, k:] = te[:, None]
-            out[3, r, k:] = pe[:, None]
-            out[4, r, k:] = ve[:, None]
-            out[5, r, k:] = ae[:, None]
-        nseg[r] = np.count_nonzero(g.dur > 0.0, axis=1)
+    if width == MIN_WIDTH:
+        out = fo
+    else:
+        out = np.zeros((6, n, width))
+        out[:, :, :MIN_WIDTH] = fo
+        fr = np.flatnonzero(~slow)  # padding of the numpy rows: start = duration, end state
+        out[0, fr, MIN_WIDTH:] = total[fr, None]
+        for q in range(3):
+            out[3 + q, fr, MIN_WIDTH:] = end[q, fr, None]
     kinds = _KINDS[code]
-    for k, i in enumerate(si.tolist()):
-        ts, ds, js, ps, vs, as_, e, T = segs[k]
-        m = len(ds)
-        lo = max(m, 1)
-        nseg[i] = m
-        total[i] = T
-        end[:, i] = e
-        out[0, i, :m] = ts
-        out[0, i, m:] = T
-        out[1, i, :m] = ds
-        out[2, i, :m] = js
-        out[3, i, :lo] = ps
-        out[4, i, :lo] = vs
-        out[5, i, :lo] = as_
-        out[3, i, lo:] = e[0]
-        out[4, i, lo:] = e[1]
-        out[5, i, lo:] = e[2]
-        kinds[i] = slow_kinds[k]
+    if si.size:  # the core's rows, padded into flat lists and written at once
+        flat: tuple[list[float], ...] = ([], [], [], [], [], [])
+        ends: list[float] = []
+        for ts, ds, js, ps, vs, as_, e, T in segs:
+            fill = width - len(ds)
+            fill_s = width - len(ps)
+            flat[0].extend(ts)
+            flat[0].extend([T] * fill)
+            flat[1].extend(ds)
+            flat[1].extend([0.0] * fill)
+            flat[2].extend(js)
+            flat[2].extend([0.0] * fill)
+            flat[3].extend(ps)
+            flat[3].extend([e[0]] * fill_s)
+            flat[4].extend(vs)
+            flat[4].extend([e[1]] * fill_s)
+            flat[5].extend(as_)
+            flat[5].extend([e[2]] * fill_s)
+            ends.extend(e)
+        for q in range(6):
+            out[q, si] = np.array(flat[q], dtype=float).reshape(si.size, width)
+        nseg[si] = [len(x[1]) for x in segs]
+        total[si] = [x[7] for x in segs]
+        end[:, si] = np.array(ends, dtype=float).reshape(si.size, 3).T
+        kinds[si] = slow_kinds
     return BatchPlan(*out, nseg, total, (end[0], end[1], end[2]), kinds.tolist())
 
 

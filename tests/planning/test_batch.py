@@ -1,8 +1,12 @@
-"""plan_batch against plan, problem by problem, bit for bit.
+"""plan_batch against plan, problem by problem.
 
 Every row of a BatchPlan must be the Profile that ``plan`` returns for the same problem: the
 duration, every knot (start time, p, v, a, jerk), every segment duration, the end state and the
-family name, compared with ``==`` (so bit-identical up to the sign of zero) on random cases
+family name, compared with ``==`` (so bit-identical up to the sign of zero). The exception are
+the rest-to-rest rows that plan solves with quartic roots (families none, acc0, acc1 with
+asymmetric limits) and plan_batch in closed form: for them the segment count, jerks and kind
+must match exactly and the times and states within REL_TOL (measured: below 1e-15 relative to
+the duration or the excursion). Cases: random
 (Ruckig's distributions, rest to rest with symmetric and asymmetric limits, starts outside the
 limits, second order) and on edge cases (tiny and huge distances, infinite limits, family
 boundaries a few ulp either side, zero distance, both directions); hypothesis draws
@@ -13,6 +17,7 @@ errors with plan's and Limits'.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -48,24 +53,48 @@ def _rest(rng: np.random.Generator, n: int, asymmetric: bool) -> list[Case]:
     return out
 
 
-def _row_equals_plan(b: BatchPlan, i: int, prof: Profile) -> str:
-    """'' when row i of the batch is the profile bit for bit, else what differs."""
+REL_TOL = 1e-12
+# rest-to-rest families plan finds as quartic roots and plan_batch in closed form
+CLOSED_FORM = {"none", "acc0", "acc1", "none-down", "acc0-down", "acc1-down"}
+
+
+def _same(x: float, y: float, scale: float, exact: bool) -> bool:
+    return x == y if exact else abs(x - y) <= REL_TOL * scale
+
+
+def _row_equals_plan(b: BatchPlan, i: int, prof: Profile, *, exact: bool | None = None) -> str:
+    """'' when row i of the batch is the profile (bit for bit, or for a closed-form row of
+    rest to rest within REL_TOL of the duration / excursion), else what differs."""
     m = int(b.n_segments[i])
     knots = prof.knots
+    if exact is None:
+        exact = not (prof.kind in CLOSED_FORM and prof.start.v == 0.0 and prof.start.a == 0.0)
     if len(knots) != m:
         return f"{m} segments, plan has {len(knots)}"
-    if prof.duration != b.duration[i]:
-        return f"duration {b.duration[i]!r} != {prof.duration!r}"
     if prof.kind != b.kind[i]:
         return f"kind {b.kind[i]!r} != {prof.kind!r}"
+    T = prof.duration
+    (p_lo, p_hi), (v_lo, v_hi), (a_lo, a_hi) = prof.extrema()
+    sp = max(1.0, abs(p_lo), abs(p_hi))
+    sv = max(1.0, abs(v_lo), abs(v_hi))
+    sa = max(1.0, abs(a_lo), abs(a_hi))
+    if not _same(T, float(b.duration[i]), max(1.0, T), exact):
+        return f"duration {b.duration[i]!r} != {T!r}"
+    scales = (max(1.0, T), sp, sv, sa, 0.0, max(1.0, T))
     for c, (k, seg) in enumerate(zip(knots, prof.segments, strict=True)):
         row = (b.t[i, c], b.p[i, c], b.v[i, c], b.a[i, c], b.j[i, c], b.durations[i, c])
-        if tuple(k) + (seg.duration,) != row:
-            return f"segment {c}: {row} != {tuple(k) + (seg.duration,)}"
+        ref = (*k, seg.duration)
+        if not all(
+            _same(float(x), y, sc, exact and q != 4) if q != 4 else x == y
+            for q, (x, y, sc) in enumerate(zip(row, ref, scales, strict=True))
+        ):
+            return f"segment {c}: {row} != {ref}"
     e = prof.end
-    if (e.p, e.v, e.a) != (b.end_p[i], b.end_v[i], b.end_a[i]):
-        return f"end {(b.end_p[i], b.end_v[i], b.end_a[i])} != {e}"
-    if m == 0 and (b.p[i, 0], b.v[i, 0], b.a[i, 0]) != (e.p, e.v, e.a):
+    got_end = (float(b.end_p[i]), float(b.end_v[i]), float(b.end_a[i]))
+    ends = zip(got_end, (e.p, e.v, e.a), (sp, sv, sa), strict=True)
+    if not all(_same(x, y, sc, exact) for x, y, sc in ends):
+        return f"end {got_end} != {e}"
+    if m == 0 and (b.p[i, 0], b.v[i, 0], b.a[i, 0]) != got_end:
         return "the state of a profile of no duration is not in column 0"
     # padding: no duration, no jerk, start time = duration, state = end state
     pad = slice(m, None)
@@ -74,7 +103,11 @@ def _row_equals_plan(b: BatchPlan, i: int, prof: Profile) -> str:
     if (b.t[i, pad] != b.duration[i]).any():
         return "padding start time is not the duration"
     pad = slice(max(m, 1), None)
-    if (b.p[i, pad] != e.p).any() or (b.v[i, pad] != e.v).any() or (b.a[i, pad] != e.a).any():
+    if (
+        (b.p[i, pad] != got_end[0]).any()
+        or (b.v[i, pad] != got_end[1]).any()
+        or (b.a[i, pad] != got_end[2]).any()
+    ):
         return "padding state is not the end state"
     return ""
 
@@ -93,9 +126,25 @@ def _assert_batch_equals_plan(cases: list[Case]) -> BatchPlan:
 
 # -- equality with plan ----------------------------------------------------------------------
 @pytest.mark.parametrize("asymmetric", [False, True], ids=["symmetric", "asymmetric"])
-def test_rest_to_rest_random_equals_plan_bit_for_bit(asymmetric: bool) -> None:
+def test_rest_to_rest_random_equals_plan(asymmetric: bool, summary: Callable[[str], None]) -> None:
     cases = _rest(np.random.default_rng(15 + asymmetric), 3000, asymmetric)
     b = _assert_batch_equals_plan(cases)
+    # how close the closed-form rows come (the others are bit-identical)
+    closed = [i for i, k in enumerate(b.kind) if k in CLOSED_FORM]
+    worst = 0.0
+    identical = 0
+    for i in closed:
+        c = cases[i]
+        ref = plan(c.start(), c.target(), c.limits())
+        identical += _row_equals_plan(b, i, ref, exact=True) == ""
+        worst = max(worst, abs(ref.duration - b.duration[i]) / ref.duration)
+        for k, x in zip(ref.segments, b.durations[i], strict=False):
+            worst = max(worst, abs(k.duration - x) / ref.duration)
+    summary(
+        f"{len(cases) - len(closed)} rows bit-identical to plan, {len(closed)} closed-form "
+        f"rows ({identical} of them identical), worst relative difference {worst:.2g}"
+    )
+    assert worst <= REL_TOL
     kinds = set(b.kind)
     # the numpy families all occur (and, asymmetric, the core's quartic ones)
     assert {"none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down"} <= kinds
@@ -191,21 +240,24 @@ def test_rest_to_rest_hypothesis_equals_plan(
     assert _row_equals_plan(b, 1, prof) == ""
 
 
-def test_profile_of_a_row_is_plans_profile() -> None:
+def test_profile_of_a_row_is_the_row_and_plans_profile() -> None:
     cases = _rest(np.random.default_rng(3), 200, True) + generate_cases(200, 4, order=2)
     cases.append(Case(1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0))
     b = plan_batch(*_columns(cases))
     for i, c in enumerate(cases):
-        ref = plan(c.start(), c.target(), c.limits())
         got = b.profile(i)
         assert isinstance(got, Profile)
-        assert got.knots == ref.knots and got.segments == ref.segments, c
-        assert (got.duration, got.end, got.kind, got.start) == (
-            ref.duration,
-            ref.end,
-            ref.kind,
-            ref.start,
-        ), c
+        assert _row_equals_plan(b, i, got, exact=True) == "", c  # the row itself, bit for bit
+        ref = plan(c.start(), c.target(), c.limits())
+        assert _row_equals_plan(b, i, ref) == "", c
+        if ref.kind not in CLOSED_FORM:
+            assert got.knots == ref.knots and got.segments == ref.segments, c
+            assert (got.duration, got.end, got.kind, got.start) == (
+                ref.duration,
+                ref.end,
+                ref.kind,
+                ref.start,
+            ), c
     assert b.profile(-1).kind == "arrived"
     for i in (len(b), -len(b) - 1, 1.0, True):
         with pytest.raises(IndexError, match="problem index"):
@@ -219,7 +271,7 @@ def test_sample_equals_profile_sample() -> None:
     )
     cases.append(Case(2.0, 0.0, 0.0, 2.0, 0.0, 0.0, 1.0, 1.0, 1.0))  # no duration
     b = plan_batch(*_columns(cases))
-    profs = [plan(c.start(), c.target(), c.limits()) for c in cases]
+    profs = [b.profile(i) for i in range(len(cases))]  # plan's (test above)
     rng = np.random.default_rng(7)
     ts = np.concatenate([[-1.0, 0.0, 1e-9], rng.uniform(0.0, 1.2 * b.duration.max(), 200)])
     per_row = rng.uniform(-0.5, 1.0, (len(cases), 64)) * (1.2 * b.duration[:, None] + 0.5)
