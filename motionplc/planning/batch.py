@@ -448,44 +448,40 @@ def _rest_to_rest(
         kp = np.empty((8, n))
         kv = np.empty((8, n))
         ka = np.empty((8, n))
-        p = p0
-        v = np.zeros(n)
-        a = np.zeros(n)
-        t = np.zeros(n)
+        kt[0] = 0.0
+        kp[0] = p0
+        kv[0] = 0.0
+        ka[0] = 0.0
         jerks = (sj, None, -sj, None, -sj, None, sj)
         for c in range(7):
             x = cols[c]
+            t, p, v, a = kt[c], kp[c], kv[c], ka[c]  # the state at the start of phase c
             if c == 1:
-                a = np.where(x > 0.0, s * P, a)
+                np.copyto(a, s * P, where=x > 0.0)
             elif c == 3:
-                a = np.where(x > 0.0, zj, a)
-                v = np.where(x > 0.0, s * VC, v)
+                np.copyto(a, zj, where=x > 0.0)
+                np.copyto(v, s * VC, where=x > 0.0)
             elif c == 5:
-                a = np.where(x > 0.0, s * Q, a)
-            kt[c] = t
-            kp[c] = p
-            kv[c] = v
-            ka[c] = a
+                np.copyto(a, s * Q, where=x > 0.0)
             jj = jerks[c]
             if jj is None:  # zero jerk: the same bits as with the jerk terms of 0
-                p = p + x * (v + x * (0.5 * a))
-                v = v + x * a
+                np.add(p, x * (v + x * (0.5 * a)), out=kp[c + 1])
+                np.add(v, x * a, out=kv[c + 1])
+                ka[c + 1] = a
             else:
-                p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
-                v = v + x * (a + 0.5 * x * jj)
-                a = a + x * jj
-            t = t + x
-        kt[7] = t
-        kp[7] = p
-        kv[7] = v
-        ka[7] = a
+                xj = x * jj  # (0.5 x) j = 0.5 (x j) exactly: Profile's 0.5 * dur * j
+                np.add(p, x * (v + x * (0.5 * a + xj / 6.0)), out=kp[c + 1])
+                np.add(v, x * (a + 0.5 * xj), out=kv[c + 1])
+                np.add(a, xj, out=ka[c + 1])
+            np.add(t, x, out=kt[c + 1])
+        p, v, a, t = kp[7], kv[7], ka[7], kt[7]
         dur = np.stack([*cols, zero])
         jerk = np.stack([sj, zj, -sj, zj, -sj, zj, sj, zero])
     # drop the phases of no duration: the others move left in order, the end fills the rest
     pattern = np.packbits(dur[:7] > 0.0, axis=0, bitorder="little")[0]
     sel = np.flatnonzero(solved) if not solved.all() else np.arange(n)
     pattern = pattern[sel]
-    order = _ORDER[pattern] * n + sel[:, None]
+    order = np.take(_ORDER, pattern, axis=0) * n + sel[:, None]
     out = [np.take(x, order) for x in (kt, dur, jerk, kp, kv, ka)]
     return solved, _Rest(*out, p[sel], v[sel], a[sel], t[sel], _COUNT[pattern], code[sel])
 
@@ -727,7 +723,7 @@ def plan_batch(
     # -- rest to rest in numpy ----------------------------------------------------------------
     fi = np.flatnonzero(at_rest & ~here & np.isfinite(J))
     every = fi.size == n  # every row at rest: chunks are slices, no gather or scatter
-    fo = np.zeros((6, n, MIN_WIDTH))  # t, durations, j, p, v, a
+    fo = np.empty((6, n, MIN_WIDTH))  # t, durations, j, p, v, a (every row is written)
     total = np.zeros(n)
     end = np.zeros((3, n))
     nseg = np.zeros(n, dtype=np.intp)
