@@ -13,7 +13,8 @@ drawn independently: single-plateau rows go through the core); ``general`` Rucki
 ``position-random`` distributions (tests/planning/_cases.py). Every timing is repeated
 ``--repeat`` times and the median is printed, with the ratios of the medians (the machine is
 noisy: compare ratios of one run). ``--check`` also asserts that every batch duration equals
-``plan``'s bit for bit::
+``plan``'s (bit for bit; within 1e-12 for the rest-to-rest rows with one acceleration plateau
+or asymmetric limits, which plan solves by quartic roots and plan_batch in closed form)::
 
     python tools/bench_batch.py --repeat 5
     python tools/bench_batch.py --sizes 10000 --kinds rest --repeat 9
@@ -134,10 +135,12 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: object) -> dict[str, 
                 plan(s, t, lim)
 
         res["plan"].append(timed(loop_plan) / m)
-    if args.check:
+    if args.check:  # bit for bit, but closed-form rest-to-rest rows: within 1e-12
         b = plan_batch(*cols)
         for i, (s, t, lim) in enumerate(problems):
-            assert plan(s, t, lim).duration == b.duration[i], (kind, i, cases[i])
+            ref = plan(s, t, lim).duration
+            assert abs(ref - b.duration[i]) <= 1e-12 * max(1.0, ref), (kind, i, cases[i])
+            assert ref == b.duration[i] or b.kind[i].split("-")[0] in ("none", "acc0", "acc1")
     return {k: statistics.median(v) / 1e3 for k, v in res.items() if v}
 
 
