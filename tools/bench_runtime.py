@@ -230,10 +230,20 @@ def _child(root: Path, n: int, cycles: int, calls: str, drives: str) -> tuple[fl
     return wall, cpu
 
 
-def against(ref: str, axes: list[int], cycles: int, repeats: int, calls: str, drives: str) -> None:
+def against(
+    ref: str,
+    axes: list[int],
+    cycles: int,
+    repeats: int,
+    calls: str,
+    drives: str,
+    base_calls: str | None = None,
+) -> None:
     """Before/after in one run: alternately this checkout and a temporary detached worktree
     of ``ref``, each measurement in its own process; medians of the CPU-second rates and the
-    median of the per-pair ratios."""
+    median of the per-pair ratios. ``base_calls``: the FB call style of the ``ref`` side
+    (default: ``calls``; ``kw`` is the benchmark's program as it was before issue 15)."""
+    base_calls = base_calls or calls
     here = Path(__file__).resolve().parent.parent
     tmp = Path(tempfile.mkdtemp(prefix="bench-runtime-"))
     base = tmp / "base"
@@ -247,13 +257,14 @@ def against(ref: str, axes: list[int], cycles: int, repeats: int, calls: str, dr
             new_r: list[float] = []
             old_r: list[float] = []
             for _ in range(repeats):
-                old_r.append(_child(base, n, cycles, calls, drives)[1])
+                old_r.append(_child(base, n, cycles, base_calls, drives)[1])
                 new_r.append(_child(here, n, cycles, calls, drives)[1])
             ratios = [a / b for a, b in zip(new_r, old_r, strict=True)]
             print(
-                f"{drives} drives, {calls} calls, {n:2d} axes, {cycles} cycles x {repeats}:"
-                f" {ref} {statistics.median(old_r):7.0f} cycles per CPU-second (median),"
-                f" this checkout {statistics.median(new_r):7.0f};"
+                f"{drives} drives, {n:2d} axes, {cycles} cycles x {repeats}:"
+                f" {ref} ({base_calls} calls) {statistics.median(old_r):7.0f} cycles per"
+                f" CPU-second (median), this checkout ({calls} calls)"
+                f" {statistics.median(new_r):7.0f};"
                 f" ratio {statistics.median(ratios):.2f}x (median of {repeats} pairs,"
                 f" {min(ratios):.2f}-{max(ratios):.2f})",
                 flush=True,
@@ -443,6 +454,12 @@ def main() -> None:
         default=None,
         help="also time a worktree of this git ref, alternately, and print the ratio",
     )
+    ap.add_argument(
+        "--base-calls",
+        choices=("attr", "kw"),
+        default=None,
+        help="FB call style of the --against side (default: --calls)",
+    )
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:  # one measurement for --against (motionplc from --child)
@@ -453,7 +470,15 @@ def main() -> None:
         print(json.dumps(sim_throughput(args.axes[0], args.cycles, args.calls, args.drives)))
         return
     if args.against is not None:
-        against(args.against, args.axes, args.cycles, args.repeats, args.calls, args.drives)
+        against(
+            args.against,
+            args.axes,
+            args.cycles,
+            args.repeats,
+            args.calls,
+            args.drives,
+            args.base_calls,
+        )
         return
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
     for n in args.axes:

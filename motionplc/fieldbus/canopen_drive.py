@@ -102,6 +102,7 @@ import canopen
 from canopen.emcy import EmcyError
 from canopen.objectdictionary import ObjectDictionary
 
+from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import (
     Drive,
     DriveCommand,
@@ -143,6 +144,7 @@ from motionplc.fieldbus.fastcan import (
     RxGuard,
     drain,
     make_message,
+    send_frame,
     service_error,
 )
 from motionplc.fieldbus.scaling import Scaling
@@ -296,6 +298,57 @@ class CanopenDriveConfig:
         return default_layout(self.velocity_feed_forward, self.feedback_velocity)
 
 
+_FEEDBACK_FIELDS = (
+    "position",
+    "velocity",
+    "enabled",
+    "fault",
+    "error_code",
+    "comm_ok",
+    "detail",
+    "stale",
+    "kind",
+    "reset_pending",
+    "warning",
+)
+try:
+    (_fp, _fv, _fe, _ff, _fc, _fo, _fd, _fs, _fk, _fr, _fw), _ = slot_setters(
+        DriveFeedback, _FEEDBACK_FIELDS
+    )
+
+    def _feedback(
+        position: float,
+        velocity: float,
+        enabled: bool,
+        fault: bool,
+        error_code: int,
+        comm_ok: bool,
+        detail: str,
+        stale: bool,
+        kind: str,
+        reset_pending: bool,
+        warning: str,
+    ) -> DriveFeedback:
+        """``DriveFeedback(...)`` with all eleven fields in order, built cheaply once per
+        drive and cycle (``motionplc._fastinit``)."""
+        fb = object.__new__(DriveFeedback)
+        _fp(fb, position)
+        _fv(fb, velocity)
+        _fe(fb, enabled)
+        _ff(fb, fault)
+        _fc(fb, error_code)
+        _fo(fb, comm_ok)
+        _fd(fb, detail)
+        _fs(fb, stale)
+        _fk(fb, kind)
+        _fr(fb, reset_pending)
+        _fw(fb, warning)
+        return fb
+
+except TypeError:  # DriveFeedback changed: the normal constructor (slower, same values)
+    _feedback = DriveFeedback  # type: ignore[assignment]
+
+
 class _MasterNetwork(canopen.Network):
     """canopen Network that reports send failures to the master and, during setup with an
     in-process peer, lets the peer answer each request at once (deterministic SDO)."""
@@ -310,7 +363,7 @@ class _MasterNetwork(canopen.Network):
     def send_frame(self, msg: can.Message) -> None:
         try:
             with self.send_lock:
-                self.bus.send(msg)
+                send_frame(self.bus, msg)
         except can.CanError as exc:
             self._master._on_send_error(exc)
             raise
@@ -1103,18 +1156,18 @@ class CanopenDrive(Drive):
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
         self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
         reset_pending = reconfiguring or self._reset_until is not None
-        return DriveFeedback(
-            position=self.scaling.position_to_si(self.position_counts),
-            velocity=self.scaling.velocity_to_si(self.velocity_counts),
-            enabled=enabled,
-            fault=fault,
-            error_code=error_code,
-            comm_ok=comm_ok,
-            detail=detail,
-            stale=not fresh,
-            kind=kind,
-            reset_pending=reset_pending,
-            warning=warning,
+        return _feedback(
+            self.scaling.position_to_si(self.position_counts),
+            self.scaling.velocity_to_si(self.velocity_counts),
+            enabled,
+            fault,
+            error_code,
+            comm_ok,
+            detail,
+            not fresh,
+            kind,
+            reset_pending,
+            warning,
         )
 
     def _verify(self, t: float, fresh: bool, state: Cia402State, fault: bool) -> None:

@@ -44,10 +44,13 @@ handler_error     a handler (ours or canopen's) raised on the frame: caught, fra
 from __future__ import annotations
 
 import logging
+import queue
 from collections.abc import Callable, Collection, Sequence
 
 import can
 from can.interfaces.virtual import VirtualBus
+
+from motionplc.runtime.clock import wall_time
 
 __all__ = [
     "CHECK_FACTOR",
@@ -59,6 +62,7 @@ __all__ = [
     "drain",
     "frame_error",
     "make_message",
+    "send_frame",
     "service_error",
 ]
 
@@ -97,6 +101,35 @@ class FastMessage(can.Message):
         new.bitrate_switch = self.bitrate_switch
         new.error_state_indicator = self.error_state_indicator
         return new
+
+
+def send_frame(bus: can.BusABC, msg: can.Message, timeout: float | None = None) -> None:
+    """``bus.send(msg, timeout)``; for a python-can ``VirtualBus`` (exactly that class) and a
+    :class:`FastMessage` the same delivery done directly: every other bus on the channel (and
+    this one if it receives its own messages) gets its own copy (a new ``bytearray``) stamped
+    like ``VirtualBus.send`` does (wall-clock time unless ``preserve_timestamps``, the
+    channel, ``is_rx``), put into its queue. Skips only ``copy.deepcopy``'s generic dispatch
+    (memo dict, keep-alive list) per receiver."""
+    if type(bus) is not VirtualBus or type(msg) is not FastMessage:
+        bus.send(msg, timeout)
+        return
+    bus._check_if_open()
+    timestamp = msg.timestamp if bus.preserve_timestamps else wall_time()
+    own = bus.queue
+    all_sent = True
+    for bus_queue in bus.channel:
+        if bus_queue is own and not bus.receive_own_messages:
+            continue
+        msg_copy = msg.__deepcopy__(None)
+        msg_copy.timestamp = timestamp
+        msg_copy.channel = bus.channel_id
+        msg_copy.is_rx = bus_queue is not own
+        try:
+            bus_queue.put(msg_copy, block=True, timeout=timeout)
+        except queue.Full:
+            all_sent = False
+    if not all_sent:
+        raise can.CanOperationError("Could not send message to one or more recipients")
 
 
 def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> FastMessage:

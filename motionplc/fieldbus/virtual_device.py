@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.cia402 import (
     SW_DRIVE_FOLLOWS,
     SW_FOLLOWING_ERROR,
@@ -90,6 +91,24 @@ class DeviceSnapshot:
     error_register: int  # 0x1001
 
 
+_new = object.__new__
+# DeviceSnapshot is defined just above: a field change fails here, at import, naming it
+(_s_sw, _s_mode, _s_pos, _s_vel, _s_fe, _s_tq, _s_dem, _s_ec, _s_er), _ = slot_setters(
+    DeviceSnapshot,
+    (
+        "statusword",
+        "mode_display",
+        "position",
+        "velocity",
+        "following_error",
+        "torque",
+        "demand",
+        "error_code",
+        "error_register",
+    ),
+)
+
+
 class Cia402Device:
     """One virtual servo axis: CiA 402 state machine + CSP follower + plant.
 
@@ -159,24 +178,28 @@ class Cia402Device:
         return sw
 
     def snapshot(self) -> DeviceSnapshot:
-        pos = saturate_i32(self.actual.position)
+        """The live values (once per cycle for the TPDOs: built without the dataclass
+        ``__init__``, the same values)."""
+        actual = self.actual
+        pos = saturate_i32(actual.position)
         demand = saturate_i32(self.demand)
-        return DeviceSnapshot(
-            statusword=self.statusword(),
-            mode_display=self.mode_display,
-            position=pos,
-            velocity=saturate_i32(self.actual.velocity),
-            following_error=saturate_i32(self.demand - self.actual.position)
-            if self.following
-            else 0,
-            torque=max(
-                -32768,
-                min(32767, round(self.actual.acceleration * self.plant.torque_per_acceleration)),
+        following = self.following
+        snap = _new(DeviceSnapshot)
+        _s_sw(snap, self.statusword())
+        _s_mode(snap, self.mode_display)
+        _s_pos(snap, pos)
+        _s_vel(snap, saturate_i32(actual.velocity))
+        _s_fe(snap, saturate_i32(self.demand - actual.position) if following else 0)
+        _s_tq(
+            snap,
+            max(
+                -32768, min(32767, round(actual.acceleration * self.plant.torque_per_acceleration))
             ),
-            demand=demand,
-            error_code=self.error_code,
-            error_register=self.error_register,
         )
+        _s_dem(snap, demand)
+        _s_ec(snap, self.error_code)
+        _s_er(snap, self.error_register)
+        return snap
 
     # -------------------------------------------------------------- commands
     def set_mode(self, mode: int) -> bool:

@@ -138,6 +138,13 @@ class RealtimeClock:
         """Real time cannot be faked: ignored."""
 
 
+def wall_time() -> float:
+    """Seconds since the epoch (``time.time``): only the time stamp python-can's ``virtual``
+    bus puts on a frame it delivers (``motionplc.fieldbus.fastcan.send_frame`` does the
+    same); never a time the cycle computes with."""
+    return time.time()  # noqa: TID251
+
+
 def _mlockall() -> bool:
     """Lock all current and future pages of the process in RAM; False if refused."""
     name = ctypes.util.find_library("c")
