@@ -11,13 +11,15 @@ times::
 Synchronised planning (issues 3 and 15): ``plan_sync`` (time synchronisation) against
 Ruckig's ``Synchronization.Time`` on the same 3-, 6-, 12- and 24-axis cases, rest to rest
 (every v and a zero: exact limit scaling) and general (Ruckig's ``random_3`` distributions);
-each is also expressed per axis relative to the single-axis ``plan`` mean of the same run and
-kind (issue 15 targets: rest to rest <= 1.5x, general <= 3x). The general rows are timed with
-both fixed-duration methods in the same run, interleaved per case: ``direct`` (the closed-form
-families of ``motionplc.planning._fixed``, the default) and ``bisection`` (the seed 004 jerk
-bisection, the previous code), with their ratio and the fallback rate of ``direct`` (axes
-whose profile still came from the bisection or a scan). Finally ``OnlineGenerator.update``
-when the target is unchanged (no re-plan), per axis (target: <= 3 us)::
+each is also expressed per axis relative to single-axis ``plan`` calls on the same axes, timed
+interleaved with it (issue 15 targets: rest to rest <= 1.5x, general <= 3x; the ratio of the
+totals, the median of the per-case ratios beside it), and to the 1-DoF run's mean. The general
+rows are timed with both fixed-duration methods in the same run, interleaved per case:
+``direct`` (the closed-form families of ``motionplc.planning._fixed``, the default) and
+``bisection`` (the seed 004 jerk bisection, the previous code), with their ratio and the
+fallback rate of ``direct`` (axes whose profile still came from the bisection or a scan).
+Finally ``OnlineGenerator.update`` when the target is unchanged (no re-plan), per axis
+(target: <= 3 us)::
 
     python tools/bench_planning.py --sync-cases 2000 --update-calls 200000
     python tools/bench_planning.py --cases 20000 --sync-only   # the synchronisation part only
@@ -147,44 +149,42 @@ def time_plan_cases(problems: list[tuple[Any, Any, Any]]) -> np.ndarray:
     return out
 
 
-def time_sync(cases: list[MultiCase]) -> np.ndarray:
-    args = [(c.starts(), c.targets(), c.limits()) for c in cases]
-    for s, t, lim in args[:20]:  # warm-up
-        plan_sync(s, t, lim)
-    out = np.empty(len(args), dtype=np.int64)
-    clock = time.perf_counter_ns
-    for i, (s, t, lim) in enumerate(args):
-        t0 = clock()
-        plan_sync(s, t, lim)
-        out[i] = clock() - t0
-    return out
-
-
-def time_sync_methods(cases: list[MultiCase]) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """Both fixed-duration methods on the same cases, interleaved per case (so that the load
-    of the machine hits both alike): ns of ``direct``, ns of ``bisection``, the number of
-    axes ``direct`` solved by its fallback and the number of axes slowed at all (not already
-    ending at the synchronised duration)."""
+def time_sync_methods(
+    cases: list[MultiCase], both: bool
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray, int, int]:
+    """Per case, interleaved (so that the load of the machine hits all alike): ns of
+    ``plan_sync`` with the ``direct`` method, with the ``bisection`` method (``both`` only,
+    else None), and of single-axis ``plan`` calls on the same axes (summed); then the number
+    of axes ``direct`` solved by its fallback and the number of axes slowed at all (not
+    already ending at the synchronised duration)."""
     args = [(c.starts(), c.targets(), c.limits()) for c in cases]
     for s, t, lim in args[:20]:  # warm-up
         plan_sync(s, t, lim)
         plan_sync(s, t, lim, method="bisection")
     direct = np.empty(len(args), dtype=np.int64)
-    bisect = np.empty(len(args), dtype=np.int64)
+    bisect = np.empty(len(args), dtype=np.int64) if both else None
+    single = np.empty(len(args), dtype=np.int64)
     clock = time.perf_counter_ns
     fallback = slowed = 0
     for i, (s, t, lim) in enumerate(args):
+        total = 0
+        for s1, t1, lim1 in zip(s, t, lim, strict=True):
+            t0 = clock()
+            plan(s1, t1, lim1)
+            total += clock() - t0
+        single[i] = total
         t0 = clock()
         traj = plan_sync(s, t, lim)
         direct[i] = clock() - t0
-        t0 = clock()
-        plan_sync(s, t, lim, method="bisection")
-        bisect[i] = clock() - t0
+        if bisect is not None:
+            t0 = clock()
+            plan_sync(s, t, lim, method="bisection")
+            bisect[i] = clock() - t0
         for prof, tmin in zip(traj.profiles, traj.independent_min_durations, strict=True):
             if prof.duration > tmin + 1e-9:
                 slowed += 1
                 fallback += is_fallback_kind(prof.kind)
-    return direct, bisect, fallback, slowed
+    return direct, bisect, single, fallback, slowed
 
 
 def time_ruckig_sync(rk: Any, cases: list[MultiCase]) -> np.ndarray:
@@ -204,16 +204,18 @@ def time_ruckig_sync(rk: Any, cases: list[MultiCase]) -> np.ndarray:
 
 def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> None:
     """plan_sync vs Ruckig, rest to rest and general, at ``args.sync_axes`` axes; per axis vs
-    ``single`` (single-axis plan means of the same kind, in us); the general rows with both
-    fixed-duration methods (before/after) and the fallback rate."""
+    the single-axis ``plan`` of the same axes timed interleaved with it (the issue 15 ratio:
+    the total over all cases, and the median of the per-case ratios), and vs ``single`` (the
+    single-axis means of the 1-DoF run above, noisier: other cases, other moments); the
+    general rows with both fixed-duration methods (before/after) and the fallback rate."""
     print(
         f"\nsynchronised planning (time sync), {args.sync_cases} cases per row; "
-        f"single-axis plan mean: general {single['general']:.1f} us, "
+        f"single-axis plan mean of the 1-DoF run: general {single['general']:.1f} us, "
         f"rest to rest {single['rest']:.1f} us"
     )
     print(
-        f"{'':22}{'motionplc mean':>15}{'p99':>10}{'ruckig mean':>13}{'p99':>9}"
-        f"{'ratio':>8}{'per axis / single':>19}{'target':>8}"
+        f"{'':18}{'motionplc mean':>15}{'p99':>9}{'ruckig mean':>13}{'ratio':>7}"
+        f"{'per axis / plan of the same axes (median)':>43}{'/ 1-DoF mean':>14}{'target':>9}"
     )
     before: list[str] = []
     for kind, target in (("rest", 1.5), ("general", 3.0)):
@@ -222,29 +224,29 @@ def bench_sync(args: argparse.Namespace, rk: Any, single: dict[str, float]) -> N
             cases = [next(stream) for _ in range(args.sync_cases)]
             if kind == "rest":
                 cases = [rest_to_rest(c) for c in cases]
-                ours = stats_us(time_sync(cases))
-            else:
-                d_ns, b_ns, fallback, slowed = time_sync_methods(cases)
-                ours, old = stats_us(d_ns), stats_us(b_ns)
+            d_ns, b_ns, s_ns, fallback, slowed = time_sync_methods(cases, kind == "general")
+            ours = stats_us(d_ns)
+            same = float(d_ns.sum() / s_ns.sum())
+            same_med = float(np.median(d_ns / s_ns))
+            if b_ns is not None:
+                old = stats_us(b_ns)
                 before.append(
-                    f"general {dofs} axes: bisection (before) mean {old['mean']:.1f} us, "
-                    f"direct (after) {ours['mean']:.1f} us, before/after "
-                    f"{old['mean'] / ours['mean']:.2f}x (per axis / single: before "
-                    f"{old['mean'] / (dofs * single[kind]):.2f}x); fallback {fallback} of "
-                    f"{slowed} slowed axes ({100.0 * fallback / max(slowed, 1):.2f} %)"
+                    f"general {dofs:2d} axes: bisection (before) mean {old['mean']:8.1f} us, "
+                    f"direct (after) {ours['mean']:7.1f} us, before/after "
+                    f"{old['mean'] / ours['mean']:.2f}x; per axis / plan of the same axes: "
+                    f"before {float(b_ns.sum() / s_ns.sum()):.2f}x, after {same:.2f}x; "
+                    f"fallback {fallback} of {slowed} slowed axes "
+                    f"({100.0 * fallback / max(slowed, 1):.2f} %)"
                 )
-            row = f"{kind + f' {dofs} axes':<22}{ours['mean']:>12.1f} us{ours['p99']:>7.0f} us"
+            row = f"{kind + f' {dofs} axes':<18}{ours['mean']:>12.1f} us{ours['p99']:>6.0f} us"
             if rk is not None:
                 theirs = stats_us(time_ruckig_sync(rk, cases))
-                row += (
-                    f"{theirs['mean']:>10.1f} us{theirs['p99']:>6.0f} us"
-                    f"{ours['mean'] / theirs['mean']:>7.0f}x"
-                )
+                row += f"{theirs['mean']:>10.1f} us{ours['mean'] / theirs['mean']:>6.0f}x"
             else:
-                row += f"{'-':>13}{'-':>9}{'-':>8}"
+                row += f"{'-':>13}{'-':>7}"
             per_axis = ours["mean"] / (dofs * single[kind])
-            ok = "ok" if per_axis <= target else "MISSED"
-            row += f"{per_axis:>16.2f}x{f'<= {target:g}x':>9} {ok}"
+            ok = "ok" if same <= target else "MISSED"
+            row += f"{same:>33.2f}x ({same_med:.2f}x){per_axis:>13.2f}x{f'<= {target:g}x':>9} {ok}"
             print(row)
     for line in before:
         print(line)
