@@ -747,31 +747,35 @@ def plan_batch(
     # -- every other row through the core, per row --------------------------------------------
     si = np.flatnonzero(slow)
     slow_kinds: list[str] = []
-    segs: list[tuple[Any, ...]] = []
+    slow_phases: list[Sequence[tuple[float, ...]]] = []
     if si.size:
-        cols = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        for k, i in enumerate(si.tolist()):
-            p0i, v0i, a0i, pfi, vfi, afi, vmax, vmin, amax, amin, jm = (x[k] for x in cols)
+        args = [x[si].tolist() for x in (V0, A0, d, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
+        for i, v0i, a0i, di, vfi, afi, vmax, vmin, amax, amin, jm, p0i, pfi in zip(
+            si.tolist(), *args, P0[si].tolist(), PF[si].tolist(), strict=True
+        ):
             if arrived(p0i, v0i, a0i, pfi, vfi, afi):
-                phases: Sequence[tuple[float, ...]] = [(0.0, 0.0, afi, vfi)]
-                kind = "arrived"
-            else:
-                try:
-                    T, phases, kind = position_phases(
-                        v0i, a0i, pfi - p0i, vfi, afi, vmax, vmin, amax, amin, jm
-                    )
-                except PlanningError as exc:
-                    raise PlanningError(f"problem {i}: {exc}") from exc
-                except ArithmeticError as exc:
-                    raise PlanningError(
-                        f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                        f"for problem {i} (planner defect: please report these inputs)"
-                    ) from exc
-                if not T <= MAX_DURATION:
-                    raise _too_long(i, T)
+                slow_phases.append([(0.0, 0.0, afi, vfi)])
+                slow_kinds.append("arrived")
+                continue
+            try:
+                T, phases, kind = position_phases(
+                    v0i, a0i, di, vfi, afi, vmax, vmin, amax, amin, jm
+                )
+            except PlanningError as exc:
+                raise PlanningError(f"problem {i}: {exc}") from exc
+            except ArithmeticError as exc:
+                raise PlanningError(
+                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                    f"for problem {i} (planner defect: please report these inputs)"
+                ) from exc
+            if not T <= MAX_DURATION:
+                raise _too_long(i, T)
+            slow_phases.append(phases)
             slow_kinds.append(kind)
-            segs.append(_segments(p0i, v0i, a0i, phases))
-    width = max([MIN_WIDTH, *(len(s[1]) for s in segs)])
+        slow_rows = _integrate_phases(P0[si], V0[si], A0[si], slow_phases)
+        width = max(MIN_WIDTH, slow_rows[0].shape[1])
+    else:
+        width = MIN_WIDTH
     # -- assemble -----------------------------------------------------------------------------
     if width == MIN_WIDTH:
         out = fo
@@ -783,32 +787,89 @@ def plan_batch(
         for q in range(3):
             out[3 + q, fr, MIN_WIDTH:] = end[q, fr, None]
     kinds = _KINDS[code]
-    if si.size:  # the core's rows, padded into flat lists and written at once
-        flat: tuple[list[float], ...] = ([], [], [], [], [], [])
-        ends: list[float] = []
-        for ts, ds, js, ps, vs, as_, e, T in segs:
-            fill = width - len(ds)
-            fill_s = width - len(ps)
-            flat[0].extend(ts)
-            flat[0].extend([T] * fill)
-            flat[1].extend(ds)
-            flat[1].extend([0.0] * fill)
-            flat[2].extend(js)
-            flat[2].extend([0.0] * fill)
-            flat[3].extend(ps)
-            flat[3].extend([e[0]] * fill_s)
-            flat[4].extend(vs)
-            flat[4].extend([e[1]] * fill_s)
-            flat[5].extend(as_)
-            flat[5].extend([e[2]] * fill_s)
-            ends.extend(e)
-        for q in range(6):
-            out[q, si] = np.array(flat[q], dtype=float).reshape(si.size, width)
-        nseg[si] = [len(x[1]) for x in segs]
-        total[si] = [x[7] for x in segs]
-        end[:, si] = np.array(ends, dtype=float).reshape(si.size, 3).T
+    if si.size:
+        kt, kd, kj, kp, kv, ka, pe, ve, ae, te, cnt = slow_rows
+        w = kt.shape[1]
+        for q, x in enumerate((kt, kd, kj, kp, kv, ka)):
+            out[q, si, :w] = x
+        if w < width:  # padding: start time = duration, no duration or jerk, end state
+            out[0, si, w:] = te[:, None]
+            out[1, si, w:] = 0.0
+            out[2, si, w:] = 0.0
+            out[3, si, w:] = pe[:, None]
+            out[4, si, w:] = ve[:, None]
+            out[5, si, w:] = ae[:, None]
+        nseg[si] = cnt
+        total[si] = te
+        end[0, si], end[1, si], end[2, si] = pe, ve, ae
         kinds[si] = slow_kinds
     return BatchPlan(*out, nseg, total, (end[0], end[1], end[2]), kinds.tolist())
+
+
+def _integrate_phases(
+    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, rows: Sequence[Sequence[tuple[float, ...]]]
+) -> tuple[np.ndarray, ...]:
+    """Profile.__init__ for many phase lists at once (the same operations, so the same bits).
+
+    A phase is (duration, jerk[, acceleration at its start[, velocity at its start]]); the
+    exact values are set even by a phase of no duration (a jump at the end of a second-order
+    profile), which adds no segment. Returns (m, w) arrays of the segments (start time,
+    duration, jerk, p, v, a; w >= 1 the most segments of a row; padding: the end state and the
+    duration as start time, as BatchPlan), the end state, the durations and the counts. A row
+    without segments has its (possibly jumped) start state in column 0, as Profile keeps it.
+    """
+    m = len(rows)
+    counts = np.fromiter((len(r) for r in rows), dtype=np.intp, count=m)
+    L = int(counts.max()) if m else 0
+    flat = [ph for r in rows for ph in r]
+    col = np.arange(len(flat)) - np.repeat(np.cumsum(counts) - counts, counts)
+    row = np.repeat(np.arange(m), counts)
+    nan = math.nan
+    dur = np.zeros((L, m))
+    jerk = np.zeros((L, m))
+    ova = np.full((L, m), nan)
+    ovv = np.full((L, m), nan)
+    dur[col, row] = [ph[0] for ph in flat]
+    jerk[col, row] = [ph[1] for ph in flat]
+    ova[col, row] = [ph[2] if len(ph) > 2 else nan for ph in flat]
+    ovv[col, row] = [ph[3] if len(ph) > 3 else nan for ph in flat]
+    kt = np.empty((L + 1, m))
+    kp = np.empty((L + 1, m))
+    kv = np.empty((L + 1, m))
+    ka = np.empty((L + 1, m))
+    t = np.zeros(m)
+    p = p0
+    v = v0
+    a = a0
+    for c in range(L):
+        x = dur[c]
+        jj = jerk[c]
+        a = np.where(np.isnan(ova[c]), a, ova[c])
+        v = np.where(np.isnan(ovv[c]), v, ovv[c])
+        kt[c] = t
+        kp[c] = p
+        kv[c] = v
+        ka[c] = a
+        pos = x > 0.0
+        p = np.where(pos, p + x * (v + x * (0.5 * a + x * jj / 6.0)), p)
+        v2 = np.where(pos, v + x * (a + 0.5 * x * jj), v)
+        a = np.where(pos, a + x * jj, a)
+        v = v2
+        t = np.where(pos, t + x, t)
+    kt[L] = t
+    kp[L] = p
+    kv[L] = v
+    ka[L] = a
+    dur = np.vstack([dur, np.zeros((1, m))])
+    jerk = np.vstack([jerk, np.zeros((1, m))])
+    # the segments (positive durations) move left in order, the end fills the rest
+    pos = dur[:L] > 0.0
+    cnt = pos.sum(axis=0)
+    w = max(int(cnt.max()) if m else 0, 1)
+    key = np.where(pos, np.arange(L)[:, None], L)  # (L, m): a segment's column, else L
+    order = np.sort(key, axis=0)[:w] * m + np.arange(m)  # (w, m) source rows, phase-major
+    segs = [np.take(x, order).T for x in (kt, dur, jerk, kp, kv, ka)]
+    return (*segs, p, v, a, t, cnt)
 
 
 def _too_long(i: int, T: float) -> PlanningError:
@@ -817,41 +878,3 @@ def _too_long(i: int, T: float) -> PlanningError:
         f"{MAX_DURATION:g} s (limits far too small for the states: double precision cannot keep "
         "its end state and continuity)"
     )
-
-
-def _segments(p: float, v: float, a: float, phases: Sequence[tuple[float, ...]]) -> tuple[Any, ...]:
-    """Profile.__init__'s integration of the phases (the same operations, so the same bits):
-    segment start times, durations, jerks, the states at the segment starts, end state and
-    duration. No segment: the (possibly jumped) start state as the only knot."""
-    ts: list[float] = []
-    ds: list[float] = []
-    js: list[float] = []
-    ps: list[float] = []
-    vs: list[float] = []
-    as_: list[float] = []
-    t = 0.0
-    for ph in phases:
-        dur = ph[0]
-        k = len(ph)
-        if k > 2:
-            a = ph[2]
-            if k > 3:
-                v = ph[3]
-        if dur <= 0.0:
-            continue
-        j = ph[1]
-        ts.append(t)
-        ps.append(p)
-        vs.append(v)
-        as_.append(a)
-        js.append(j)
-        ds.append(dur)
-        p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
-        v += dur * (a + 0.5 * dur * j)
-        a += dur * j
-        t += dur
-    if not ds:
-        ps.append(p)
-        vs.append(v)
-        as_.append(a)
-    return ts, ds, js, ps, vs, as_, (p, v, a), t
