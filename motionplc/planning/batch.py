@@ -247,16 +247,18 @@ def _first(bad: np.ndarray) -> int:
 
 
 def _check_state(name: str, x: np.ndarray) -> None:
-    bad = ~((x >= -STATE_MAX) & (x <= STATE_MAX))  # also NaN
-    if bad.any():
-        i = _first(bad)
-        raise PlanningError(
-            f"{name}[{i}] must be a finite number in [{-STATE_MAX:g}, {STATE_MAX:g}], "
-            f"got {float(x[i])!r}"
-        )
+    if x.size == 0 or (x.max() <= STATE_MAX and x.min() >= -STATE_MAX):  # NaN fails both
+        return
+    i = _first(~((x >= -STATE_MAX) & (x <= STATE_MAX)))
+    raise PlanningError(
+        f"{name}[{i}] must be a finite number in [{-STATE_MAX:g}, {STATE_MAX:g}], "
+        f"got {float(x[i])!r}"
+    )
 
 
 def _check_positive(name: str, x: np.ndarray) -> None:
+    if x.size == 0 or (x.min() >= LIMIT_MIN and x.max() <= LIMIT_MAX):  # the usual case
+        return
     bad = ~(((x >= LIMIT_MIN) & (x <= LIMIT_MAX)) | (x == _INF))
     if bad.any():
         i = _first(bad)
@@ -264,6 +266,8 @@ def _check_positive(name: str, x: np.ndarray) -> None:
 
 
 def _check_negative(name: str, x: np.ndarray) -> None:
+    if x.size == 0 or (x.max() <= -LIMIT_MIN and x.min() >= -LIMIT_MAX):
+        return
     bad = ~(((x <= -LIMIT_MIN) & (x >= -LIMIT_MAX)) | (x == -_INF))
     if bad.any():
         i = _first(bad)
@@ -273,6 +277,13 @@ def _check_negative(name: str, x: np.ndarray) -> None:
 def _raise_at(bad: np.ndarray, message: Any) -> None:
     if bad.any():
         raise PlanningError(message(_first(bad)))
+
+
+def _a_pair(i: int, amin: np.ndarray, amax: np.ndarray) -> str:
+    return (
+        f"a_min[{i}] and a_max[{i}] must both be finite or both infinite, "
+        f"got a_min={float(amin[i])!r}, a_max={float(amax[i])!r}"
+    )
 
 
 def _validate(
@@ -285,19 +296,18 @@ def _validate(
     J: np.ndarray,
 ) -> None:
     """The checks of Limits and plan (``_check_target_va``) for every element at once."""
-    _raise_at(
-        np.isinf(amax) != np.isinf(amin),
-        lambda i: (
-            f"a_min[{i}] and a_max[{i}] must both be finite or both infinite, "
-            f"got a_min={float(amin[i])!r}, a_max={float(amax[i])!r}"
-        ),
-    )
-    _raise_at(
-        np.isinf(vmax) & np.isinf(amax) & np.isinf(J),
-        lambda i: (
-            f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a position move"
-        ),
-    )
+    finite_a = np.isfinite(amax)  # the limits are finite or infinite by now, never NaN
+    _raise_at(finite_a != np.isfinite(amin), lambda i: _a_pair(i, amin, amax))
+    if not finite_a.all():
+        _raise_at(
+            np.isinf(vmax) & ~finite_a & np.isinf(J),
+            lambda i: (
+                f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a "
+                "position move"
+            ),
+        )
+    if not (vf.any() or af.any()):  # targets at rest: inside any limits, reachable
+        return
     _raise_at(
         ~((vmin <= vf) & (vf <= vmax)),
         lambda i: (
@@ -358,15 +368,12 @@ _NR, _VEL, _ACC, _NONE, _ACC0, _ACC1 = 0, 2, 4, 6, 8, 10
 
 
 class _Rest(NamedTuple):
-    """Rest-to-rest rows solved in numpy: (m, 7) segment arrays (compacted, padded as in
-    BatchPlan), end state, duration, segment count and kind code per row."""
+    """Rest-to-rest rows solved in numpy: the phase-major (8, n) knot and phase arrays (t,
+    durations, j, p, v, a; row 7 the end) and the (m, 7) flat indices into them that give the
+    compacted, padded segments of BatchPlan; end state, duration, segment count, kind code."""
 
-    t: np.ndarray
-    dur: np.ndarray
-    j: np.ndarray
-    p: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
+    sources: tuple[np.ndarray, ...]
+    order: np.ndarray
     end_p: np.ndarray
     end_v: np.ndarray
     end_a: np.ndarray
@@ -482,8 +489,16 @@ def _rest_to_rest(
     sel = np.flatnonzero(solved) if not solved.all() else np.arange(n)
     pattern = pattern[sel]
     order = np.take(_ORDER, pattern, axis=0) * n + sel[:, None]
-    out = [np.take(x, order) for x in (kt, dur, jerk, kp, kv, ka)]
-    return solved, _Rest(*out, p[sel], v[sel], a[sel], t[sel], _COUNT[pattern], code[sel])
+    return solved, _Rest(
+        (kt, dur, jerk, kp, kv, ka),
+        order,
+        p[sel],
+        v[sel],
+        a[sel],
+        t[sel],
+        _COUNT[pattern],
+        code[sel],
+    )
 
 
 def _families(
@@ -717,7 +732,10 @@ def plan_batch(
     _validate(VF, AF, VMAX, VMIN, AMAX, AMIN, J)
     n = P0.shape[0]
     d = PF - P0
-    at_rest = (V0 == 0.0) & (A0 == 0.0) & (VF == 0.0) & (AF == 0.0)
+    if V0.any() or A0.any() or VF.any() or AF.any():
+        at_rest = (V0 == 0.0) & (A0 == 0.0) & (VF == 0.0) & (AF == 0.0)
+    else:
+        at_rest = np.ones(n, dtype=bool)
     eps = 8.0 * _EPS
     here = np.abs(d) <= np.maximum(1e-15, eps * np.maximum(np.abs(P0), np.abs(PF)))
     # -- rest to rest in numpy ----------------------------------------------------------------
@@ -737,8 +755,12 @@ def plan_batch(
         too_long = ~(rest.total <= MAX_DURATION)
         if too_long.any():
             raise _too_long(int(np.arange(n)[r][_first(too_long)]), float(rest.total[too_long][0]))
-        for q, x in enumerate((rest.t, rest.dur, rest.j, rest.p, rest.v, rest.a)):
-            fo[q, r] = x
+        if isinstance(r, slice):  # gathered straight into the result
+            for q, x in enumerate(rest.sources):
+                np.take(x, rest.order, out=fo[q, r], mode="clip")
+        else:
+            for q, x in enumerate(rest.sources):
+                fo[q, r] = np.take(x, rest.order, mode="clip")
         total[r] = rest.total
         end[0, r], end[1, r], end[2, r] = rest.end_p, rest.end_v, rest.end_a
         nseg[r] = rest.nseg
