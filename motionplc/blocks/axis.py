@@ -346,7 +346,53 @@ class Axis:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         d = self._ideal
         if d is not None and d._feedback is None:
-            self._read_healthy(t, d._position, d._velocity, d._enabled)
+            # a healthy in-process ideal drive: DriveFeedback(_position, _velocity, _enabled)
+            # (communication good, no fault, fresh, no warning, no reset pending), unbuilt;
+            # the same steps in the same order as for the object below
+            velocity = d._velocity
+            enabled = d._enabled
+            act_p = d._position + self.offset
+            dt_act = t - self._act_t
+            if dt_act > 0.0:  # actual acceleration: backward difference
+                self.act_v_prev = self.act_v
+                self.act_a = (velocity - self.act_v) / dt_act
+                self._act_t = t
+            self.act_p = act_p
+            self.act_v = velocity
+            self.drive_enabled = enabled
+            self.drive_fault = False
+            self.comm_ok = True
+            if self.drive_warning != "":
+                self._drive_warning_changed(t, "")
+            self.following_error = self._sent_p - act_p if enabled else 0.0
+            state = self.state
+            if (
+                not enabled
+                and state is not S.ERROR_STOP
+                and state is not S.DISABLED
+                and self.power_request
+                and self._was_enabled
+            ):
+                self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+            self._was_enabled = enabled
+            if self._reset_handle is not None and self._reset_sent:
+                self._try_finish_reset(False, True)
+            state = self.state
+            if state is S.DISABLED:
+                if self.power_request and enabled:
+                    state = self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
+                self._resync()
+            self.img_state = state
+            self.img_p = self.p
+            self.img_v = self.v
+            self.img_a = self.a
+            self.img_act_p = act_p
+            self.img_act_v = velocity
+            self.img_act_a = self.act_a
+            self.img_act_v_prev = self.act_v_prev
+            self.img_error = self.axis_error
+            self.img_enabled = enabled
+            self.img_homed = self.homed
             return
         fb = self.drive.read_inputs(t)
         act_p = fb.position + self.offset
@@ -390,53 +436,6 @@ class Axis:
         self.img_a = self.a
         self.img_act_p = act_p
         self.img_act_v = act_v
-        self.img_act_a = self.act_a
-        self.img_act_v_prev = self.act_v_prev
-        self.img_error = self.axis_error
-        self.img_enabled = enabled
-        self.img_homed = self.homed
-
-    def _read_healthy(self, t: float, position: float, velocity: float, enabled: bool) -> None:
-        """:meth:`read_inputs` for a healthy feedback ``DriveFeedback(position, velocity,
-        enabled)`` (communication good, no fault, fresh, no warning, no reset pending): the
-        same steps in the same order, without the object."""
-        act_p = position + self.offset
-        dt_act = t - self._act_t
-        if dt_act > 0.0:  # actual acceleration: backward difference
-            self.act_v_prev = self.act_v
-            self.act_a = (velocity - self.act_v) / dt_act
-            self._act_t = t
-        self.act_p = act_p
-        self.act_v = velocity
-        self.drive_enabled = enabled
-        self.drive_fault = False
-        self.comm_ok = True
-        if self.drive_warning != "":
-            self._drive_warning_changed(t, "")
-        self.following_error = self._sent_p - act_p if enabled else 0.0
-        state = self.state
-        if (
-            not enabled
-            and state is not S.ERROR_STOP
-            and state is not S.DISABLED
-            and self.power_request
-            and self._was_enabled
-        ):
-            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
-        self._was_enabled = enabled
-        if self._reset_handle is not None and self._reset_sent:
-            self._try_finish_reset(False, True)
-        state = self.state
-        if state is S.DISABLED:
-            if self.power_request and enabled:
-                state = self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
-            self._resync()
-        self.img_state = state
-        self.img_p = self.p
-        self.img_v = self.v
-        self.img_a = self.a
-        self.img_act_p = act_p
-        self.img_act_v = velocity
         self.img_act_a = self.act_a
         self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error
@@ -1506,14 +1505,16 @@ class Axis:
         """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
         task without axes groups).
 
-        The common cycle (a one-profile move running unscaled, nothing submitted, no feed or
-        software-limit checks due) samples its profile here with the very arithmetic of
+        The common cycle (a one-profile move running unscaled and staying inside its profile,
+        nothing submitted, no feed or software-limit checks due, not a velocity or homing job,
+        the axis not Disabled) samples its profile here with the very arithmetic of
         :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
         in-process ideal drive the setpoints then go straight into it, with the arithmetic
         of ``IdealDrive.write_outputs`` (no command object); otherwise through
         :meth:`write_outputs`."""
         mq = self.mq
         job = mq.active
+        ts = self.ts
         if (
             job is None
             or job.single is None
@@ -1522,10 +1523,30 @@ class Axis:
             or self._junction_due is not None
             or not self._feed_all
             or self._sw_check
-            or self.ts.prof is not None
-            or not self._steady(job, dt)
+            or ts.prof is not None
+            or job.kind == "velocity"
+            or job.kind == "home"
+            or not (job.no_override or ts.f == 1.0)
+            or not job.tau + dt < job.duration
+            or self.state is S.DISABLED
         ):
             self.step(dt)
+        else:
+            # step() of a one-profile job that stays inside its profile in this step,
+            # unscaled (no override ramp; factor 1 or a job the override does not scale)
+            try:
+                tau = job.tau = job.tau + dt
+                p, self.v, self.a, self.j = job.single.at(tau)
+                self.p = p + job.shift
+                if self.state is not S.ERROR_STOP:
+                    lim = self._fe_limit
+                    if lim is not None and abs(self.following_error) > lim:
+                        self.raise_axis_error(
+                            "FOLLOWING_ERROR",
+                            f"following error {self.following_error:.6g} exceeds {lim:.6g}",
+                        )
+            except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
+                self._kernel_failed(exc)
         d = self._ideal
         if d is None or not d._comm_ok or d._fault:
             self.write_outputs(t)
@@ -1543,34 +1564,6 @@ class Axis:
         else:
             d._velocity = 0.0
         d._feedback = None
-
-    def _steady(self, job: AxisJob, dt: float) -> bool:
-        """:meth:`step` for a running one-profile job that stays inside its profile in this
-        step, unscaled (no override ramp, factor 1 or a job the override does not scale),
-        not a velocity or homing job, the axis neither Disabled nor braking for a limit;
-        the caller checked that nothing else is due. False (nothing done): the general
-        :meth:`step` must run."""
-        kind = job.kind
-        if kind == "velocity" or kind == "home" or not (job.no_override or self.ts.f == 1.0):
-            return False
-        tau = job.tau + dt
-        state = self.state
-        if not tau < job.duration or state is S.DISABLED:
-            return False
-        try:
-            job.tau = tau
-            p, self.v, self.a, self.j = job.single.at(tau)  # type: ignore[union-attr]
-            self.p = p + job.shift
-            if state is not S.ERROR_STOP:
-                lim = self._fe_limit
-                if lim is not None and abs(self.following_error) > lim:
-                    self.raise_axis_error(
-                        "FOLLOWING_ERROR",
-                        f"following error {self.following_error:.6g} exceeds {lim:.6g}",
-                    )
-        except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
-            self._kernel_failed(exc)
-        return True
 
     # -- diagnostics -----------------------------------------------------------------------
     def _drive_warning_changed(self, t: float, text: str) -> None:
