@@ -645,10 +645,11 @@ def _families(
 
 
 def _seq_sum(cols: tuple[np.ndarray, ...]) -> np.ndarray:
-    """Sum of the positive durations, phase by phase, left to right (as _verify adds)."""
-    t = np.zeros(cols[0].shape[0])
-    for x in cols:
-        t = np.where(x > 0.0, t + x, t)
+    """_verify's duration: the positive phase durations added left to right. The durations
+    here are >= 0 and the first is > 0, so adding the zeros too gives the same bits."""
+    t = cols[0]
+    for x in cols[1:]:
+        t = t + x
     return t
 
 
