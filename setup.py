@@ -36,6 +36,7 @@ COMPILED_MODULES = (
     "motionplc.planning._velocity",
     "motionplc.planning._brake",
     "motionplc.planning._third",
+    "motionplc.planning.profile",
     "motionplc.planning.plan",
 )
 GROUP = "motionplc._core"  # the shared library: motionplc/_core__mypyc.<abi>.so

@@ -40,6 +40,7 @@ COMPILED_MODULES = (
     "motionplc.planning._velocity",
     "motionplc.planning._brake",
     "motionplc.planning._third",
+    "motionplc.planning.profile",
     "motionplc.planning.plan",
 )
 SHARED_LIB = "_core__mypyc"  # mypyc's group library, inside the motionplc package

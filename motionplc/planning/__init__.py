@@ -4,8 +4,13 @@ Public API::
 
     from motionplc.planning import State, Limits, Profile, plan, plan_velocity, PlanningError
     from motionplc.planning import plan_batch, BatchPlan  # N problems at once, as arrays
+
+``COMPILED`` is True when the mypyc-compiled planning core is in use, False for the pure-Python
+sources (``MOTIONPLC_PURE_PYTHON=1``, no C compiler at install, or a source edited since the
+build; ``motionplc.compiled_core()`` says why).
 """
 
+from motionplc import _purepy
 from motionplc.errors import PlanningError
 from motionplc.planning.batch import BatchPlan, plan_batch
 from motionplc.planning.limits import Limits
@@ -18,6 +23,7 @@ from motionplc.planning.tracking import Tracker, track
 from motionplc.planning.trajectory import Trajectory, TrajectorySamples
 
 __all__ = [
+    "COMPILED",
     "BatchPlan",
     "Knot",
     "Limits",
@@ -38,3 +44,5 @@ __all__ = [
     "plan_velocity",
     "track",
 ]
+
+COMPILED: bool = _purepy.status().compiled

@@ -522,6 +522,32 @@ def _fam_acc1(
 _FAMILIES = (_fam_vel, _fam_acc0_acc1, _fam_none, _fam_acc0, _fam_acc1)
 
 
+def _family(
+    k: int,
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    t_best: float,
+) -> Candidate | None:
+    """``_FAMILIES[k](...)`` as direct calls (a compiled build then passes the floats unboxed)."""
+    if k == 0:
+        return _fam_vel(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+    if k == 1:
+        return _fam_acc0_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+    if k == 2:
+        return _fam_none(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+    if k == 3:
+        return _fam_acc0(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+    return _fam_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+
+
 def single_ramp(
     v0: float, a0: float, d: float, vf: float, af: float, J: float
 ) -> tuple[float, Phases, str] | None:
@@ -581,13 +607,11 @@ def time_optimal(
     keep = 1.0 - 1e-12
     t_best = best[0] * keep if best is not None else math.inf
     best_down = False
-    up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
-    down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
-    for fam in _FAMILIES:
-        c = fam(*up, t_best)
+    for k in range(len(_FAMILIES)):
+        c = _family(k, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
         if c is not None:
             best, t_best, best_down = c, c[0] * keep, False
-        c = fam(*down, t_best)
+        c = _family(k, -v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, t_best)
         if c is not None:
             best, t_best, best_down = c, c[0] * keep, True
     if best is None or not best_down:

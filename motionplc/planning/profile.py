@@ -111,16 +111,16 @@ class Profile:
             ps.append(p)
             vs.append(v)
             as_.append(a)
-        setattr_ = object.__setattr__
-        setattr_(self, "_t", tuple(ts))
-        setattr_(self, "_p", tuple(ps))
-        setattr_(self, "_v", tuple(vs))
-        setattr_(self, "_a", tuple(as_))
-        setattr_(self, "_j", tuple(js))
-        setattr_(self, "_d", tuple(ds))
-        setattr_(self, "_end", State(p, v, a))
-        setattr_(self, "_kind", kind)
-        setattr_(self, "duration", t)
+        # object.__setattr__ spelled out: a compiled build turns these into direct stores
+        object.__setattr__(self, "_t", tuple(ts))
+        object.__setattr__(self, "_p", tuple(ps))
+        object.__setattr__(self, "_v", tuple(vs))
+        object.__setattr__(self, "_a", tuple(as_))
+        object.__setattr__(self, "_j", tuple(js))
+        object.__setattr__(self, "_d", tuple(ds))
+        object.__setattr__(self, "_end", State(p, v, a))
+        object.__setattr__(self, "_kind", kind)
+        object.__setattr__(self, "duration", t)
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError("Profile is immutable")

@@ -41,7 +41,15 @@ if str(ROOT) not in sys.path:  # run as a script: tests.planning._cases is impor
 
 from motionplc import _purepy, compiled_core  # noqa: E402
 from motionplc.errors import PlanningError  # noqa: E402
-from motionplc.planning import Limits, Profile, State, plan, plan_sync, plan_velocity  # noqa: E402
+from motionplc.planning import (  # noqa: E402
+    COMPILED,
+    Limits,
+    Profile,
+    State,
+    plan,
+    plan_sync,
+    plan_velocity,
+)
 from tests.planning._cases import generate_cases, generate_multi_cases  # noqa: E402
 
 SEED = 15
@@ -121,6 +129,7 @@ def test_status_matches_the_loaded_modules(summary: Callable[[str], None]) -> No
     for name in _purepy.COMPILED_MODULES:
         file = sys.modules[name].__file__ or ""
         assert file.endswith(".py") != STATUS.compiled, (name, file, STATUS)
+    assert COMPILED is STATUS.compiled
     summary(f"planning core: {STATUS.reason}")
 
 
