@@ -147,6 +147,10 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: object) -> dict[str, 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     rk = import_ruckig()
+    import motionplc
+
+    status = getattr(motionplc, "compiled_core", None)
+    print(f"planning core: {status().reason if status is not None else 'pure Python'}")
     print(
         f"plan_batch per plan [us], medians of {args.repeat}; ruckig: Ruckig(1).calculate loop, "
         f"plan: Python loop of plan (at most {args.loop_max} cases)"
