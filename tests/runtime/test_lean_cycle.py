@@ -1,0 +1,271 @@
+"""The lean cycle of issue 15 gives bit-identical results to the straightforward code.
+
+* fused kernel: with an ``IdealDrive`` the axis reads and writes the drive in place, and the
+  fused loop samples a steady one-profile move inline (``Axis.step_write``); with a subclass
+  of it (same behaviour, no fast path), with the loop unfused (step, then write) and with an
+  axes group in the task (never fused) the general path runs. Random FB sequences (power,
+  moves, blending, override, halt, stop, reset, drive faults, communication loss) must give
+  the same trace digest and the same observables every cycle;
+* FB calls with inputs as attributes and with keywords give the same trace;
+* ``Trace.reserve_row`` (the row packed in place) stores what ``Trace.record`` stores;
+* ``IdealDrive``'s lazy feedback equals the feedback it built eagerly.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import random
+import struct
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from motionplc.blocks import (
+    BufferMode,
+    MC_Halt,
+    MC_MoveAbsolute,
+    MC_MoveRelative,
+    MC_MoveVelocity,
+    MC_Power,
+    MC_ReadStatus,
+    MC_Reset,
+    MC_SetOverride,
+    MC_Stop,
+)
+from motionplc.fieldbus.base import DriveCommand, DriveFeedback
+from motionplc.fieldbus.ideal import IdealDrive
+from motionplc.runtime import Runtime
+from motionplc.runtime.trace import Trace
+
+
+class PlainIdeal(IdealDrive):
+    """An IdealDrive the axis does not recognise: every cycle goes through the objects."""
+
+
+def _run(seed: int, plain: bool, group: bool, cycles: int, fused: bool = True) -> tuple[str, str]:
+    """A random FB sequence on two axes; (trace digest, hash of the observables)."""
+    rng = random.Random(seed)
+    rt = Runtime(cycle=0.001)
+    drives = [(PlainIdeal if plain else IdealDrive)(n) for n in ("x", "y")]
+    axes = [
+        rt.add_axis("x", v_max=100.0, a_max=500.0, j_max=20_000.0, drive=drives[0]),
+        rt.add_axis("y", v_max=50.0, a_max=300.0, drive=drives[1], following_error_limit=5.0),
+    ]
+    if group:
+        rt.add_group("g", ["x", "y"])
+    fbs: list[Any] = []
+    for ax in axes:
+        fbs += [
+            MC_Power(axis=ax),
+            MC_ReadStatus(axis=ax, enable=True),
+            MC_MoveAbsolute(axis=ax, velocity=40.0, buffer_mode=BufferMode.BLENDING_LOW),
+            MC_MoveAbsolute(axis=ax, velocity=30.0, buffer_mode=BufferMode.BUFFERED),
+            MC_MoveRelative(axis=ax, velocity=20.0),
+            MC_MoveVelocity(axis=ax, velocity=15.0),
+            MC_Halt(axis=ax),
+            MC_Stop(axis=ax),
+            MC_Reset(axis=ax),
+            MC_SetOverride(axis=ax),
+        ]
+    choices = {
+        "enable": [True, True, True, False],
+        "execute": [True, False, False],
+        "position": [0.0, 20.0, -15.0, 60.0],
+        "distance": [5.0, -12.0],
+        "vel_factor": [1.0, 0.5, 0.0],
+    }
+    h = hashlib.sha256()
+
+    def program(ctx: Any) -> None:
+        k = ctx.cycle
+        if k < 3:
+            for fb in fbs[::10]:
+                fb.enable = True
+        r = rng.random()
+        if r < 0.002:
+            rng.choice(drives).inject_fault()
+        elif r < 0.003:
+            d = rng.choice(drives)
+            d.set_comm_ok(not d._comm_ok)
+        for fb in fbs:
+            if rng.random() < 0.02:
+                for name, values in choices.items():
+                    if name in fb.INPUTS and (name != "enable" or k > 300):
+                        setattr(fb, name, rng.choice(values))
+            fb()
+
+    def observe(rt: Runtime, k: int) -> None:
+        parts: list[Any] = [k]
+        for ax in rt.axes.values():
+            parts.append((ax.axis_error.value, ax.axis_error_reason, ax.override, ax._sent_p))
+            parts.append((ax.img_act_a, ax.img_act_v_prev, ax.drive_enabled, ax.comm_ok))
+        for fb in fbs:
+            parts.append((fb.error_id.value, fb.error_text, getattr(fb, "end_velocity", None)))
+        for d in drives:
+            # the fields (reading the feedback here would build it: no fast read then)
+            parts.append((d.commands_written, d._position, d._velocity, d._enabled, d._fault))
+        h.update(repr(parts).encode())
+
+    rt.add_task("main", program)
+    rt.add_cycle_hook(observe)
+    rt._start()
+    assert rt.tasks[0].fused is not group
+    rt.tasks[0].fused = fused and not group  # False: step, then write, axis by axis
+    rt.run(cycles=cycles)
+    # the sequence did exercise the kernel: motion, and errors of FBs or axes
+    assert np.abs(rt.trace.column("x.velocity")).max() > 1.0
+    assert any(fb.error for fb in fbs) or any(ax.axis_error.value for ax in axes)
+    return rt.trace.digest(), h.hexdigest()
+
+
+@pytest.mark.parametrize("seed", [11, 12, 13])
+def test_fused_kernel_equals_the_general_path(seed: int) -> None:
+    general = _run(seed, plain=True, group=False, cycles=2500, fused=False)
+    assert _run(seed, plain=False, group=False, cycles=2500) == general  # everything fused
+    assert _run(seed, plain=True, group=False, cycles=2500) == general  # the inline step
+    assert _run(seed, plain=False, group=False, cycles=2500, fused=False) == general  # drive
+
+
+@pytest.mark.parametrize("seed", [21])
+def test_fused_kernel_equals_the_unfused_loop_of_a_task_with_a_group(seed: int) -> None:
+    # the group only exists (disabled): the axes move on their own, the loop is not fused
+    assert _run(seed, plain=False, group=True, cycles=2000) == _run(
+        seed, plain=True, group=True, cycles=2000
+    )
+
+
+def test_the_fast_paths_are_in_use() -> None:
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=10.0, a_max=100.0, j_max=1000.0)
+    power = MC_Power(axis=x, enable=True)
+    move = MC_MoveAbsolute(axis=x, position=1.0, velocity=5.0)
+    rt.add_task("main", lambda ctx: (power(), move()))
+    rt.run(cycles=5)
+    move.execute = True
+    rt.run(cycles=50)
+    assert rt.tasks[0].fused and x._ideal is x.drive
+    assert move.busy and x.active is not None and x.active.single is not None
+    assert x.drive._feedback is None  # nothing built while healthy
+    fb = x.drive.read_inputs(0.05)  # built on demand, equal to the fields
+    assert fb == DriveFeedback(x.drive._position, x.drive._velocity, True)
+    assert fb.position == x.p - x.offset  # the setpoint written in place
+
+
+def _program_run(kw: bool) -> str:
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=200.0, a_max=1000.0, j_max=20_000.0)
+    if kw:
+        power, status = MC_Power(), MC_ReadStatus()
+        moves = [MC_MoveAbsolute(buffer_mode=BufferMode.BLENDING_LOW) for _ in range(2)]
+    else:
+        power, status = MC_Power(axis=x, enable=True), MC_ReadStatus(axis=x, enable=True)
+        moves = [
+            MC_MoveAbsolute(
+                axis=x,
+                buffer_mode=BufferMode.BLENDING_LOW,
+                acceleration=800.0,
+                deceleration=800.0,
+            )
+            for _ in range(2)
+        ]
+    legs = ((400.0, 120.0), (1000.0, 80.0), (600.0, 150.0), (0.0, 100.0))
+    state = {"leg": 0, "turn": 0}
+
+    def program(ctx: Any) -> None:
+        if kw:
+            power(axis=x, enable=True)
+            status(axis=x, enable=True)
+        else:
+            power()
+            status()
+        if not power.status:
+            return
+        cur, other = moves[state["turn"]], moves[1 - state["turn"]]
+        if not cur.busy and not cur.execute:
+            pos, vel = legs[state["leg"] % 4]
+            state["leg"] += 1
+            if kw:
+                cur(axis=x, execute=True, position=pos, velocity=vel, acceleration=800.0,
+                    deceleration=800.0)  # fmt: skip
+            else:
+                cur.position, cur.velocity, cur.execute = pos, vel, True
+                cur()
+        elif kw:
+            cur(axis=x, execute=False)
+        else:
+            cur.execute = False
+            cur()
+        other(axis=x) if kw else other()
+        if cur.active:
+            state["turn"] = 1 - state["turn"]
+
+    rt.add_task("main", program)
+    rt.run(cycles=9000)
+    assert state["leg"] >= 3  # the legs did run
+    return rt.trace.digest()
+
+
+def test_attribute_and_keyword_calls_give_the_same_trace() -> None:
+    assert _program_run(kw=False) == _program_run(kw=True)
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    rows=st.lists(
+        st.tuples(
+            st.floats(allow_nan=False, width=64),
+            st.floats(allow_nan=False, width=64),
+            st.integers(0, 7),
+        ),
+        min_size=1,
+        max_size=700,
+    ),
+    budget=st.sampled_from([64 * 2**10, 96 * 2**10]),
+)
+def test_reserve_row_stores_what_record_stores(
+    rows: list[tuple[float, float, int]], budget: int
+) -> None:
+    a = Trace(capacity=300, max_bytes=budget)
+    b = Trace(capacity=300, max_bytes=budget)
+    for t in (a, b):
+        t.add_columns(["x.p", "x.v", "x.state"], [np.float64, np.float64, np.int8])
+    pack = struct.Struct("=5d").pack_into
+    for k, (p, v, s) in enumerate(rows):
+        a.record([k, 0.001 * k, p, v, s])
+        buf, off = b.reserve_row()
+        pack(buf, off, k, 0.001 * k, p, v, s)
+    assert len(a) == len(b) and a.dropped_rows == b.dropped_rows
+    assert a.digest() == b.digest()
+    np.testing.assert_array_equal(a.array(), b.array())
+
+
+def test_reserve_row_rejects_what_record_rejects() -> None:
+    t = Trace(capacity=10, max_bytes=64 * 2**10)
+    t.add_columns(["s"], [np.int8])
+    for _ in range(t.rows_capacity + 300):  # past the first flush of the staging block
+        buf, off = t.reserve_row()
+        struct.pack_into("=3d", buf, off, 0, 0.0, 2.0)
+    buf, off = t.reserve_row()
+    struct.pack_into("=3d", buf, off, 0, 0.0, 2.5)  # not an int8
+    with pytest.raises(ValueError, match="'s'"):
+        for _ in range(400):
+            buf, off = t.reserve_row()
+            struct.pack_into("=3d", buf, off, 0, 0.0, 1.0)
+
+
+def test_ideal_drive_lazy_feedback_equals_the_eager_one() -> None:
+    d = IdealDrive("d", position=2.5)
+    assert d.read_inputs(0.0) == DriveFeedback(2.5, 0.0, False)
+    d.write_outputs(0.001, DriveCommand(3.0, 1.5, 0.0, True))
+    assert d.read_inputs(0.001) == DriveFeedback(3.0, 1.5, True)
+    assert d.read_inputs(0.001) is d.read_inputs(0.001)  # built once per write
+    d.inject_fault(0x5400, "x")
+    fb = d.read_inputs(0.002)
+    assert fb.fault and fb.error_code == 0x5400 and not fb.enabled
+    d.write_outputs(0.003, DriveCommand(3.1, 0.0, 0.0, True, fault_reset=True))
+    assert d.read_inputs(0.003) == DriveFeedback(3.1, 0.0, True)
+    d.set_comm_ok(False)
+    assert not d.read_inputs(0.004).comm_ok
