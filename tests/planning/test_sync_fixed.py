@@ -297,3 +297,30 @@ def test_fallback_kinds() -> None:
         "none+j+phase",
     ):
         assert sync_mod.is_fallback_kind(kind), kind
+
+
+# -- blocked intervals: both methods skip the same durations ---------------------------------
+BLOCK_START = State(p=-0.75, v=1.0, a=0.0)
+BLOCK_TARGET = State(p=0.75, v=1.0, a=0.0)
+BLOCK_LIMITS = Limits(v_max=2.0, a_max=1.0, j_max=1.0)
+BLOCK_T3 = 3.0 + math.sqrt(3.0)  # the blocked interval is (1.6371..., 4.7320...)
+
+
+@pytest.mark.parametrize("t_other", [1.45, 1.55, 1.62, 2.0, 3.0, 4.5, 4.735, 6.0, 10.0])
+def test_blocked_interval_both_methods(t_other: float) -> None:
+    """An axis at a moving target (blocked between 1.637 s and 4.732 s) with a rest-to-rest
+    partner lasting ``t_other``: both methods end at t_other, or at the blocked interval's end
+    when t_other is inside it, with valid profiles."""
+    starts = [BLOCK_START, State()]
+    targets = [BLOCK_TARGET, _rest_move_lasting(t_other)]
+    lims = [BLOCK_LIMITS, JERK_ONLY]
+    case = MultiCase(
+        tuple(Case.from_problem(s, t, lm) for s, t, lm in zip(starts, targets, lims, strict=True)),
+        "time",
+    )
+    expected = BLOCK_T3 if 1.6371 < t_other < BLOCK_T3 else t_other
+    for method in ("direct", "bisection"):
+        traj = plan_sync(starts, targets, lims, method=method)
+        probs = sync_problems(traj, case, NO_ANSWER)
+        assert not probs, f"{method}: " + "; ".join(probs)
+        assert traj.duration == pytest.approx(expected, rel=1e-9), method
