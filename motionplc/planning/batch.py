@@ -8,6 +8,8 @@ immutable :class:`~motionplc.planning.profile.Profile` of one problem.
 
 Dispatch per element:
 
+* rest to rest without a jerk limit (second and first order) is solved in numpy in
+  ``_lower``'s own arithmetic: bit-identical to :func:`plan`.
 * rest to rest (``v0 = a0 = vf = af = 0``, finite ``j_max``; symmetric or asymmetric limits)
   is solved in numpy for all such elements at once (in chunks that stay in the CPU cache),
   with a vectorised choice of the case: no limit reached (four ramps of ``cbrt(|d| / 2J)``),
@@ -18,8 +20,8 @@ Dispatch per element:
   here (a quadratic in the square root of the peak velocity) agree to rounding (measured:
   worst 7e-16 of the duration on 3,000 random asymmetric cases; tests/planning/test_batch.py
   holds them to 1e-12) with the same segments and family name.
-* every other element (a non-zero velocity or acceleration, ``j_max = inf``, zero distance,
-  and the rare rest-to-rest row no closed form accepts) goes through the planning core per
+* every other element (a non-zero velocity or acceleration, zero distance, and the rare
+  rest-to-rest row no closed form accepts) goes through the planning core per
   element (``plan.position_phases``: compiled when the package is built with mypyc), so it is
   :func:`plan`'s result bit for bit.
 
@@ -361,10 +363,11 @@ _KINDS = np.array(
     [
         "none-rest", "none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down",
         "none", "none-down", "acc0", "acc0-down", "acc1", "acc1-down",
+        "second-order", "first-order",
     ],
     dtype=object,
 )  # fmt: skip
-_NR, _VEL, _ACC, _NONE, _ACC0, _ACC1 = 0, 2, 4, 6, 8, 10
+_NR, _VEL, _ACC, _NONE, _ACC0, _ACC1, _SECOND, _FIRST = 0, 2, 4, 6, 8, 10, 12, 13
 
 
 class _Rest(NamedTuple):
@@ -644,6 +647,44 @@ def _families(
     return ok, cols, code, outP, outQ, Vmax
 
 
+def _lower_rest(
+    d: np.ndarray, vmax: np.ndarray, vmin: np.ndarray, amax: np.ndarray, amin: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rest to rest with an infinite jerk limit, as _lower.second_order / first_order write
+    it (the same operations): (4, m) phase durations, jerks (0), exact accelerations and
+    velocities (NaN: none), and the kind codes. Second order: a_max (mirrored: a_min) to the
+    peak velocity, a cruise at the limit if it is reached, the other extreme back to rest, and
+    the acceleration back to 0 at the end; first order: the velocity jumps to its limit."""
+    m = d.shape[0]
+    with np.errstate(all="ignore"):
+        down = d < 0.0
+        D = np.where(down, -d, d)  # _up_second of the mirrored problem where d < 0
+        Vmax = np.where(down, -vmin, vmax)
+        A = np.where(down, -amin, amax)
+        Am = np.where(down, -amax, amin)
+        alpha = 0.5 / A - 0.5 / Am
+        vp = np.sqrt(D / alpha)
+        capped = vp > Vmax
+        vp = np.where(capped, Vmax, vp)
+        d_acc = (vp * vp - 0.0) / (2.0 * A) + (0.0 - vp * vp) / (2.0 * Am)
+        cruise = np.where(capped, np.maximum((D - d_acc) / vp, 0.0), 0.0)
+        t1 = vp / A
+        t3 = (0.0 - vp) / Am
+        s = np.where(down, -1.0, 1.0)
+        first = np.isinf(amax)
+        v_first = np.where(down, vmin, vmax)
+        t_first = d / v_first
+        zero = np.zeros(m)
+        nan = np.full(m, np.nan)
+        dur = np.stack([np.where(first, t_first, t1), np.where(first, 0.0, cruise), t3, zero])
+        dur[2] = np.where(first, 0.0, dur[2])
+        ova = np.stack([s * A, s * 0.0, s * Am, s * 0.0])
+        ova[:, first] = 0.0
+        ovv = np.stack([np.where(first, v_first, nan), nan, nan, np.where(first, 0.0, nan)])
+    code = np.where(first, _FIRST, _SECOND)
+    return dur, np.zeros((4, m)), ova, ovv, code
+
+
 def _seq_sum(cols: tuple[np.ndarray, ...]) -> np.ndarray:
     """_verify's duration: the positive phase durations added left to right. The durations
     here are >= 0 and the first is > 0, so adding the zeros too gives the same bits."""
@@ -767,10 +808,23 @@ def plan_batch(
         nseg[r] = rest.nseg
         code[r] = rest.code
         slow[r] = False
+    # -- rest to rest without a jerk limit: numpy too ----------------------------------------
+    lo = np.flatnonzero(at_rest & ~here & np.isinf(J))
+    lower: tuple[np.ndarray, ...] | None = None
+    if lo.size:
+        *phases_lo, code_lo = _lower_rest(d[lo], VMAX[lo], VMIN[lo], AMAX[lo], AMIN[lo])
+        lower = _integrate_arrays(P0[lo], V0[lo], A0[lo], *phases_lo)
+        too_long = ~(lower[9] <= MAX_DURATION)
+        if too_long.any():
+            k = _first(too_long)
+            raise _too_long(int(lo[k]), float(lower[9][k]))
+        slow[lo] = False
+        code[lo] = code_lo
     # -- every other row through the core, per row --------------------------------------------
     si = np.flatnonzero(slow)
     slow_kinds: list[str] = []
     slow_phases: list[Sequence[tuple[float, ...]]] = []
+    slow_rows: tuple[np.ndarray, ...] | None = None
     if si.size:
         args = [x[si].tolist() for x in (V0, A0, d, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
         for i, v0i, a0i, di, vfi, afi, vmax, vmin, amax, amin, jm, p0i, pfi in zip(
@@ -810,21 +864,24 @@ def plan_batch(
         for q in range(3):
             out[3 + q, fr, MIN_WIDTH:] = end[q, fr, None]
     kinds = _KINDS[code]
-    if si.size:
-        kt, kd, kj, kp, kv, ka, pe, ve, ae, te, cnt = slow_rows
+    for rows, res in ((lo, lower), (si, slow_rows)):
+        if res is None:
+            continue
+        kt, kd, kj, kp, kv, ka, pe, ve, ae, te, cnt = res
         w = kt.shape[1]
         for q, x in enumerate((kt, kd, kj, kp, kv, ka)):
-            out[q, si, :w] = x
+            out[q, rows, :w] = x
         if w < width:  # padding: start time = duration, no duration or jerk, end state
-            out[0, si, w:] = te[:, None]
-            out[1, si, w:] = 0.0
-            out[2, si, w:] = 0.0
-            out[3, si, w:] = pe[:, None]
-            out[4, si, w:] = ve[:, None]
-            out[5, si, w:] = ae[:, None]
-        nseg[si] = cnt
-        total[si] = te
-        end[0, si], end[1, si], end[2, si] = pe, ve, ae
+            out[0, rows, w:] = te[:, None]
+            out[1, rows, w:] = 0.0
+            out[2, rows, w:] = 0.0
+            out[3, rows, w:] = pe[:, None]
+            out[4, rows, w:] = ve[:, None]
+            out[5, rows, w:] = ae[:, None]
+        nseg[rows] = cnt
+        total[rows] = te
+        end[0, rows], end[1, rows], end[2, rows] = pe, ve, ae
+    if si.size:
         kinds[si] = slow_kinds
     return BatchPlan(*out, nseg, total, (end[0], end[1], end[2]), kinds.tolist())
 
@@ -856,6 +913,20 @@ def _integrate_phases(
     jerk[col, row] = [ph[1] for ph in flat]
     ova[col, row] = [ph[2] if len(ph) > 2 else nan for ph in flat]
     ovv[col, row] = [ph[3] if len(ph) > 3 else nan for ph in flat]
+    return _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
+
+
+def _integrate_arrays(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    dur: np.ndarray,
+    jerk: np.ndarray,
+    ova: np.ndarray,
+    ovv: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """:func:`_integrate_phases` for phases given as (L, m) arrays (no exact value: NaN)."""
+    L, m = dur.shape
     kt = np.empty((L + 1, m))
     kp = np.empty((L + 1, m))
     kv = np.empty((L + 1, m))

@@ -152,6 +152,16 @@ def test_rest_to_rest_random_equals_plan(asymmetric: bool, summary: Callable[[st
         assert {"acc0", "acc1", "none"} <= {k.removesuffix("-down") for k in kinds}
 
 
+def test_rest_to_rest_without_jerk_limit_equals_plan_bit_for_bit() -> None:
+    """Second order (one in seven also without an acceleration limit: first order)."""
+    cases = []
+    for k, c in enumerate(_rest(np.random.default_rng(151), 1500, True)):
+        a = (INF, None) if k % 7 == 0 else (c.a_max, c.a_min)
+        cases.append(Case(c.p0, 0.0, 0.0, c.pf, 0.0, 0.0, c.v_max, a[0], INF, c.v_min, a[1]))
+    b = _assert_batch_equals_plan(cases)
+    assert set(b.kind) == {"second-order", "first-order"}
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [
