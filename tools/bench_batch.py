@@ -29,6 +29,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -106,7 +107,7 @@ def timed(fn: Callable[[], object]) -> float:
         gc.enable()
 
 
-def bench(kind: str, n: int, args: argparse.Namespace, rk: object) -> dict[str, float]:
+def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, float]:
     if kind == "general":
         cases = generate_cases(n, args.seed)
     else:
@@ -117,8 +118,8 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: object) -> dict[str, 
     res: dict[str, list[float]] = {"batch": [], "ruckig": [], "plan": []}
     inputs = [c.ruckig_input(rk) for c in cases] if rk is not None else []
     if rk is not None:
-        otg = rk.Ruckig(1)  # type: ignore[attr-defined]
-        traj = rk.Trajectory(1)  # type: ignore[attr-defined]
+        otg = rk.Ruckig(1)
+        traj = rk.Trajectory(1)
     for _ in range(args.repeat):
         res["batch"].append(timed(lambda: plan_batch(*cols)) / n)
         if rk is not None:

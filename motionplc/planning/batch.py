@@ -745,7 +745,7 @@ def plan_batch(
     if a_min is not None:
         raw.append(_as_array("a_min", a_min))
     try:
-        arrs = np.broadcast_arrays(*raw)
+        wide = np.broadcast_arrays(*raw)
     except ValueError as exc:
         shapes = ", ".join(f"{x.shape}" for x in raw)
         raise PlanningError(
@@ -753,7 +753,7 @@ def plan_batch(
             f"{', '.join(names)}{', v_min' if v_min is not None else ''}"
             f"{', a_min' if a_min is not None else ''})"
         ) from exc
-    arrs = [np.atleast_1d(x) for x in arrs]
+    arrs = [np.atleast_1d(x) for x in wide]
     P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
     for nm, x in zip(names[:6], arrs[:6], strict=True):
         _check_state(nm, x)
@@ -883,7 +883,10 @@ def plan_batch(
         end[0, rows], end[1, rows], end[2, rows] = pe, ve, ae
     if si.size:
         kinds[si] = slow_kinds
-    return BatchPlan(*out, nseg, total, (end[0], end[1], end[2]), kinds.tolist())
+    return BatchPlan(
+        out[0], out[1], out[2], out[3], out[4], out[5], nseg, total, (end[0], end[1], end[2]),
+        kinds.tolist(),
+    )  # fmt: skip
 
 
 def _integrate_phases(
