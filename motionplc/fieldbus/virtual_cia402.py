@@ -454,8 +454,8 @@ class VirtualCia402Drive:
             network.send_message(cob_id, codec.pack(values))
 
     def flush_emcy(self) -> None:
-        if self.node.nmt.state == "STOPPED":
-            return
+        if not self.device.pending_emcy or self.node.nmt.state == "STOPPED":
+            return  # (nothing pending: the common cycle, without the NMT state look-up)
         for code, register in self.device.pop_emcy():
             self.node.emcy.send(code, register)
 
