@@ -734,23 +734,29 @@ def solve(
     if ph is not None:
         return ph, "none-j"
     down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, T)
-    for fam, name in _MIRRORED:
+    for fam, name in _ORDER:
+        if fam is cruise_free_velocity:  # covers both orientations itself
+            ph = fam(*up)
+            if ph is not None:
+                return ph, name
+            continue
         ph = fam(*up)
         if ph is not None:
             return ph, name
         ph = fam(*down)
         if ph is not None:
             return [_mirror(x) for x in ph], name + "-down"
-    ph = cruise_free_velocity(*up)
-    if ph is not None:
-        return ph, "cruise-vp"
     return None
 
 
-# the families tried in both orientations, after none_free_jerk (which covers both itself)
-_MIRRORED = (
+# The families after none_free_jerk (which covers both orientations itself), by how often
+# they answer the benchmark's random cases and what a miss costs: none-j 89 %, cruise-vp 6 %,
+# vel-j 2.3 %, acc0_acc1-j 1.6 %, acc0-j 0.5 %, acc1-j 0.2 % of the slowed axes; the cheap
+# closed forms first, the sampled residuals last.
+_ORDER: tuple[tuple[Callable[..., Phases | None], str], ...] = (
     (vel_free_jerk, "vel-j"),
     (acc0_acc1_free_jerk, "acc0_acc1-j"),
+    (cruise_free_velocity, "cruise-vp"),
     (acc0_free_jerk, "acc0-j"),
     (acc1_free_jerk, "acc1-j"),
 )
