@@ -51,6 +51,7 @@ def _sources() -> list[str]:
     return [m.replace(".", "/") + ".py" for m in COMPILED_MODULES]
 
 
+@functools.cache  # taken when mypyc reads the sources: an edit during the build voids it
 def _digests() -> dict[str, str]:
     return {
         m: hashlib.sha256((ROOT / src).read_bytes()).hexdigest()
@@ -68,12 +69,16 @@ def _ext_modules() -> list:
     except Exception as exc:  # noqa: BLE001 - any failure means: no compiled core
         _warn(f"mypyc is not available ({type(exc).__name__}: {exc})")
         return []
+    _digests()
     cwd = os.getcwd()
     try:
         os.chdir(ROOT)  # mypyc takes the module names from the paths relative to here
         exts = mypycify(
             [
                 "--follow-imports=silent",  # type-check the compiled modules only
+                # numpy is not in the isolated build environment; profile.py's numpy code
+                # (Profile.sample) then stays generic Python calls
+                "--ignore-missing-imports",
                 f"--cache-dir={os.devnull}",
                 *_sources(),
             ],
@@ -112,6 +117,10 @@ class OptionalBuildExt(build_ext):
         super().finalize_options()
 
     def run(self) -> None:
+        if self.inplace or self.editable_mode:
+            # the in-tree manifest of an earlier build is void until this one succeeds: a
+            # build that ends in pure Python must not leave the earlier extensions in use
+            (ROOT / MANIFEST).unlink(missing_ok=True)
         if not self.extensions:
             return
         try:
@@ -155,6 +164,7 @@ class OptionalBuildExt(build_ext):
 
 def _placeholder() -> list[Extension]:
     if os.environ.get("MOTIONPLC_NO_MYPYC", "") not in ("", "0"):
+        (ROOT / MANIFEST).unlink(missing_ok=True)  # extensions of an earlier build: unused
         return []
     return [Extension(f"{GROUP}__mypyc", sources=[])]
 
