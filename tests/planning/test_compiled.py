@@ -25,8 +25,10 @@ import ast
 import json
 import math
 import os
+import shutil
 import subprocess
 import sys
+import sysconfig
 from collections.abc import Callable
 from dataclasses import FrozenInstanceError
 from pathlib import Path
@@ -131,6 +133,19 @@ def test_status_matches_the_loaded_modules(summary: Callable[[str], None]) -> No
         assert file.endswith(".py") != STATUS.compiled, (name, file, STATUS)
     assert COMPILED is STATUS.compiled
     summary(f"planning core: {STATUS.reason}")
+
+
+@pytest.mark.skipif(os.environ.get("CI") != "true", reason="checked on CI only (CI=true)")
+def test_ci_uses_the_compiled_core() -> None:
+    """Where a C compiler exists, CI's install compiled the core (no silent fallback)."""
+    cc = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    if shutil.which(cc) is None:
+        pytest.skip(f"no C compiler {cc!r}: the pure-Python fallback is expected")
+    if os.environ.get("MOTIONPLC_NO_MYPYC", "") not in ("", "0"):
+        pytest.skip("MOTIONPLC_NO_MYPYC is set")
+    if os.environ.get(_purepy.ENV_PURE, "") not in ("", "0"):
+        pytest.skip(f"{_purepy.ENV_PURE} is set")
+    assert STATUS.compiled, STATUS.reason
 
 
 def test_switch_loads_the_sources() -> None:
