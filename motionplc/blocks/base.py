@@ -241,10 +241,12 @@ class ExecuteFB(FunctionBlock):
 
     def __call__(self, **inputs: Any) -> Any:
         """One scan (see :meth:`FunctionBlock.__call__`). The common scans of a long-lived FB
-        (no keyword inputs, its axis registered, no Execute edge, idle or still in the same
-        busy state) run the fast paths of :meth:`_scan` here, one call less per scan."""
-        if inputs or self.axis is not self._registered or not self._inline_scan:
-            return FunctionBlock.__call__(self, **inputs)
+        (its axis registered, no Execute edge, idle or still in the same busy state) run the
+        fast paths of :meth:`_scan` here, one call less per scan."""
+        if inputs:
+            self._set_inputs(inputs)
+        if self.axis is not self._registered or not self._inline_scan:
+            return FunctionBlock.__call__(self)
         try:
             ex = bool(self.execute)
             if ex is self._prev_execute:
@@ -382,19 +384,20 @@ class EnableFB(FunctionBlock):
 
     def __call__(self, **inputs: Any) -> Any:
         """One scan (see :meth:`FunctionBlock.__call__`). The steady scan of a long-lived FB
-        (no keyword inputs, its axis registered, enabled and valid without error) runs the
-        path of :meth:`_scan` for that case here, one call less per scan."""
+        (its axis registered, enabled and valid without error) runs the path of
+        :meth:`_scan` for that case here, one call less per scan."""
+        if inputs:
+            self._set_inputs(inputs)
         axis = self.axis
         if (
-            inputs
-            or axis is not self._registered
+            axis is not self._registered
             or not self._inline_scan
             or axis is None
             or not self.enable
             or not self.valid
             or self.error
         ):
-            return FunctionBlock.__call__(self, **inputs)
+            return FunctionBlock.__call__(self)
         try:
             try:
                 self._update(axis)
