@@ -7,6 +7,21 @@
     python tools/bench_runtime.py --cpu 1 --mlock # pinned to CPU 1, memory locked (if allowed)
     python tools/bench_runtime.py --rss-cycles 1000000 --rss-axes 8 --no-rt --axes
                                                   # resident memory after 1,000,000 cycles
+    python tools/bench_runtime.py --no-rt --axes 8 --drives can  # virtual CiA 402 over CAN
+    python tools/bench_runtime.py --against a5addda --axes 8 --repeats 7 --base-calls kw
+                                  # before/after in one run: a worktree of the commit
+                                  # (keyword FB calls, the program before issue 15) and
+                                  # this checkout (attribute calls), alternately
+
+Issue 15 (a leaner cycle): ``--calls attr`` (default) sets the FB inputs as attributes when
+they change and calls every FB as ``fb()``; ``--calls kw`` passes them as keywords every scan
+(the program as it was). ``--drives can`` puts every axis on a virtual CiA 402 drive behind
+our CANopen master on one in-process python-can ``virtual`` bus (lockstep, one SYNC per
+cycle; positions and limits scaled by 0.01). ``--against REF`` measures each side in its own
+process importing ``motionplc`` from its own tree, ``--repeats`` pairs, and prints the
+medians of the cycles per CPU-second and the median ratio (the machine is shared: ratios of
+one run, never absolute figures of different runs). Targets (simulated clock, 8 axes):
+>= 40,000 cycles/s with ideal drives (18,000 before), >= 10,000 with virtual CAN drives.
 
 Every axis runs an endless blended sequence of MC_MoveAbsolute blocks (BlendingLow between
 0 -> 400 -> 1000 and back, jerk-limited), with MC_Power and MC_ReadStatus called every scan,
