@@ -844,9 +844,13 @@ def test_found_fixed_duration_shapes(
 ) -> None:
     case = _multi(starts, targets, lims, dt=dt)
     answer = sync_oracle.solve(case)
-    traj = _check(case, answer)
-    assert traj.profiles[1].kind == kind
+    traj = _check(case, answer)  # the default method (closed forms first) may find another
     assert traj.duration == pytest.approx(answer.duration, rel=1e-9, abs=1e-9)
+    # the fallback of the bisection method still needs and finds this shape
+    old = plan_sync(case.starts(), case.targets(), case.limits(), dt=dt, method="bisection")
+    assert not sync_problems(old, case, answer)
+    assert old.profiles[1].kind == kind
+    assert old.duration == pytest.approx(traj.duration, rel=0, abs=END_SPREAD_TOL)
 
 
 def test_replanned_cruise_of_a_long_stretch() -> None:
@@ -865,4 +869,5 @@ def test_replanned_cruise_of_a_long_stretch() -> None:
     mids = [State(s.p, s.v, s.a) for s in old.at(t)]
     new = _check(_multi(mids, targets, lims))
     assert new.duration == pytest.approx(old.duration - t, abs=1e-9)
-    assert new.profiles[0].kind == "cruise-sync"
+    # a cruise at a free velocity: solved in closed form (cruise-vp) or by the scan
+    assert new.profiles[0].kind in ("cruise-vp", "cruise-sync")
