@@ -330,6 +330,37 @@ class Axis:
         else:
             _PACK_ROW(buf, offset, *self.trace_values())
 
+    def trace_cycle(self, buf: Any, offset: int, trace: Trace | None, cycle: int) -> None:
+        """The runtime's per-cycle trace call: :meth:`pack_trace`, then (``trace`` not None)
+        :meth:`emit_fb_edges` (one call per axis and cycle)."""
+        if self._modulo is None:
+            _PACK_ROW(
+                buf,
+                offset,
+                self.p,
+                self.v,
+                self.a,
+                self.j,
+                self.act_p,
+                self.act_v,
+                self.following_error,
+                self.state,
+            )
+        else:
+            _PACK_ROW(buf, offset, *self.trace_values())
+        if trace is None:
+            return
+        if self._warning_edges:
+            self.emit_fb_edges(trace, cycle)
+            return
+        for fb in self.fbs:  # emit_fb_edges, inline
+            if fb._dirty:
+                bits = fb._get_outputs(fb)
+                if bits != fb._traced_bits:
+                    fb._emit_edges(trace, cycle, bits)
+                else:
+                    fb._dirty = False
+
     def open(self) -> None:
         """Open the drive and take its position as the initial set position."""
         self.drive.open()

@@ -512,15 +512,14 @@ class Runtime:
         buf, off = trace.reserve_row()
         _PACK_HEAD(buf, off, k, t_virtual)
         off += 16
+        edges = trace if self.trace_edges else None
         for ax in self._axis_list:
-            ax.pack_trace(buf, off)
+            ax.trace_cycle(buf, off, edges, k)  # its row part, then its FB edges
             off += _AXIS_ROW
         for g in self._group_list:
             _GROUP_PACK(buf, off, *g.trace_values())
             off += _GROUP_ROW
-        if self.trace_edges:
-            for ax in self._axis_list:
-                ax.emit_fb_edges(trace, k)
+        if edges is not None:
             for g in self._group_list:
                 g.emit_fb_edges(trace, k)
 
