@@ -250,8 +250,13 @@ def test_planning_suite_in_pure_python(summary: Callable[[str], None]) -> None:
         text=True,
         cwd=ROOT,
     )
-    tail = res.stdout[-4000:] + res.stderr[-2000:]
-    assert res.returncode == 0, tail
+    failed = [ln for ln in res.stdout.splitlines() if ln.startswith(("FAILED", "ERROR"))]
+    last = res.stdout.strip().splitlines()[-1:] or ["(no output)"]
+    assert res.returncode == 0, (
+        "the planning suite fails in pure-Python mode (MOTIONPLC_PURE_PYTHON=1):\n"
+        + "\n".join(failed + last)
+        + ("\n" + res.stderr[-2000:] if res.stderr.strip() else "")
+    )
     summary(f"pure-Python planning suite: {res.stdout.strip().splitlines()[-1]}")
 
 
