@@ -9,7 +9,7 @@ from typing import SupportsFloat
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _lower, _third, _velocity
 from motionplc.planning.limits import STATE_MAX, Limits
-from motionplc.planning.profile import Profile
+from motionplc.planning.profile import Profile, new_state
 from motionplc.planning.state import State
 
 _INF = math.inf
@@ -118,14 +118,14 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
         )
     _check_target_va(vf, af, lim)
     if arrived(p0, v0, a0, pf, vf, af):
-        return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
+        return Profile(new_state(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     try:
         T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
     except ArithmeticError as exc:
         raise _internal("plan", exc, f"start={start!r}, target={target!r}, {lim!r}") from exc
     if not T <= MAX_DURATION:
         _check_duration(T, f"start={start!r}, target={target!r}, {lim!r}")
-    return Profile(State(p0, v0, a0), phases, kind)
+    return Profile(new_state(p0, v0, a0), phases, kind)
 
 
 def arrived(p0: float, v0: float, a0: float, pf: float, vf: float, af: float) -> bool:
@@ -216,7 +216,7 @@ def plan_velocity(
         raise PlanningError(f"a_target = {af!r} is outside the allowed range [{amin}, {amax}]")
     J = lim.j_max
     if arrived(0.0, v0, a0, 0.0, vf, af):
-        return Profile(State(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
+        return Profile(new_state(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     if J == _INF and af != 0.0:
         raise PlanningError(
             f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
@@ -229,7 +229,7 @@ def plan_velocity(
         ) from exc
     if not T <= MAX_DURATION:
         _check_duration(T, f"start={start!r}, v_target={vf!r}, {lim!r}")
-    prof = Profile(State(p0, v0, a0), phases, kind)
+    prof = Profile(new_state(p0, v0, a0), phases, kind)
     if not -_INF < prof.end.p < _INF:
         raise PlanningError(
             f"plan_velocity: the end position {prof.end.p!r} is not finite for start={start!r}, "

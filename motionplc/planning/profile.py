@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from motionplc._fastinit import Setter, slot_setters
 from motionplc.planning.state import State
 
 
@@ -51,6 +52,30 @@ class Knot(NamedTuple):
     v: float
     a: float
     j: float
+
+
+def _state_setters() -> tuple[Setter, ...]:
+    try:
+        return slot_setters(State, ("p", "v", "a"))[0]
+    except TypeError:  # State is no longer a plain slotted (p, v, a): use its constructor
+        return ()
+
+
+_STATE_SETTERS = _state_setters()
+
+
+def new_state(p: float, v: float, a: float) -> State:
+    """``State(p, v, a)``: an equal instance built without the dataclass ``__init__`` (State
+    has no validation to skip), at about half the cost; the constructor itself if State's
+    fields ever change (``motionplc._fastinit``)."""
+    setters = _STATE_SETTERS
+    if not setters:
+        return State(p, v, a)
+    s = object.__new__(State)
+    setters[0](s, p)
+    setters[1](s, v)
+    setters[2](s, a)
+    return s
 
 
 # A phase as given to the builder: (duration, jerk) continues the state; a third element sets
@@ -118,7 +143,7 @@ class Profile:
         object.__setattr__(self, "_a", tuple(as_))
         object.__setattr__(self, "_j", tuple(js))
         object.__setattr__(self, "_d", tuple(ds))
-        object.__setattr__(self, "_end", State(p, v, a))
+        object.__setattr__(self, "_end", new_state(p, v, a))
         object.__setattr__(self, "_kind", kind)
         object.__setattr__(self, "duration", t)
 
