@@ -133,14 +133,37 @@ def send_frame(bus: can.BusABC, msg: can.Message, timeout: float | None = None) 
 
 
 def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> FastMessage:
-    """A classic (non-FD) data or remote frame, as ``canopen.Network.send_message`` builds it."""
-    return FastMessage(
-        arbitration_id=can_id,
-        is_extended_id=can_id > 0x7FF,
-        data=data,
-        is_remote_frame=remote,
-        check=False,
-    )
+    """A classic (non-FD) data or remote frame, as ``canopen.Network.send_message`` builds it:
+    the fields ``can.Message(arbitration_id=can_id, is_extended_id=can_id > 0x7FF, data=data,
+    is_remote_frame=remote)`` sets, set directly (once per frame on the cyclic path)."""
+    if remote or data is None:
+        frame = bytearray()
+    elif type(data) is bytearray:
+        frame = data
+    elif type(data) is bytes:
+        frame = bytearray(data)
+    else:  # anything else: python-can's own conversion (and its error)
+        return FastMessage(
+            arbitration_id=can_id,
+            is_extended_id=can_id > 0x7FF,
+            data=data,
+            is_remote_frame=remote,
+            check=False,
+        )
+    msg = _new(FastMessage)
+    msg.timestamp = 0.0
+    msg.arbitration_id = can_id
+    msg.is_extended_id = can_id > 0x7FF
+    msg.is_remote_frame = remote
+    msg.is_error_frame = False
+    msg.channel = None
+    msg.is_fd = False
+    msg.is_rx = True
+    msg.bitrate_switch = False
+    msg.error_state_indicator = False
+    msg.data = frame
+    msg.dlc = len(frame)
+    return msg
 
 
 def drain(bus: can.BusABC) -> list[can.Message]:

@@ -126,6 +126,29 @@ def test_send_frame_hands_other_buses_and_messages_to_send() -> None:
     assert sent == [(m1, 0.5)]
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    can_id=st.integers(0, 0x1FFFFFFF),
+    data=st.one_of(st.binary(max_size=8), st.binary(max_size=8).map(bytearray)),
+    remote=st.booleans(),
+)
+def test_make_message_sets_what_the_message_constructor_sets(
+    can_id: int, data: bytes | bytearray, remote: bool
+) -> None:
+    want = can.Message(
+        arbitration_id=can_id, is_extended_id=can_id > 0x7FF, data=data, is_remote_frame=remote
+    )
+    got = fastcan.make_message(can_id, data, remote)
+    assert type(got) is fastcan.FastMessage
+    assert _fields(got) == _fields(want) and got.timestamp == want.timestamp
+    assert type(got.data) is bytearray
+    if isinstance(data, bytearray) and not remote:
+        assert got.data is data  # as can.Message: a bytearray is taken as it is
+    assert got.equals(want, timestamp_delta=None)
+    other = fastcan.make_message(can_id, memoryview(bytes(data)), remote)  # python-can's path
+    assert _fields(other) == _fields(want)
+
+
 def test_canopen_feedback_builder_equals_the_constructor() -> None:
     assert canopen_drive._feedback is not DriveFeedback  # the builder is in use
     values = (1.5, -0.25, True, False, 0, True, "", False, "", False, "EMCY 0x4210")
