@@ -190,7 +190,11 @@ def test_stretched_axis_property(problem: tuple[State, State, Limits], stretch: 
     ``stretch`` x its minimum: both methods give the same duration (or both skip to the same
     end of a blocked interval), every axis valid and at its target."""
     start, target, lim = problem
-    t_min = plan(start, target, lim).duration
+    try:
+        t_min = plan(start, target, lim).duration
+    except PlanningError as exc:  # limits far too small for the state: refused alike by both
+        assume("beyond the supported" not in str(exc))
+        raise
     t_other = max(stretch * t_min, 1e-3)
     assume(t_other < 2e3)
     starts = [start, State()]
