@@ -288,6 +288,18 @@ def package_version() -> str:
         return motionplc.__version__
 
 
+class _VersionAction(argparse.Action):
+    """``--version``: the version and which planning core runs (mypyc-compiled or the Python
+    sources, and why), worked out only when asked."""
+
+    def __call__(self, parser: argparse.ArgumentParser, *_: Any, **__: Any) -> None:
+        import motionplc
+
+        core = motionplc.compiled_core()
+        print(f"motionplc {package_version()} (planning core: {core.reason})")
+        parser.exit()
+
+
 # ---------------------------------------------------------------------------- plan
 def _cmd_plan(args: argparse.Namespace) -> int:
     from motionplc.planning import Limits, State, plan
@@ -1042,7 +1054,12 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXIT_CODES_HELP,
         parents=[common],
     )
-    parser.add_argument("--version", action="version", version=f"motionplc {package_version()}")
+    parser.add_argument(
+        "--version",
+        action=_VersionAction,
+        nargs=0,
+        help="print the version and the planning core in use (compiled or pure Python)",
+    )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def command(name: str, help_text: str) -> argparse.ArgumentParser:

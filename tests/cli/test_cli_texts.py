@@ -74,7 +74,12 @@ def test_plan_help_lists_defaults_and_units(capsys: pytest.CaptureFixture[str]) 
 
 def test_version(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["--version"]) == 0
-    assert capsys.readouterr().out == f"motionplc {metadata.version('motionplc')}\n"
+    import motionplc
+
+    core = motionplc.compiled_core().reason
+    assert capsys.readouterr().out == (
+        f"motionplc {metadata.version('motionplc')} (planning core: {core})\n"
+    )
 
 
 def test_singular_and_plural(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
