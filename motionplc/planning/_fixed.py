@@ -467,7 +467,7 @@ def acc0_acc1_free_jerk(
         q3 = k2 / k3 - far
         q2 = k1 / k3 - far * k2 / k3
         q1 = k0 / k3 - far * k1 / k3
-        q0 = -far * k0 / k3
+        q0 = 10.0 * k0 / k3  # -far (spelled out: mypyc folds -far into C's "--10.0")
         roots = quartic_roots_in(q3, q2, q1, q0, 0.0, 3.0)
     else:
         roots = [u for u in quadratic_roots(k2, k1, k0) if 0.0 <= u <= 3.0]
