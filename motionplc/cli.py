@@ -867,13 +867,20 @@ def _write_trace(path: Path, rt: Any) -> None:
             rt.trace.to_parquet(path, events_path=events)
         else:
             rt.trace.to_csv(path, events_path=events)
+        written = [events]
+        if not parquet:  # the units of a CSV are in a sidecar (Parquet: schema metadata)
+            from motionplc.runtime.trace import units_sidecar_path
+
+            units = units_sidecar_path(path)
+            if units.is_file() and rt.trace.units:
+                written.append(units)
         if rt.groups:
-            sidecar = scope.write_groups_sidecar(
-                path, {n: list(g.axis_names) for n, g in rt.groups.items()}
+            written.append(
+                scope.write_groups_sidecar(
+                    path, {n: list(g.axis_names) for n, g in rt.groups.items()}
+                )
             )
-            also = f", {events} and {sidecar}"
-        else:
-            also = f" and {events}"
+        also = "".join(f", {w}" for w in written[:-1]) + f" and {written[-1]}"
     tr = rt.trace
     kept = ""
     if tr.dropped_rows or tr.dropped_events:

@@ -67,7 +67,9 @@ def test_sequence_with_group_blocks_runs_and_writes_the_sidecar(
     out = capsys.readouterr().out
     sidecar = tmp_path / "out" / "t.groups.json"
     assert json.loads(sidecar.read_text()) == {"groups": {"xy": ["x", "y"], "uv": ["u", "v"]}}
-    assert f"{tmp_path / 'out' / 't.events.csv'} and {sidecar}" in out
+    units = tmp_path / "out" / "t.units.json"
+    assert json.loads(units.read_text())["units"]["x.position"] == "m"
+    assert f"{tmp_path / 'out' / 't.events.csv'}, {units} and {sidecar}" in out
     # the summary has a line per group: members, moves done, final state
     assert re.search(r"^xy\s+x,y\s+4\s+GROUP_STANDBY\s*$", out, re.M), out
     assert re.search(r"^uv\s+u,v\s+0\s+GROUP_DISABLED\s*$", out, re.M), out
