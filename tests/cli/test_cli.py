@@ -49,7 +49,12 @@ def test_demo_run_writes_trace_and_plots(
     assert main(["plot", str(trace), "-o", str(tmp_path / "again.png")]) == 0
     assert main(["plot", str(trace), "-o", str(tmp_path / "scope.html")]) == 0
     page = (tmp_path / "scope.html").read_text()
-    assert "<svg" in page and "axis x" in page and "mx1" in page
+    from tests.cli.test_scope import plotly_figure
+
+    data, layout, _ = plotly_figure(page)  # the figure itself, not plotly.js' own source
+    names = {d.get("name") for d in data}
+    assert {"x.position", "x.actual_position", "y.position", "x.following_error"} <= names
+    assert "axis x" in repr(layout) and "mx1" in repr([data, layout])
 
 
 def test_validate_ok(capsys: pytest.CaptureFixture[str]) -> None:

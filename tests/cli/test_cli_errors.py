@@ -192,7 +192,11 @@ def test_long_run_writes_the_kept_cycles_and_says_what_was_dropped(
     lines = trace.read_text().splitlines()
     assert len(lines) == kept + 1 and lines[1].split(",")[0] == str(dropped)
     assert main(["plot", str(trace), "-o", str(tmp_path / "t.html")]) == 0
-    assert "<svg" in (tmp_path / "t.html").read_text()
+    from tests.cli.test_scope import plotly_figure
+
+    data, _, _ = plotly_figure((tmp_path / "t.html").read_text())
+    (pos,) = [d for d in data if d.get("name") == "x.position"]
+    assert pos["x"][0] == pytest.approx(dropped * 0.001)  # the plot starts where the trace does
 
 
 RAISING_PROGRAM = """\
