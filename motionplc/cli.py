@@ -190,23 +190,19 @@ def _reason(exc: BaseException) -> str:
 
 def _yaml_line(path: str | Path, keys: Sequence[str]) -> int:
     """The line of the deepest of ``keys`` (a path of mapping keys) found in the YAML file
-    ``path``; 1 if the file cannot be read."""
-    import yaml
+    ``path`` (read by the configuration loader, which records every key's line); 1 if the file
+    cannot be read."""
+    from motionplc.config import YamlMap, load_yaml
 
     try:
-        node = yaml.compose(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, yaml.YAMLError):
+        node = load_yaml(path)
+    except MotionPlcError:
         return 1
     line = 1
     for key in keys:
-        if not isinstance(node, yaml.MappingNode):
+        if not isinstance(node, YamlMap) or key not in node:
             break
-        for k, v in node.value:
-            if isinstance(k, yaml.ScalarNode) and k.value == key:
-                line, node = k.start_mark.line + 1, v
-                break
-        else:
-            break
+        line, node = node.key_lines[key], node[key]
     return line
 
 

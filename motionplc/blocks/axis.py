@@ -311,28 +311,10 @@ class Axis:
         # the state as a plain float: numpy converts an IntEnum member much more slowly
         return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, float(self.state))
 
-    def pack_trace(self, buf: Any, offset: int) -> None:
-        """Write :meth:`trace_values` as eight float64 into ``buf`` at byte ``offset`` (the
-        trace's staging row; no tuple is built)."""
-        if self._modulo is None:
-            _PACK_ROW(
-                buf,
-                offset,
-                self.p,
-                self.v,
-                self.a,
-                self.j,
-                self.act_p,
-                self.act_v,
-                self.following_error,
-                self.state,
-            )
-        else:
-            _PACK_ROW(buf, offset, *self.trace_values())
-
     def trace_cycle(self, buf: Any, offset: int, trace: Trace | None, cycle: int) -> None:
-        """The runtime's per-cycle trace call: :meth:`pack_trace`, then (``trace`` not None)
-        :meth:`emit_fb_edges` (one call per axis and cycle)."""
+        """The runtime's per-cycle trace call: :meth:`trace_values` packed as eight float64 into
+        ``buf`` at byte ``offset`` (the trace's staging row; no tuple built on a linear axis),
+        then (``trace`` not None) :meth:`emit_fb_edges` (one call per axis and cycle)."""
         if self._modulo is None:
             _PACK_ROW(
                 buf,
