@@ -117,6 +117,32 @@ class Source(Enum):
     ACTUAL_VALUE = "actual"
 
 
+class StartMode(Enum):
+    """MC_START_MODE (MC_CamIn): how the slave's table position is taken at engagement."""
+
+    ABSOLUTE = "absolute"  # the table value as it is (the slave jumps if not on the table)
+    RELATIVE = "relative"  # the table is shifted so that it starts at the slave's position
+    RAMP_IN = "ramp_in"  # flying coupling: the slave is brought onto the table jerk-limited
+
+
+class SyncMode(Enum):
+    """MC_SYNC_MODE (MC_GearInPos): how the slave catches the sync point."""
+
+    SHORTEST = "shortest"  # the time-optimal catch-up
+    CATCH_UP = "catch_up"  # faster than the master's ratio first (never slower)
+    SLOW_DOWN = "slow_down"  # slower than the master's ratio first (never faster)
+
+
+class JogMode(Enum):
+    """MC_Jog mode (as Beckhoff's MC_JOGMODE_*)."""
+
+    STANDARD_SLOW = "standard_slow"  # the axis' slow jog velocity while the button is held
+    STANDARD_FAST = "standard_fast"  # the axis' fast jog velocity while the button is held
+    CONTINUOUS = "continuous"  # the FB's Velocity while the button is held
+    INCHING = "inching"  # one step of the FB's Position (distance) per rising edge
+    INCHING_MODULO = "inching_modulo"  # one step to the next multiple of Position
+
+
 class ErrorID(NamedIntEnum):
     """FB ErrorID values (WORD compatible), grouped as in the spec notes 5.6.
 
@@ -167,6 +193,20 @@ class ErrorID(NamedIntEnum):
     INVALID_CIRCLE = 0x1013  # MC_MoveCircular*: the points define no arc (collinear, radius)
     INVALID_POINTS = 0x1014  # passing points: fewer than 2 distinct, wrong dimension
     NOT_INTERRUPTED = 0x2220  # MC_GroupContinue without an interrupted motion
+    # master/slave, cams, parameters, jog, touch probe (PLCopen Part 1/2 completeness)
+    INVALID_MASTER = 0x1015  # Master not connected / not an Axis / the slave itself / a cycle
+    INVALID_RATIO = 0x1016  # gear ratio: denominator 0, numerator out of range
+    INVALID_CAM_TABLE = 0x1017  # cam table malformed, or a CamTableID not from MC_CamTableSelect
+    # the cam (or gear) at the master's speed would exceed the slave's v/a/j limits
+    SLAVE_LIMITS_EXCEEDED = 0x1018
+    INVALID_PARAMETER_NUMBER = 0x1019  # unknown ParameterNumber (or not on this drive)
+    PARAMETER_READ_ONLY = 0x101A  # MC_WriteParameter on a read-only parameter
+    INVALID_PARAMETER_VALUE = 0x101B  # the value is outside the parameter's range / type
+    INVALID_JOG_MODE = 0x101C  # MC_Jog: both directions at once, unknown mode
+    INVALID_TRIGGER = 0x101D  # touch probe: no such trigger input, bad window
+    INVALID_SYNC_MODE = 0x101E  # GearInPos / CamIn: SyncMode / StartMode out of range
+    INVALID_SCALING = 0x101F  # CamIn: master/slave scaling 0 or not finite
+    NOT_SYNCHRONIZED = 0x2230  # GearOut / CamOut / Phasing on an axis not a synchronized slave
     QUEUE_FULL = 0x3001
     BLENDING_NOT_SUPPORTED_BY_PREVIOUS = 0x3002
     AXIS_ERROR_STOP = 0x4000  # the axis went to ErrorStop while this FB was busy
@@ -177,6 +217,8 @@ class ErrorID(NamedIntEnum):
     WATCHDOG = 0x4005
     POWER_LOST = 0x4006
     HOMING_FAILED = 0x4007
+    # a drive parameter (SDO / Modbus register) could not be read or written
+    DRIVE_PARAMETER_FAILED = 0x400F
     # fieldbus failures, one per failure mode (motionplc.blocks.drive_errors maps the feedback)
     BUS_OFF = 0x4008  # CAN bus-off (the master could not send)
     HEARTBEAT_LOST = 0x4009  # CAN heartbeat of the drive lost / drive left OPERATIONAL
