@@ -32,6 +32,7 @@ from motionplc.blocks.motion import (
     MC_MoveVelocity,
     MC_Stop,
 )
+from motionplc.blocks.probe import MC_AbortTrigger, MC_TouchProbe, TriggerRef
 
 __all__ = [
     "Axis",
@@ -43,6 +44,7 @@ __all__ = [
     "ErrorID",
     "ExecutionMode",
     "Handle",
+    "MC_AbortTrigger",
     "MC_Halt",
     "MC_Home",
     "MC_MoveAbsolute",
@@ -59,6 +61,8 @@ __all__ = [
     "MC_SetOverride",
     "MC_SetPosition",
     "MC_Stop",
+    "MC_TouchProbe",
     "Source",
     "Status",
+    "TriggerRef",
 ]

@@ -256,6 +256,8 @@ class Axis:
         self.img_enabled = False
         self.img_homed = False
         self.homed = False
+        # touch probes armed by MC_TouchProbe: probe input -> its job (motionplc.blocks.probe)
+        self.probe_jobs: dict[int, Any] = {}
 
     # -- the command queue (public attributes kept for FBs, runtime, tests) -------------------
     @property
@@ -354,6 +356,45 @@ class Axis:
         """Close the drive."""
         self.drive.close()
 
+    # -- touch probe ---------------------------------------------------------------------------
+    def probe_arm(self, probe: int, rising: bool, job: Any, accept: Any = None) -> str:
+        """Arm the drive's touch probe ``probe`` for ``job`` (a previous job on that probe is
+        aborted: ``job_aborted()``); returns "" or why the drive refused. While a probe is
+        armed the axis takes the drive's object path (an in-process drive scans its motion
+        in ``write_outputs``); each READ INPUTS then hands a latched edge to ``job.latched``."""
+        old = self.probe_jobs.pop(probe, None)
+        if old is not None:
+            old.job_aborted()
+        err = self.drive.arm_probe(probe, rising, accept)
+        if err:
+            self._probe_released()
+            return err
+        self.probe_jobs[probe] = job
+        self._ideal = None
+        return ""
+
+    def probe_disarm(self, probe: int, job: Any) -> bool:
+        """MC_AbortTrigger: disarm ``probe`` if ``job`` holds it (True), else False."""
+        if self.probe_jobs.get(probe) is not job:
+            return False
+        del self.probe_jobs[probe]
+        self.drive.disarm_probe(probe)
+        self._probe_released()
+        return True
+
+    def _probe_released(self) -> None:
+        if not self.probe_jobs and type(self.drive) is IdealDrive:
+            self._ideal = self.drive  # the in-process fast path again
+
+    def _poll_probes(self) -> None:
+        for probe, job in list(self.probe_jobs.items()):
+            result = self.drive.read_probe(probe)
+            if result is not None:
+                del self.probe_jobs[probe]
+                job.latched(result)
+        if not self.probe_jobs:
+            self._probe_released()
+
     # -- input phase -----------------------------------------------------------------------
     def read_inputs(self, t: float) -> None:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
@@ -435,6 +476,8 @@ class Axis:
             elif state is not S.DISABLED and self.power_request and self._was_enabled:
                 self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
         self._was_enabled = enabled
+        if self.probe_jobs:
+            self._poll_probes()
         if self._reset_handle is not None and self._reset_sent and not fb.reset_pending:
             self._try_finish_reset(fault, comm_ok)
         state = self.state

@@ -15,7 +15,9 @@ exceptions are for programming errors and for I/O failures in :meth:`Drive.open`
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -82,10 +84,38 @@ class LockstepPeer(Protocol):
         ...
 
 
+@dataclass(frozen=True, slots=True)
+class ProbeResult:
+    """The outcome of an armed touch probe: the latched ``position`` (drive coordinates, SI,
+    without the axis' offset) or, ``error`` not empty, why the probe failed."""
+
+    position: float = math.nan
+    error: str = ""
+
+
 class Drive(ABC):
     """A drive reached through some transport. Backends subclass this."""
 
     name: str
+    # touch probe inputs (numbered 1..probe_inputs); 0 = none (the methods below refuse)
+    probe_inputs: int = 0
+
+    def arm_probe(
+        self, probe: int, rising: bool = True, accept: Callable[[float], bool] | None = None
+    ) -> str:
+        """Arm touch probe ``probe`` (1-based) to latch the position of its first ``rising``
+        (else falling) edge from now on; ``accept`` (drive position -> bool) skips edges
+        outside a window. Returns "" when armed, else why not (never raises in the cycle).
+        The result comes through :meth:`read_probe`."""
+        return f"{self.name}: the drive has no touch probe input {probe}"
+
+    def read_probe(self, probe: int) -> ProbeResult | None:
+        """The latched edge of an armed probe once (then the probe is idle), None while it
+        waits (or when it is not armed)."""
+        return None
+
+    def disarm_probe(self, probe: int) -> None:  # noqa: B027 - optional hook
+        """Stop waiting for an edge on ``probe`` (MC_AbortTrigger); idempotent."""
 
     def open(self) -> None:  # noqa: B027 - optional hook
         """Connect and configure (may raise on I/O failure)."""

@@ -20,10 +20,12 @@ following error ``((1 − kff)·V + tau_v·(A + friction(V) + load))/kp``
 
 from __future__ import annotations
 
+import bisect
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["PlantParams", "PlantState", "plant_step"]
+__all__ = ["PlantParams", "PlantState", "ProbeInput", "ProbeSensor", "plant_step"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -85,14 +87,23 @@ def plant_step(
     powered: bool,
     velocity_offset: float = 0.0,
     stalled: bool = False,
+    positions: list[float] | None = None,
 ) -> PlantState:
     """Advance the plant by one cycle ``dt`` with the demand ramping linearly.
 
     ``powered`` is False when the power stage is off (motor coasts). ``stalled`` blocks the
-    mechanics (a jammed axis): the motor does not move whatever the command.
+    mechanics (a jammed axis): the motor does not move whatever the command. ``positions``
+    (a list): the position after each internal tick is appended to it (the motion within the
+    cycle, for a touch probe); the result is the same bit for bit.
     """
     if stalled:
+        if positions is not None:
+            positions.extend([state.position] * params.substeps)
         return PlantState(state.position, 0.0, 0.0)
+    if positions is not None and powered:
+        return _powered_traced(
+            params, state, demand_from, demand_to, dt, velocity_offset, positions
+        )
     n = params.substeps
     h = dt / n
     p, v, a = state.position, state.velocity, 0.0
@@ -137,4 +148,273 @@ def plant_step(
         a = (v_new - v) / h
         v = v_new
         p += v * h
+        if positions is not None:
+            positions.append(p)
     return PlantState(p, v, a)
+
+
+def _powered_traced(
+    params: PlantParams,
+    state: PlantState,
+    demand_from: float,
+    demand_to: float,
+    dt: float,
+    velocity_offset: float,
+    positions: list[float],
+) -> PlantState:
+    """The powered loop of :func:`plant_step` (the same arithmetic in the same order), also
+    recording the position after each tick. Kept apart so that the untraced loop, run by
+    every drive in every cycle, has no extra test per tick."""
+    n = params.substeps
+    h = dt / n
+    p, v, a = state.position, state.velocity, 0.0
+    v_max = params.v_max
+    coulomb = params.coulomb
+    viscous = params.viscous
+    a_max = params.a_max
+    kp = params.kp
+    inv_tau = 1.0 / params.tau_v
+    load = params.load
+    step = (demand_to - demand_from) / n
+    v_ff = params.kff * (demand_to - demand_from) / dt + velocity_offset
+    for i in range(n):
+        v_cmd = v_ff + kp * (demand_from + step * i - p)
+        if v_cmd > v_max:
+            v_cmd = v_max
+        elif v_cmd < -v_max:
+            v_cmd = -v_max
+        a = (v_cmd - v) * inv_tau - load
+        if v > 0.0:
+            a -= coulomb + viscous * v
+        elif v < 0.0:
+            a += coulomb - viscous * v
+        if a > a_max:
+            a = a_max
+        elif a < -a_max:
+            a = -a_max
+        v += a * h
+        if v > v_max:
+            v = v_max
+        elif v < -v_max:
+            v = -v_max
+        p += v * h
+        positions.append(p)
+    return PlantState(p, v, a)
+
+
+# --------------------------------------------------------------------------- touch probe
+@dataclass(frozen=True, slots=True)
+class ProbeSensor:
+    """A virtual sensor switching a probe input, in drive coordinates (the drive's units).
+
+    The input is high while the position lies on a mark, ``[m, m + width]``, for each mark
+    ``m``: the marks listed in ``marks`` and, with ``pitch``, one every ``pitch`` from
+    ``first`` on (a registration-mark web: ``first + k * pitch`` for k = 0, 1, 2, ...). Moving
+    in the positive direction the rising edge is at ``m`` and the falling edge at
+    ``m + width``; moving back it is the other way round. Marks must not overlap.
+    """
+
+    marks: tuple[float, ...] = ()
+    width: float = 1.0
+    first: float | None = None
+    pitch: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.width, (int, float)) and math.isfinite(self.width)):
+            raise ValueError(f"ProbeSensor.width must be a finite number > 0, got {self.width!r}")
+        if not self.width > 0.0:
+            raise ValueError(f"ProbeSensor.width must be > 0, got {self.width!r}")
+        marks = tuple(float(m) for m in self.marks)
+        if not all(math.isfinite(m) for m in marks):
+            raise ValueError(f"ProbeSensor.marks must be finite numbers, got {self.marks!r}")
+        marks = tuple(sorted(marks))
+        for a, b in zip(marks, marks[1:], strict=False):
+            if b - a <= self.width:
+                raise ValueError(
+                    f"ProbeSensor.marks {a:g} and {b:g} overlap (marks must be more than "
+                    f"width {self.width:g} apart)"
+                )
+        object.__setattr__(self, "marks", marks)
+        if (self.first is None) != (self.pitch is None):
+            raise ValueError("ProbeSensor: give both first and pitch (a mark web) or neither")
+        if self.pitch is not None:
+            if not (isinstance(self.pitch, (int, float)) and math.isfinite(self.pitch)):
+                raise ValueError(f"ProbeSensor.pitch must be a finite number, got {self.pitch!r}")
+            if not self.pitch > self.width:
+                raise ValueError(
+                    f"ProbeSensor.pitch must be > width {self.width:g}, got {self.pitch!r}"
+                )
+            if not (isinstance(self.first, (int, float)) and math.isfinite(self.first)):
+                raise ValueError(f"ProbeSensor.first must be a finite number, got {self.first!r}")
+
+    def level(self, p: float) -> bool:
+        """The input's level at position ``p``."""
+        w = self.width
+        i = bisect.bisect_right(self.marks, p) - 1
+        if i >= 0 and p <= self.marks[i] + w:
+            return True
+        if self.pitch is not None:
+            assert self.first is not None
+            k = math.floor((p - self.first) / self.pitch)
+            if k >= 0:
+                m = self.first + k * self.pitch
+                return m <= p <= m + w
+        return False
+
+    def boundaries(self, lo: float, hi: float) -> list[float]:
+        """The switching positions (mark starts and ends) in ``[lo, hi]``, ascending."""
+        w = self.width
+        out = [b for m in self.marks for b in (m, m + w) if lo <= b <= hi]
+        if self.pitch is not None:
+            assert self.first is not None
+            k0 = max(0, math.floor((lo - w - self.first) / self.pitch))
+            k1 = math.floor((hi - self.first) / self.pitch)
+            if k1 - k0 > 100_000:
+                raise ValueError("ProbeSensor: more than 100000 marks passed in one cycle")
+            for k in range(k0, k1 + 1):
+                m = self.first + k * self.pitch
+                out.extend(b for b in (m, m + w) if lo <= b <= hi)
+        out.sort()
+        return out
+
+
+class ProbeInput:
+    """One touch probe input of a virtual drive and its latch (CiA 402 touch probe semantics).
+
+    The input is switched by a :class:`ProbeSensor` (``sensor``) or set by a program
+    (:meth:`force`; ``None`` gives it back to the sensor). Armed (:meth:`arm`) for the
+    positive and/or negative edge, the latch stores the position of the first such edge
+    after arming (``continuous``: of every edge, the last one stays); ``accept`` (drive
+    position -> bool) lets a latch skip edges outside a window.
+
+    Sub-cycle timing (:meth:`scan`): the drive passes the motion of one cycle as position
+    samples at equal time steps (the plant's internal ticks, or an interpolation of the
+    in-process drive's motion); the edge time is where that motion crosses the switching
+    position, and the drive latches the position at that time interpolated linearly
+    between its two cycle samples (first and last), as a drive with time-stamped probe
+    inputs does. The latched position therefore differs from the true one by less than the
+    motion of one cycle (the interpolation error of the cycle's motion: at most
+    ``a_max * dt**2 / 8`` for a motion with bounded acceleration). A forced level change is
+    an edge at the end of the cycle.
+    """
+
+    __slots__ = (
+        "accept",
+        "continuous",
+        "edge_time",
+        "enabled",
+        "falling",
+        "forced",
+        "neg_stored",
+        "neg_value",
+        "pos_stored",
+        "pos_value",
+        "rising",
+        "sensor",
+        "_forced_level",
+    )
+
+    def __init__(self, sensor: ProbeSensor | None = None) -> None:
+        self.sensor = sensor
+        self.forced: bool | None = None
+        self._forced_level = False  # the level the last scan saw of a forced input
+        self.accept: Callable[[float], bool] | None = None
+        self.enabled = False
+        self.continuous = False
+        self.rising = False
+        self.falling = False
+        self.pos_stored = self.neg_stored = False
+        self.pos_value = self.neg_value = 0.0
+        self.edge_time = math.nan  # time of the last latched edge (in the scan's time base)
+
+    def force(self, level: bool | None) -> None:
+        """Set the input's level from a program (``None``: the sensor switches it again)."""
+        self.forced = None if level is None else bool(level)
+
+    def arm(
+        self,
+        rising: bool = True,
+        falling: bool = False,
+        continuous: bool = False,
+        accept: Callable[[float], bool] | None = None,
+    ) -> None:
+        """Enable the latch for the given edges; the stored flags of those edges clear."""
+        self.enabled = True
+        self.continuous = continuous
+        self.accept = accept
+        if rising:
+            self.pos_stored = False
+        if falling:
+            self.neg_stored = False
+        self.rising = rising
+        self.falling = falling
+
+    def disarm(self) -> None:
+        """Switch the latch off (CiA 402: 0x60B8 bit 0 = 0): stored flags cleared."""
+        self.enabled = self.rising = self.falling = False
+        self.pos_stored = self.neg_stored = False
+        self.accept = None
+
+    @property
+    def waiting(self) -> bool:
+        """True while an armed edge has not been stored yet (or in continuous mode)."""
+        if not self.enabled:
+            return False
+        if self.continuous:
+            return self.rising or self.falling
+        return (self.rising and not self.pos_stored) or (self.falling and not self.neg_stored)
+
+    def _store(self, rising: bool, t: float, p: float) -> bool:
+        if rising:
+            if not self.rising or (self.pos_stored and not self.continuous):
+                return False
+        elif not self.falling or (self.neg_stored and not self.continuous):
+            return False
+        if self.accept is not None and not self.accept(p):
+            return False
+        if rising:
+            self.pos_stored, self.pos_value = True, p
+        else:
+            self.neg_stored, self.neg_value = True, p
+        self.edge_time = t
+        return True
+
+    def scan(self, t0: float, dt: float, positions: Sequence[float]) -> None:
+        """The motion of one cycle ``(t0, t0 + dt]``: ``positions[0]`` at ``t0``, then one
+        sample per equal time step to ``positions[-1]`` at ``t0 + dt``."""
+        n = len(positions) - 1
+        p0, p1 = positions[0], positions[-1]
+        if self.forced is not None:
+            if self.forced != self._forced_level:
+                self._forced_level = self.forced
+                if self.waiting:
+                    self._store(self.forced, t0 + dt, p1)
+            return
+        sensor = self.sensor
+        if sensor is None or n < 1 or not self.waiting:
+            return
+        lo, hi = min(positions), max(positions)
+        if not sensor.boundaries(lo, hi):
+            return
+        h = dt / n
+        for i in range(n):
+            pa, pb = positions[i], positions[i + 1]
+            if pa == pb:
+                continue
+            up = pb > pa
+            bounds = sensor.boundaries(min(pa, pb), max(pa, pb))
+            if not up:
+                bounds.reverse()
+            for b in bounds:
+                # half-open: a boundary at the segment's start was crossed in the one before
+                if b == pa:
+                    continue
+                # moving up the level is high above b if b starts a mark (rising edge)
+                rising = sensor.level(b + (1e-9 * (1.0 + abs(b))) * (1.0 if up else -1.0))
+                if rising == sensor.level(b - (1e-9 * (1.0 + abs(b))) * (1.0 if up else -1.0)):
+                    continue  # touching a boundary without switching
+                te = h * (i + (b - pa) / (pb - pa))  # crossing time within the cycle
+                latched = p0 + (p1 - p0) * (te / dt)  # interpolated between the cycle samples
+                self._store(rising, t0 + te, latched)
+                if not self.waiting:
+                    return

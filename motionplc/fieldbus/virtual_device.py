@@ -29,7 +29,7 @@ from motionplc.fieldbus.cia402 import (
     device_transition,
     statusword_bits,
 )
-from motionplc.fieldbus.plant import PlantParams, PlantState, plant_step
+from motionplc.fieldbus.plant import PlantParams, PlantState, ProbeInput, plant_step
 from motionplc.fieldbus.scaling import saturate_i32
 
 __all__ = ["ERROR_CODES", "Cia402Device", "DeviceSnapshot", "error_register_for"]
@@ -130,6 +130,9 @@ class Cia402Device:
         self.persistent_fault: int = 0  # a fault that is present until cleared (0 = none)
         self.standstill_velocity: float = 100.0  # [inc/s] stop ramps end below this speed
         self.actual = PlantState(0.0, 0.0, 0.0)
+        # touch probes 1 and 2 (0x60B8..0x60BD); their sensors (ProbeInput.sensor) and forced
+        # levels are wiring, kept over a reset
+        self.probes = {1: ProbeInput(), 2: ProbeInput()}
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -150,6 +153,10 @@ class Cia402Device:
         self.fe_bit = False
         self.last_transition: int | None = None
         self.pending_emcy: list[tuple[int, int]] = []  # (code, error register)
+        self.probe_function = 0  # 0x60B8
+        self._probing = False  # a probe is enabled: the cycle records the motion within it
+        for unit in self.probes.values():
+            unit.disarm()
 
     @property
     def powered(self) -> bool:
@@ -263,6 +270,55 @@ class Cia402Device:
         self.target = target
         self.velocity_offset = velocity_offset
 
+    # ------------------------------------------------------------ touch probe
+    def write_probe_function(self, value: int) -> None:
+        """0x60B8 touch probe function (CiA 402): per probe (bits 0..5 probe 1, 8..13 probe 2)
+        bit 0 enable, bit 1 continuous (0: first event), bits 2-3 trigger source (only 00,
+        the probe input, is supported: others raise ValueError), bit 4 / bit 5 sample the
+        positive / negative edge. Enabling a probe, or setting its bit 4 / 5, (re)arms that
+        edge and clears its stored flag; disabling it clears both flags."""
+        for n, shift in ((1, 0), (2, 8)):
+            bits = (value >> shift) & 0x3F
+            if bits & 0x01 and bits & 0x0C:
+                raise ValueError(f"touch probe {n}: trigger source {(bits >> 2) & 3} unsupported")
+        old = self.probe_function
+        self.probe_function = value & 0x3F3F
+        for n, shift in ((1, 0), (2, 8)):
+            unit = self.probes[n]
+            bits = (value >> shift) & 0x3F
+            was = (old >> shift) & 0x3F
+            if not bits & 0x01:
+                unit.disarm()
+                continue
+            new_enable = not was & 0x01
+            rise = bool(bits & 0x10) and (new_enable or not was & 0x10)
+            fall = bool(bits & 0x20) and (new_enable or not was & 0x20)
+            unit.enabled = True
+            unit.continuous = bool(bits & 0x02)
+            unit.rising = bool(bits & 0x10)
+            unit.falling = bool(bits & 0x20)
+            if rise:
+                unit.pos_stored = False
+            if fall:
+                unit.neg_stored = False
+        self._probing = any(u.enabled for u in self.probes.values())
+
+    def probe_status(self) -> int:
+        """0x60B9 touch probe status: per probe bit 0 enabled, bit 1 positive edge stored,
+        bit 2 negative edge stored (probe 2 in bits 8..10)."""
+        sw = 0
+        for shift, unit in ((0, self.probes[1]), (8, self.probes[2])):
+            if unit.enabled:
+                sw |= (
+                    0x01 | (0x02 if unit.pos_stored else 0) | (0x04 if unit.neg_stored else 0)
+                ) << shift
+        return sw
+
+    def probe_value(self, probe: int, rising: bool) -> int:
+        """0x60BA / 0x60BB (probe 1), 0x60BC / 0x60BD (probe 2): the stored edge position."""
+        unit = self.probes[probe]
+        return saturate_i32(unit.pos_value if rising else unit.neg_value)
+
     def _start_stop_ramp(self) -> None:
         """A stop ramp starts from the actual motion, not from the last setpoint."""
         self.demand = self.actual.position
@@ -300,16 +356,33 @@ class Cia402Device:
             demand_to, stopped = self._stop_ramp(dt)
         else:
             demand_to = demand_from
-        self.actual = plant_step(
-            self.plant,
-            self.actual,
-            demand_from,
-            demand_to,
-            dt,
-            powered=powered,
-            velocity_offset=v_offset,
-            stalled=self.stalled,
-        )
+        if self._probing:
+            samples = [self.actual.position]
+            self.actual = plant_step(
+                self.plant,
+                self.actual,
+                demand_from,
+                demand_to,
+                dt,
+                powered=powered,
+                velocity_offset=v_offset,
+                stalled=self.stalled,
+                positions=samples,
+            )
+            for unit in self.probes.values():
+                if unit.enabled:
+                    unit.scan(0.0, dt, samples)
+        else:
+            self.actual = plant_step(
+                self.plant,
+                self.actual,
+                demand_from,
+                demand_to,
+                dt,
+                powered=powered,
+                velocity_offset=v_offset,
+                stalled=self.stalled,
+            )
         self.demand = demand_to if powered else self.actual.position
         if not powered:
             self.demand_velocity = 0.0
