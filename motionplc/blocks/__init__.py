@@ -32,6 +32,14 @@ from motionplc.blocks.motion import (
     MC_MoveVelocity,
     MC_Stop,
 )
+from motionplc.blocks.params import (
+    MC_ReadActualTorque,
+    MC_ReadAxisInfo,
+    MC_ReadBoolParameter,
+    MC_ReadParameter,
+    MC_WriteBoolParameter,
+    MC_WriteParameter,
+)
 from motionplc.blocks.probe import MC_AbortTrigger, MC_TouchProbe, TriggerRef
 
 __all__ = [
@@ -53,15 +61,21 @@ __all__ = [
     "MC_MoveVelocity",
     "MC_Power",
     "MC_ReadActualPosition",
+    "MC_ReadActualTorque",
     "MC_ReadActualVelocity",
     "MC_ReadAxisError",
+    "MC_ReadAxisInfo",
+    "MC_ReadBoolParameter",
     "MC_ReadMotionState",
+    "MC_ReadParameter",
     "MC_ReadStatus",
     "MC_Reset",
     "MC_SetOverride",
     "MC_SetPosition",
     "MC_Stop",
     "MC_TouchProbe",
+    "MC_WriteBoolParameter",
+    "MC_WriteParameter",
     "Source",
     "Status",
     "TriggerRef",

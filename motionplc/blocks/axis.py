@@ -186,6 +186,10 @@ class Axis:
         self._sw_check = config.modulo is None and (
             config.sw_limit_pos is not None or config.sw_limit_neg is not None
         )
+        # the configuration as built: the *System values of MC_ReadParameter (PN 8, 12, 14,
+        # 16), never changed; ``cfg`` is the applied one (MC_WriteParameter, apply_config)
+        self.cfg_system = config
+        self.parameters: Any = None  # MC_Read/WriteParameter state (motionplc.blocks.params)
         self.drive = drive
         # the in-process fast path (see motionplc.fieldbus.ideal): exactly an IdealDrive
         self._ideal: IdealDrive | None = drive if type(drive) is IdealDrive else None
@@ -258,6 +262,23 @@ class Axis:
         self.homed = False
         # touch probes armed by MC_TouchProbe: probe input -> its job (motionplc.blocks.probe)
         self.probe_jobs: dict[int, Any] = {}
+
+    def apply_config(self, config: AxisConfig) -> None:
+        """Replace the applied configuration (MC_WriteParameter) and refresh the kernel's
+        hot copies of it. Takes effect for what is planned and checked from now on (a running
+        move keeps its plan; the software-limit and following-error supervision use the new
+        values from the next step). The name and the modulo period cannot change."""
+        if config.name != self.name or config.modulo != self.cfg.modulo:
+            raise ValueError(
+                f"axis {self.name!r}: apply_config cannot change the name or the modulo period"
+            )
+        self.cfg = config
+        self._fe_limit = config.following_error_limit
+        self._sw_pos = config.sw_limit_pos
+        self._sw_neg = config.sw_limit_neg
+        self._sw_check = config.modulo is None and (
+            config.sw_limit_pos is not None or config.sw_limit_neg is not None
+        )
 
     # -- the command queue (public attributes kept for FBs, runtime, tests) -------------------
     @property

@@ -137,6 +137,82 @@ class Drive(ABC):
     def write_outputs(self, t: float, command: DriveCommand) -> None:
         """Send this cycle's setpoints, without blocking."""
 
+    # -- drive parameters (MC_Read/WriteParameter vendor numbers, MC_ReadActualTorque) ------
+    # ``torque_model``: the torque of an in-process drive without a torque feedback of its
+    # own (MC_ReadActualTorque computes it from the axis' actual motion); None: none
+    torque_model: TorqueModel | None = None
+
+    def start_parameter(self, number: int, value: float | None = None) -> ParameterTransfer:
+        """Start reading (``value`` None) or writing drive parameter ``number`` (the number
+        scheme of :mod:`motionplc.blocks.axis_params`); the transfer runs in the cycle's I/O
+        phases and never blocks. Raises :class:`ParameterError` at once for a number this
+        drive has not (``number_error``) or a value out of its type's range."""
+        raise ParameterError(f"{self.name}: the drive has no drive parameters", number_error=True)
+
+    def start_torque_read(self) -> ParameterTransfer | None:
+        """Start reading the actual torque [N m, or N on a linear axis] from the drive; None
+        when the drive reports no torque (raises :class:`ParameterError` when it could but
+        is not configured to, the reason in the text)."""
+        return None
+
+
+class ParameterError(ValueError):
+    """A drive parameter that cannot be transferred: an unknown number (``number_error``)
+    or a value its type cannot hold; the text names the parameter and the allowed range."""
+
+    def __init__(self, text: str, number_error: bool = False) -> None:
+        super().__init__(text)
+        self.number_error = number_error
+
+
+class ParameterTransfer:
+    """One drive parameter read or write in progress (a handle the backend finishes).
+
+    ``busy`` until the backend calls :meth:`finish` (``value``: the value read, or the value
+    written) or :meth:`fail` (``error``: why, e.g. the SDO abort code or the Modbus
+    exception); never both, never twice."""
+
+    __slots__ = ("busy", "error", "label", "value")
+
+    def __init__(self, label: str) -> None:
+        self.label = label  # what is transferred, e.g. "SDO upload 0x6065:00"
+        self.busy = True
+        self.value = math.nan
+        self.error = ""
+
+    def finish(self, value: float) -> None:
+        """The transfer succeeded with ``value``."""
+        if self.busy:
+            self.busy = False
+            self.value = value
+
+    def fail(self, error: str) -> None:
+        """The transfer failed; ``error`` says why."""
+        if self.busy:
+            self.busy = False
+            self.error = error or "failed"
+
+
+@dataclass(frozen=True, slots=True)
+class TorqueModel:
+    """The torque of an in-process drive from its motion: ``inertia * a + coulomb * sign(v)
+    + viscous * v`` (SI: kg m^2, N m, N m s/rad; on a linear axis kg, N, N s/m)."""
+
+    inertia: float
+    coulomb: float = 0.0
+    viscous: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("inertia", "coulomb", "viscous"):
+            x = getattr(self, name)
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not 0.0 <= x < math.inf:
+                raise ValueError(f"TorqueModel.{name} must be a finite number >= 0, got {x!r}")
+
+    def torque(self, v: float, a: float) -> float:
+        """The torque at velocity ``v`` and acceleration ``a``."""
+        friction = 0.0 if v == 0.0 else math.copysign(self.coulomb, v) + self.viscous * v
+        return self.inertia * a + friction
+
 
 def reset_in_progress(reset_until: float | None, t: float, done: bool) -> float | None:
     """The fault-reset window of a drive backend after this cycle: ``None`` once the reset is
