@@ -219,8 +219,13 @@ def _norm_ends(law: str) -> tuple[tuple[float, float, float], tuple[float, float
 
     start = d(secs[0], 0.0)
     end = d(secs[-1], 1.0 - secs[-1].u0)
-    # the laws start and end at rest exactly; remove rounding residue of the integration
-    return (0.0, start[1], start[2]), (0.0, end[1], end[2])
+
+    # the laws start and end at rest exactly (and all but harmonic with zero curvature);
+    # remove the rounding residue of the integration
+    def snap(v: float) -> float:
+        return 0.0 if abs(v) < 1e-9 else v
+
+    return (0.0, snap(start[1]), start[2]), (0.0, snap(end[1]), end[2])
 
 
 _TRIG_ENDS = {law: _norm_ends(law) for law in _TRIG_LAWS}
@@ -734,15 +739,18 @@ class CamTable:
     def at(self, x: float) -> tuple[float, float, float, float]:
         """(y, dy/dx, d2y/dx2, d3y/dx3) at master position ``x`` in [master_start,
         master_end] (ValueError outside or NaN). At a point the segment starting there is
-        used (y, y' are continuous; y'' too unless listed in ``curvature_jumps``)."""
+        used (y, y' are continuous; y'' too unless listed in ``curvature_jumps``); at
+        ``master_end`` y is ``slave_end`` exactly."""
         if not self.master_start <= x <= self.master_end:
             raise ValueError(
                 f"x: must be in [{self.master_start!r}, {self.master_end!r}] "
                 f"(the cam table's master range), got {x!r}"
             )
-        secs = self._secs
         i = bisect_right(self._starts, x) - 1
-        return _eval_section(secs[i], x)
+        if x == self.master_end:
+            _, dy, d2y, d3y = _eval_section(self._secs[i], x)
+            return self.slave_end, dy, d2y, d3y
+        return _eval_section(self._secs[i], x)
 
     def sample(self, xs: Any) -> CamSamples:
         """Vectorised :meth:`at`: arrays y, y', y'', y''' for the master positions ``xs``
@@ -768,7 +776,7 @@ class CamTable:
         bb, ww = b[idx], w[idx]
         th = ww * t + ph[idx]
         s, co = np.sin(th), np.cos(th)
-        y = out[0] + bb * s
+        y = np.where(x == self.master_end, self.slave_end, out[0] + bb * s)
         dy = out[1] + bb * ww * co
         d2y = out[2] - bb * ww * ww * s
         d3y = out[3] - bb * ww * ww * ww * co
