@@ -93,6 +93,7 @@ from __future__ import annotations
 import queue
 import struct
 import threading
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -109,6 +110,7 @@ from motionplc.fieldbus.base import (
     DriveFeedback,
     FieldbusError,
     LockstepPeer,
+    ProbeResult,
     reset_in_progress,
 )
 from motionplc.fieldbus.canopen_startup import (
@@ -770,6 +772,37 @@ class _CompiledPdo:
         self.struct = struct.Struct("<" + "".join(table[i][0] for i in pdo.objects))
 
 
+class _AcyclicSdo:
+    """One SDO transfer requested in the cycle: ``data`` None = upload; ``done(data, error)``
+    is called once with the bytes (upload) or b"" (download), or None and the reason."""
+
+    __slots__ = ("data", "done", "index", "subindex")
+
+    def __init__(
+        self,
+        index: int,
+        subindex: int,
+        data: bytes | None,
+        done: Callable[[bytes | None, str], None],
+    ) -> None:
+        self.index = index
+        self.subindex = subindex
+        self.data = data
+        self.done = done
+
+
+class _ProbeRun:
+    """One armed touch probe on a CAN drive (see :meth:`CanopenDrive.arm_probe`)."""
+
+    __slots__ = ("accept", "probe", "result", "rising")
+
+    def __init__(self, probe: int, rising: bool, accept: Callable[[float], bool] | None) -> None:
+        self.probe = probe
+        self.rising = rising
+        self.accept = accept
+        self.result: ProbeResult | None = None
+
+
 class CanopenDrive(Drive):
     """One CiA 402 axis in CSP on a :class:`CanopenMaster`.
 
@@ -826,6 +859,13 @@ class CanopenDrive(Drive):
         self._lost_detail = ""
         self._waived = False
         self.guard_toggle_errors = 0
+        # acyclic SDO transfers in the cycle (touch probe): one in flight, the rest queued
+        self._acyclic: deque[_AcyclicSdo] = deque()
+        self._acyc_op: _AcyclicSdo | None = None
+        self._acyc_sent_t = 0.0
+        self._acyc_busy = False  # _acyclic or _acyc_op (one test per cycle when idle)
+        self._probes: dict[int, _ProbeRun] = {}
+        self._probe_function = 0  # what this master last wrote to 0x60B8
         self._reset_cycle_state()
 
     def _reset_cycle_state(self) -> None:
@@ -1011,7 +1051,7 @@ class CanopenDrive(Drive):
 
     # ------------------------------------------------------------- callbacks
     def _on_sdo_response(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        if self._setup is None or not self.sdo.busy:
+        if (self._setup is None and self._acyc_op is None) or not self.sdo.busy:
             self.master.rx.malformed("sdo_unsolicited", timestamp, can_id, data)
             return
         self._waived = False
@@ -1105,6 +1145,8 @@ class CanopenDrive(Drive):
 
     def read_inputs(self, t: float) -> DriveFeedback:
         self.master.pump(t)
+        if self._acyc_busy:
+            self._service_acyclic(t)
         if self._armed_t is None:
             self._armed_t = t
         fresh = self._tpdo_count != self._tpdo_seen
@@ -1266,6 +1308,176 @@ class CanopenDrive(Drive):
             pass  # recorded by the master (bus-off)
         self._sync_pending = self.master.sync_enabled
         self.master.written(self, t)
+
+    # ------------------------------------------------------- acyclic SDO in the cycle
+    def sdo_submit(
+        self,
+        index: int,
+        subindex: int,
+        data: bytes | None,
+        done: Callable[[bytes | None, str], None],
+    ) -> None:
+        """Queue an SDO upload (``data`` None) or download in the cycle, never blocking: one
+        transfer is in flight at a time, its request sent in READ INPUTS and its answer taken
+        from a later cycle's drain (with the in-process peer: the next cycle). ``done(data,
+        "")`` gets the uploaded bytes (b"" for a download), ``done(None, reason)`` an abort
+        (named with its CiA 301 meaning), no answer within the master's ``sdo_timeout``, or
+        a re-configuration of the node that cancelled it."""
+        self._acyclic.append(_AcyclicSdo(index, subindex, data, done))
+        self._acyc_busy = True
+
+    def _service_acyclic(self, t: float) -> None:
+        """Advance the acyclic SDO transfers (called in READ INPUTS while any is queued)."""
+        op = self._acyc_op
+        where = "" if op is None else f"SDO {object_name(op.index, op.subindex)}"
+        if op is not None and self._setup is not None:
+            self._acyc_op = None  # the start-up script took the SDO channel over
+            op.done(None, self._located(f"{where}: cancelled by the re-configuration"))
+            op = None
+        while op is not None:
+            data = self._take_reply()
+            if data is None:
+                if t - self._acyc_sent_t > self.master.sdo_timeout + 1e-9:
+                    self._acyc_op = None
+                    fail = self.sdo.timeout()
+                    try:
+                        self.master.network.send_message(self.sdo.request_cob_id, fail.send)
+                    except can.CanError:
+                        pass
+                    op.done(
+                        None,
+                        self._located(f"{where}: no answer within {self.master.sdo_timeout:g} s"),
+                    )
+                    op = None
+                break
+            outcome = self.sdo.on_response(data)
+            if outcome is None:
+                continue
+            if isinstance(outcome, SdoSend):
+                self._send_sdo(outcome.data)
+                self._acyc_sent_t = t
+                continue
+            self._acyc_op = None
+            if isinstance(outcome, SdoDone):
+                op.done(outcome.data if op.data is None else b"", "")
+            else:
+                if outcome.send:
+                    self._send_sdo(outcome.send)
+                op.done(None, self._located(f"{where} aborted {abort_text(outcome.code)}"))
+            op = None
+        if self._acyc_op is None and self._acyclic and self._setup is None and self._configured:
+            op = self._acyc_op = self._acyclic.popleft()
+            request = (
+                self.sdo.read(op.index, op.subindex)
+                if op.data is None
+                else self.sdo.write(op.index, op.subindex, op.data)
+            )
+            self._acyc_sent_t = t
+            self._send_sdo(request)
+        self._acyc_busy = self._acyc_op is not None or bool(self._acyclic)
+
+    def _send_sdo(self, data: bytes) -> None:
+        try:
+            self.master.network.send_message(self.sdo.request_cob_id, data)
+        except can.CanError:
+            pass  # recorded by the master (bus-off); the transfer times out
+
+    # ---------------------------------------------------------------- touch probe
+    probe_inputs = 2
+
+    def arm_probe(
+        self, probe: int, rising: bool = True, accept: Callable[[float], bool] | None = None
+    ) -> str:
+        """Arm CiA 402 touch probe ``probe`` (1 or 2) by SDO in the cycle: 0x60B8 written
+        with the probe's bits cleared, then with enable + the edge's sampling bit (first
+        event, trigger source: the probe input), then 0x60B9 polled (one upload per cycle)
+        until the edge's stored bit is set and the stored position read (0x60BA / 0x60BB,
+        probe 2 0x60BC / 0x60BD), scaled to SI. An edge ``accept`` refuses is skipped: the
+        probe is re-armed (edges during the re-arming, about three cycles, are missed)."""
+        if isinstance(probe, bool) or probe not in (1, 2):
+            return f"{self.name}: the drive has no touch probe input {probe!r} (1 or 2)"
+        if not self._opened:
+            return f"{self.name}: not opened"
+        run = self._probes[probe] = _ProbeRun(probe, rising, accept)
+        self._probe_arm_sequence(run)
+        return ""
+
+    def _probe_bits(self, run: _ProbeRun) -> tuple[int, int]:
+        shift = 0 if run.probe == 1 else 8
+        mask = 0x3F << shift
+        on = (0x01 | (0x10 if run.rising else 0x20)) << shift
+        return mask, on
+
+    def _probe_arm_sequence(self, run: _ProbeRun) -> None:
+        mask, on = self._probe_bits(run)
+        off = self._probe_function & ~mask
+        self._probe_function = off | on
+
+        def armed(data: bytes | None, error: str) -> None:
+            if self._probes.get(run.probe) is not run:
+                return
+            if data is None:
+                run.result = ProbeResult(error=error)
+                return
+            self._probe_poll(run)
+
+        self.sdo_submit(0x60B8, 0, struct.pack("<H", off), self._probe_step(run))
+        self.sdo_submit(0x60B8, 0, struct.pack("<H", off | on), armed)
+
+    def _probe_step(self, run: _ProbeRun) -> Callable[[bytes | None, str], None]:
+        def step(data: bytes | None, error: str) -> None:
+            if data is None and self._probes.get(run.probe) is run and run.result is None:
+                run.result = ProbeResult(error=error)
+
+        return step
+
+    def _probe_poll(self, run: _ProbeRun) -> None:
+        bit = (0x02 if run.rising else 0x04) << (0 if run.probe == 1 else 8)
+
+        def status(data: bytes | None, error: str) -> None:
+            if self._probes.get(run.probe) is not run or run.result is not None:
+                return
+            if data is None:
+                run.result = ProbeResult(error=error)
+            elif int.from_bytes(data[:2], "little") & bit:
+                index = 0x60BA + (0 if run.rising else 1) + (0 if run.probe == 1 else 2)
+                self.sdo_submit(index, 0, None, value)
+            else:
+                self.sdo_submit(0x60B9, 0, None, status)
+
+        def value(data: bytes | None, error: str) -> None:
+            if self._probes.get(run.probe) is not run or run.result is not None:
+                return
+            if data is None:
+                run.result = ProbeResult(error=error)
+                return
+            counts = struct.unpack("<i", bytes(data[:4]).ljust(4, b"\0"))[0]
+            position = self.scaling.position_to_si(counts)
+            if run.accept is not None and not run.accept(position):
+                self._probe_arm_sequence(run)  # outside the window: arm again
+                return
+            run.result = ProbeResult(position)
+
+        self.sdo_submit(0x60B9, 0, None, status)
+
+    def read_probe(self, probe: int) -> ProbeResult | None:
+        run = self._probes.get(probe)
+        if run is None or run.result is None:
+            return None
+        del self._probes[probe]
+        if not run.result.error:
+            self._probe_disarm_write(run)
+        return run.result
+
+    def disarm_probe(self, probe: int) -> None:
+        run = self._probes.pop(probe, None)
+        if run is not None:
+            self._probe_disarm_write(run)
+
+    def _probe_disarm_write(self, run: _ProbeRun) -> None:
+        mask, _ = self._probe_bits(run)
+        self._probe_function &= ~mask
+        self.sdo_submit(0x60B8, 0, struct.pack("<H", self._probe_function), lambda d, e: None)
 
     def _restart_node(self) -> None:
         try:

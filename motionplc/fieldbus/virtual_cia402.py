@@ -62,7 +62,7 @@ from motionplc.fieldbus.fastcan import (
     service_error,
 )
 from motionplc.fieldbus.pdo_codec import PdoCodec
-from motionplc.fieldbus.plant import PlantParams
+from motionplc.fieldbus.plant import PlantParams, ProbeSensor
 from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device
 
 __all__ = ["EDS_NAME", "VirtualCanBus", "VirtualCia402Drive", "eds_path", "load_od"]
@@ -340,6 +340,12 @@ class VirtualCia402Drive:
             return d.mode
         if index == 0x6040:
             return d.controlword
+        if 0x60B8 <= index <= 0x60BD:
+            if index == 0x60B8:
+                return d.probe_function
+            if index == 0x60B9:
+                return d.probe_status()
+            return d.probe_value(1 if index < 0x60BC else 2, index % 2 == 0)
         return None
 
     def _on_sdo_write(self, index: int, subindex: int, od: object, data: bytes) -> None:
@@ -353,6 +359,11 @@ class VirtualCia402Drive:
             d.latch(struct.unpack("<i", data)[0], d.velocity_offset)
         elif index == 0x60B1:
             d.latch(d.target, struct.unpack("<i", data)[0])
+        elif index == 0x60B8:
+            try:
+                d.write_probe_function(struct.unpack("<H", data)[0])
+            except ValueError:
+                raise SdoAbortedError(ABORT_VALUE_RANGE) from None
         elif index == 0x6065:
             d.following_error_window = struct.unpack("<I", data)[0]
         elif index == 0x6066:
@@ -481,6 +492,15 @@ class VirtualCia402Drive:
                 self._last_master_hb_t = None
                 d.raise_fault(ERROR_CODES["heartbeat"])
         self.flush_emcy()
+
+    # ------------------------------------------------------------ touch probe
+    def set_probe_sensor(self, probe: int, sensor: ProbeSensor | None) -> None:
+        """The virtual sensor on touch probe input ``probe`` (1 or 2), in increments."""
+        self.device.probes[probe].sensor = sensor
+
+    def set_probe_input(self, probe: int, level: bool | None) -> None:
+        """Set touch probe input ``probe`` from a program (``None``: back to the sensor)."""
+        self.device.probes[probe].force(level)
 
     # -------------------------------------------------------- fault injection
     def inject_fault(self, code: int = ERROR_CODES["generic"], persistent: bool = False) -> None:
