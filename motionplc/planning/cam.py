@@ -7,7 +7,8 @@ point i + 1):
 * ``linear``: constant velocity (slope = rise / length, no curvature);
 * ``poly5`` (3-4-5 polynomial) and ``poly7`` (4-5-6-7 polynomial): rest to rest they are the
   normalised VDI 2143 laws; with non-zero slope or curvature at an end they are the quintic
-  (septic) Hermite polynomial meeting position, slope and curvature (and jerk) at both ends;
+  (septic) Hermite polynomial meeting position, slope and curvature at both ends (poly7:
+  and zero jerk);
 * ``modified_sine``, ``modified_trapezoid``, ``cycloid``, ``harmonic``: the normalised VDI 2143
   rest-to-rest laws (slope 0 at both ends; ``harmonic`` has a non-zero curvature at its ends,
   so the acceleration jumps there unless the neighbouring segment matches it).
@@ -629,17 +630,15 @@ class CamTable:
         explicit_c = [(v, d) for v, d in curv_c if v is not None]
         rig_s: list[tuple[float, str]] = []
         rig_c: list[tuple[float, str]] = []
-        rig_j: list[float] = []
         for seg, end in ends:
             r = rigid[seg]
             if r is None:
                 continue
-            v, a, j = r[end]
+            v, a, _ = r[end]
             side = "ends" if end else "starts"
             desc = f"segment {seg} (law {laws[seg]!r}) {side} with slope {v!r}"
             rig_s.append((v, desc))
             rig_c.append((a, f"segment {seg} (law {laws[seg]!r}) {side} with curvature {a!r}"))
-            rig_j.append(j)
 
         def fail(fieldname: str, a: tuple[float, str], b: tuple[float, str]) -> CamTableError:
             hint = (
@@ -668,8 +667,9 @@ class CamTable:
                 jump = rig_c[1][0] - rig_c[0][0]  # after the point minus before it
         else:
             curv = 0.0
-        jerk = rig_j[0] if rig_j else 0.0
-        return (slope, curv, jerk), jump
+        # poly7 ends with zero jerk (the 4-5-6-7 law's own condition): adopting a rigid
+        # neighbour's jerk would make a long poly7 next to a short rise swing far out
+        return (slope, curv, 0.0), jump
 
     @classmethod
     def from_points(
