@@ -77,6 +77,7 @@ from typing import Any
 from motionplc.blocks.axis_config import AXIS_LIMIT_MIN, POSITION_MAX, AxisConfig
 from motionplc.blocks.base import InputError
 from motionplc.blocks.enums import ErrorID
+from motionplc.fieldbus.base import DriveAddress
 
 __all__ = [
     "DRIVE_NUMBER_MIN",
@@ -134,25 +135,6 @@ PARAMETERS: dict[int, ParameterInfo] = {
 
 
 # --------------------------------------------------------------------------- drive numbers
-@dataclass(frozen=True, slots=True)
-class DriveAddress:
-    """A decoded drive parameter number: ``bus`` "coe" (``index``, ``subindex``) or
-    "modbus" (``index`` = the register address); ``size`` in bytes (0: from the drive's
-    description) and ``signed``."""
-
-    bus: str
-    index: int
-    subindex: int = 0
-    size: int = 0
-    signed: bool = False
-
-    def describe(self) -> str:
-        """``0x6065:00`` or ``register 0x0300``."""
-        if self.bus == "coe":
-            return f"0x{self.index:04X}:{self.subindex:02X}"
-        return f"register 0x{self.index:04X}"
-
-
 def _type_code(size: int, signed: bool) -> int:
     if size == 0:
         if signed:

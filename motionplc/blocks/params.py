@@ -36,17 +36,17 @@ from typing import Any
 from motionplc.blocks.axis import Axis, Handle, Status
 from motionplc.blocks.axis_params import (
     PARAMETERS,
-    DriveAddress,
     ParameterInfo,
     check_number_kind,
     check_write_value,
+    decode_drive_number,
     read_parameter,
     write_parameter,
 )
 from motionplc.blocks.base import EnableFB, ExecuteFB, InputError
 from motionplc.blocks.enums import ErrorID, ExecutionMode
 from motionplc.blocks.motion import InputChecks
-from motionplc.fieldbus.base import ParameterError, ParameterTransfer
+from motionplc.fieldbus.base import DriveAddress, ParameterError, ParameterTransfer
 from motionplc.fieldbus.ideal import IdealDrive
 
 __all__ = [
@@ -61,8 +61,10 @@ __all__ = [
 
 def _start(axis: Axis, number: int, value: float | None) -> ParameterTransfer:
     """Start a drive parameter transfer; ParameterError -> InputError."""
+    address = decode_drive_number(number)
+    assert address is not None  # checked by check_number_kind
     try:
-        return axis.drive.start_parameter(number, value)
+        return axis.drive.start_parameter(address, value)
     except ParameterError as exc:
         eid = (
             ErrorID.INVALID_PARAMETER_NUMBER

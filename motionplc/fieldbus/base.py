@@ -142,11 +142,13 @@ class Drive(ABC):
     # own (MC_ReadActualTorque computes it from the axis' actual motion); None: none
     torque_model: TorqueModel | None = None
 
-    def start_parameter(self, number: int, value: float | None = None) -> ParameterTransfer:
-        """Start reading (``value`` None) or writing drive parameter ``number`` (the number
-        scheme of :mod:`motionplc.blocks.axis_params`); the transfer runs in the cycle's I/O
-        phases and never blocks. Raises :class:`ParameterError` at once for a number this
-        drive has not (``number_error``) or a value out of its type's range."""
+    def start_parameter(
+        self, address: DriveAddress, value: float | None = None
+    ) -> ParameterTransfer:
+        """Start reading (``value`` None) or writing the drive parameter at ``address``; the
+        transfer runs in the cycle's I/O phases and never blocks. Raises
+        :class:`ParameterError` at once for an address this drive has not (``number_error``)
+        or a value its type cannot hold."""
         raise ParameterError(f"{self.name}: the drive has no drive parameters", number_error=True)
 
     def start_torque_read(self) -> ParameterTransfer | None:
@@ -154,6 +156,26 @@ class Drive(ABC):
         when the drive reports no torque (raises :class:`ParameterError` when it could but
         is not configured to, the reason in the text)."""
         return None
+
+
+@dataclass(frozen=True, slots=True)
+class DriveAddress:
+    """Where a drive parameter lives: ``bus`` "coe" (CANopen object ``index``:``subindex``)
+    or "modbus" (holding register ``index``); ``size`` in bytes (1, 2, 4; 0: from the
+    drive's description, the EDS or the register map) and ``signed``. Built from a parameter
+    number by :func:`motionplc.blocks.axis_params.decode_drive_number`."""
+
+    bus: str
+    index: int
+    subindex: int = 0
+    size: int = 0
+    signed: bool = False
+
+    def describe(self) -> str:
+        """``0x6065:00`` or ``register 0x0300``."""
+        if self.bus == "coe":
+            return f"0x{self.index:04X}:{self.subindex:02X}"
+        return f"register 0x{self.index:04X}"
 
 
 class ParameterError(ValueError):

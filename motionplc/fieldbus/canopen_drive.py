@@ -90,6 +90,7 @@ and heartbeat go through canopen; SDO through :class:`~motionplc.fieldbus.sdo.Sd
 
 from __future__ import annotations
 
+import math
 import queue
 import struct
 import threading
@@ -106,10 +107,13 @@ from canopen.objectdictionary import ObjectDictionary
 from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import (
     Drive,
+    DriveAddress,
     DriveCommand,
     DriveFeedback,
     FieldbusError,
     LockstepPeer,
+    ParameterError,
+    ParameterTransfer,
     ProbeResult,
     reset_in_progress,
 )
@@ -240,6 +244,8 @@ class CanopenDriveConfig:
     scaling_objects: ScalingSpec | str | None = None
     setup_timeout: float = 2.0  # [s] whole re-configuration after a reboot (MC_Reset)
     external_wait: float = 0.2  # [s wall clock] wait for an external drive's TPDOs per SYNC
+    # [N m, or N] the drive's rated torque (0x6076) for MC_ReadActualTorque; None: read 0x6076
+    rated_torque: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.node_id, bool) or not isinstance(self.node_id, int):
@@ -288,6 +294,8 @@ class CanopenDriveConfig:
             raise ValueError(f"scaling_objects must be a ScalingSpec, 'read' or None, got {s!r}")
         _check_range("setup_timeout", self.setup_timeout, 0.001, 600.0)
         _check_range("external_wait", self.external_wait, 0.0, 10.0)
+        if self.rated_torque is not None:
+            _check_range("rated_torque", self.rated_torque, 1e-9, 1e9, "N m")
         if self.pdos is not None:
             if not isinstance(self.pdos, tuple):
                 raise ValueError(f"pdos must be a tuple of PdoSpec, got {self.pdos!r}")
@@ -743,6 +751,43 @@ class _SetupRun:
                 self.sent_t = t
                 self.waiting = True
                 self._send(request)
+
+
+# CiA 301 data types of numbers -> (size, signed); REAL32 separately
+_OD_NUMBERS = {0x01: (1, False), 0x02: (1, True), 0x03: (2, True), 0x04: (4, True)}
+_OD_NUMBERS.update({0x05: (1, False), 0x06: (2, False), 0x07: (4, False)})
+_REAL32 = 0x08
+
+
+def _encode_number(value: float, kind: tuple[int, bool, bool], where: str) -> bytes:
+    """The SDO bytes of a parameter value; ParameterError naming the range."""
+    size, signed, real = kind
+    if real:
+        if not (math.isfinite(value) and abs(value) <= 3.4028234663852886e38):
+            raise ParameterError(f"{where} (REAL32) must be a finite float32, got {value!r}")
+        return struct.pack("<f", value)
+    bits = 8 * size
+    lo, hi = (-(1 << (bits - 1)), (1 << (bits - 1)) - 1) if signed else (0, (1 << bits) - 1)
+    if not (math.isfinite(value) and value == int(value) and lo <= value <= hi):
+        raise ParameterError(
+            f"{where} ({'' if signed else 'un'}signed {bits} bit) must be an integer in "
+            f"[{lo}, {hi}], got {value!r}"
+        )
+    return int(value).to_bytes(size, "little", signed=signed)
+
+
+def _decode_number(data: bytes, kind: tuple[int, bool, bool] | None) -> float:
+    """The value of uploaded bytes (without a type: unsigned, the answer's size)."""
+    if kind is None:
+        if not 1 <= len(data) <= 8:
+            raise ValueError(f"{len(data)} bytes uploaded: not a number")
+        return float(int.from_bytes(data, "little"))
+    size, signed, real = kind
+    if len(data) < size:
+        raise ValueError(f"{len(data)} bytes uploaded, the object has {size}")
+    if real:
+        return float(struct.unpack_from("<f", data)[0])
+    return float(int.from_bytes(data[:size], "little", signed=signed))
 
 
 def _in_od(od: ObjectDictionary, index: int, subindex: int) -> bool:
@@ -1478,6 +1523,110 @@ class CanopenDrive(Drive):
         mask, _ = self._probe_bits(run)
         self._probe_function &= ~mask
         self.sdo_submit(0x60B8, 0, struct.pack("<H", self._probe_function), lambda d, e: None)
+
+    # ------------------------------------------- drive parameters (MC_Read/WriteParameter)
+    _rated_torque: float | None = None  # [N m] 0x6076 as read (or the configured value)
+
+    def _object_type(self, address: DriveAddress) -> tuple[int, bool, bool] | None:
+        """(size, signed, real) of a parameter: from its number, else from the EDS; None
+        without either (a read then takes the size of the answer, unsigned)."""
+        if address.size:
+            return address.size, address.signed, False
+        od = self.od
+        if od is None:
+            return None
+        where = object_name(address.index, address.subindex)
+        if not _in_od(od, address.index, address.subindex):
+            raise ParameterError(
+                f"{self.name}: node {self.config.node_id} has no object {where} (EDS)",
+                number_error=True,
+            )
+        obj = od[address.index]
+        var = obj[address.subindex] if hasattr(obj, "subindices") else obj
+        data_type = var.data_type
+        if data_type == _REAL32:
+            return 4, True, True
+        kind = _OD_NUMBERS.get(data_type)
+        if kind is None:
+            raise ParameterError(
+                f"{self.name}: object {where} has data type 0x{data_type:04X}, not a number",
+                number_error=True,
+            )
+        return kind[0], kind[1], False
+
+    def start_parameter(
+        self, address: DriveAddress, value: float | None = None
+    ) -> ParameterTransfer:
+        """Read or write a CANopen object over SDO (expedited download; upload expedited or
+        segmented), queued behind other SDO transfers of the cycle (:meth:`sdo_submit`);
+        the value is the object's raw number (REAL32 as a float). An abort or no answer
+        within ``sdo_timeout`` fails the transfer with the abort code and its meaning."""
+        if address.bus != "coe":
+            raise ParameterError(
+                f"{self.name}: {address.describe()} is not a CANopen object (index * 0x100 + "
+                "subindex on a CAN drive)",
+                number_error=True,
+            )
+        kind = self._object_type(address)
+        index, sub = address.index, address.subindex
+        data: bytes | None = None
+        if value is not None:
+            if kind is None:
+                raise ParameterError(
+                    f"{self.name}: the type of {object_name(index, sub)} is unknown (no EDS): "
+                    "give the size in the parameter number (T = 1, 2, 4, or 0x41, 0x42, 0x44 "
+                    "signed, times 0x1000000)",
+                    number_error=True,
+                )
+            data = _encode_number(value, kind, object_name(index, sub))
+        op = "upload" if data is None else "download"
+        transfer = ParameterTransfer(f"SDO {op} {object_name(index, sub)}")
+
+        def done(reply: bytes | None, error: str) -> None:
+            if reply is None:
+                transfer.fail(error)
+            elif value is not None:
+                transfer.finish(float(value))
+            else:
+                try:
+                    transfer.finish(_decode_number(reply, kind))
+                except ValueError as exc:
+                    transfer.fail(str(exc))
+
+        self.sdo_submit(index, sub, data, done)
+        return transfer
+
+    def start_torque_read(self) -> ParameterTransfer:
+        """The actual torque: 0x6077 [per mille of the rated torque] x 0x6076 [mN m] (read
+        once, or ``rated_torque`` of the configuration), over SDO."""
+        transfer = ParameterTransfer("torque 0x6077")
+
+        def got_torque(reply: bytes | None, error: str) -> None:
+            rated = self._rated_torque
+            if reply is None or rated is None:
+                transfer.fail(error or "no rated torque")
+                return
+            raw = int.from_bytes(reply[:2], "little", signed=True)
+            transfer.finish(raw / 1000.0 * rated)
+
+        def got_rated(reply: bytes | None, error: str) -> None:
+            if reply is None:
+                transfer.fail(f"rated torque 0x6076 (or configure rated_torque): {error}")
+                return
+            rated = int.from_bytes(reply[:4], "little") / 1000.0
+            if not rated > 0.0:
+                transfer.fail(f"{self._located('rated torque 0x6076 is 0')}")
+                return
+            self._rated_torque = rated
+            self.sdo_submit(0x6077, 0, None, got_torque)
+
+        if self._rated_torque is None and self.config.rated_torque is not None:
+            self._rated_torque = self.config.rated_torque
+        if self._rated_torque is None:
+            self.sdo_submit(0x6076, 0, None, got_rated)
+        else:
+            self.sdo_submit(0x6077, 0, None, got_torque)
+        return transfer
 
     def _restart_node(self) -> None:
         try:

@@ -1,0 +1,341 @@
+"""Drive parameters (MC_ReadParameter / MC_WriteParameter vendor numbers) and
+MC_ReadActualTorque over the bus, inside the running cycle:
+
+* CAN: SDO against our virtual CiA 402 drive (its object dictionary read back with the
+  ``canopen`` library's own SDO server API) and against the independent servo of
+  ``tests/interop`` (its ``od_value``); SDO aborts and a silent drive (timeout);
+* Modbus: holding registers against our virtual Modbus drive (loopback TCP) and the
+  independent servo of ``tests/interop``; Modbus exceptions;
+* the cycle never waits for a transfer: the other axis keeps moving, cycles are counted.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import struct
+import uuid
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import can
+import pytest
+
+from motionplc.blocks import (
+    ErrorID,
+    MC_MoveAbsolute,
+    MC_MoveVelocity,
+    MC_Power,
+    MC_ReadActualTorque,
+    MC_ReadBoolParameter,
+    MC_ReadParameter,
+    MC_WriteParameter,
+)
+from motionplc.blocks.axis_params import coe_parameter_number, modbus_parameter_number
+from motionplc.fieldbus.base import TorqueModel
+from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+from motionplc.fieldbus.ideal import IdealDrive
+from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive, eds_path
+from motionplc.runtime import Runtime
+from tests.interop.canopen_servo import CanopenServo
+
+N = 1
+
+
+@pytest.fixture(autouse=True)
+def _quiet() -> None:
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    logging.getLogger("motionplc").setLevel(logging.CRITICAL)
+
+
+class Rig:
+    """A runtime with axis ``x`` on a CAN drive (node 1) and axis ``y`` on an ideal drive;
+    one program calls every FB of ``fbs`` each cycle."""
+
+    def __init__(self, drive: Any, closers: list[Any], **axis: Any) -> None:
+        self.rt = Runtime(cycle=0.001)
+        self.x = self.rt.add_axis("x", v_max=0.5, a_max=10.0, drive=drive, **axis)
+        self.y = self.rt.add_axis("y", v_max=1.0, a_max=10.0)
+        self.fbs: list[Any] = [
+            MC_Power(axis=self.x, enable=True),
+            MC_Power(axis=self.y, enable=True),
+        ]
+        self.closers = closers
+        self.rt.add_task("main", lambda ctx: [fb() for fb in self.fbs])
+
+    def add(self, fb: Any, axis: Any = None) -> Any:
+        fb.axis = axis or self.x
+        self.fbs.append(fb)
+        return fb
+
+    def run(self, n: int = 1) -> None:
+        self.rt.run(cycles=n)
+
+    def until(self, cond: Any, limit: int = 2000) -> int:
+        """Cycles run until ``cond()`` (asserted to come within ``limit``)."""
+        for k in range(1, limit + 1):
+            self.run(1)
+            if cond():
+                return k
+        raise AssertionError("condition not reached")
+
+    def close(self) -> None:
+        for c in self.closers:
+            c()
+
+
+@pytest.fixture
+def can_rig() -> Iterator[Any]:
+    rigs: list[Rig] = []
+
+    def make(eds: bool = True, **cfg: Any) -> tuple[Rig, VirtualCia402Drive]:
+        channel = f"dp-{uuid.uuid4()}"
+        vd = VirtualCia402Drive(N)
+        rack = VirtualCanBus(can.Bus(interface="virtual", channel=channel), [vd])
+        master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=rack)
+        config = CanopenDriveConfig(
+            node_id=N, eds=str(eds_path()) if eds else None, heartbeat_period=0.0, **cfg
+        )
+        drive = CanopenDrive("x", master, config)
+        rig = Rig(drive, [master.close, rack.close])
+        rigs.append(rig)
+        rig.run(5)
+        return rig, vd
+
+    yield make
+    for rig in rigs:
+        rig.close()
+
+
+def _upload(vd: VirtualCia402Drive, index: int, sub: int = 0) -> bytes:
+    """The virtual drive's object read by canopen's own SDO server (the library, not us)."""
+    return bytes(vd.node.sdo.upload(index, sub))
+
+
+# ------------------------------------------------------------------------------ CAN
+def test_can_read_write_against_the_virtual_drive(can_rig: Any) -> None:
+    rig, vd = can_rig()
+    pn = coe_parameter_number(0x6065)  # following error window, U32 in the EDS
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=pn))
+    k = rig.until(lambda: rd.valid)
+    assert rd.busy and not rd.error and k <= 3  # one SDO round trip per cycle
+    assert rd.value == struct.unpack("<I", _upload(vd, 0x6065))[0]
+    wr = rig.add(MC_WriteParameter(parameter_number=pn, value=4321))
+    wr.execute = True
+    rig.run(1)
+    assert wr.busy and not wr.done  # waits for the drive's confirmation
+    k = rig.until(lambda: wr.done)
+    assert k <= 3 and not wr.error
+    assert vd.device.following_error_window == 4321
+    assert struct.unpack("<I", _upload(vd, 0x6065))[0] == 4321
+    rig.until(lambda: rd.value == 4321, limit=10)  # the reader refreshes continuously
+    # a signed object, its type from the EDS: the quick stop option code (I16)
+    wr2 = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x605A), value=-1))
+    wr2.execute = True
+    rig.until(lambda: wr2.done or wr2.error)
+    assert wr2.done and vd.device.quick_stop_option == -1
+    rd2 = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x605A)))
+    rig.until(lambda: rd2.valid)
+    assert rd2.value == -1.0
+
+
+def test_can_bool_reader_and_value_ranges(can_rig: Any) -> None:
+    rig, vd = can_rig()
+    rb = rig.add(MC_ReadBoolParameter(enable=True, parameter_number=coe_parameter_number(0x6041)))
+    rig.until(lambda: rb.valid)
+    assert rb.value is True  # statusword is never 0 on a powered drive
+    # 0x6066 is U16 in the EDS: 70000 does not fit, refused before anything is sent
+    wr = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6066), value=70000))
+    wr.execute = True
+    rig.run(1)
+    assert wr.error and wr.error_id is ErrorID.INVALID_PARAMETER_VALUE
+    assert "[0, 65535]" in wr.error_text
+    # an object the EDS does not list: refused at once (no bus traffic)
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x2345)))
+    rig.run(1)
+    assert rd.error and rd.error_id is ErrorID.INVALID_PARAMETER_NUMBER
+    assert "0x2345:00" in rd.error_text
+    # a Modbus number on a CAN drive
+    rm = rig.add(MC_ReadParameter(enable=True, parameter_number=modbus_parameter_number(0x300)))
+    rig.run(1)
+    assert rm.error and rm.error_id is ErrorID.INVALID_PARAMETER_NUMBER
+
+
+def test_can_sdo_aborts_are_drive_parameter_failed(can_rig: Any) -> None:
+    rig, vd = can_rig(eds=False)
+    # no EDS: the object is asked for; the drive aborts 0x06020000
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x2345)))
+    rig.until(lambda: rd.error)
+    assert rd.error_id is ErrorID.DRIVE_PARAMETER_FAILED and not rd.valid
+    assert "0x06020000" in rd.error_text and "does not exist" in rd.error_text
+    # write to a read-only object (the size given in the number): 0x06010002
+    pn = coe_parameter_number(0x6041, size=2)
+    wr = rig.add(MC_WriteParameter(parameter_number=pn, value=1))
+    wr.execute = True
+    rig.until(lambda: wr.error or wr.done)
+    assert wr.error and wr.error_id is ErrorID.DRIVE_PARAMETER_FAILED
+    assert "0x06010002" in wr.error_text
+    # without an EDS a write needs the size
+    wr2 = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6065), value=1))
+    wr2.execute = True
+    rig.run(1)
+    assert wr2.error and wr2.error_id is ErrorID.INVALID_PARAMETER_NUMBER
+    assert "give the size" in wr2.error_text
+    # the reader recovers when the number is fixed
+    rd.parameter_number = coe_parameter_number(0x6065)
+    rig.until(lambda: rd.valid)
+    assert not rd.error and rd.value == struct.unpack("<I", _upload(vd, 0x6065))[0]
+
+
+def test_can_silent_drive_times_out(can_rig: Any) -> None:
+    rig, vd = can_rig()
+    rig.x.drive.master.sdo_timeout = 0.02
+    vd._on_sdo_request = lambda *a: None  # type: ignore[method-assign]  # deaf to SDO
+    vd.node.network.unsubscribe(0x600 + N)
+    vd.node.network.subscribe(0x600 + N, lambda *a: None)
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x6065)))
+    k = rig.until(lambda: rd.error)
+    assert rd.error_id is ErrorID.DRIVE_PARAMETER_FAILED and "no answer within" in rd.error_text
+    assert 20 <= k <= 23
+    assert rig.x.comm_ok  # the cyclic exchange is unaffected
+
+
+def test_the_cycle_runs_on_during_transfers(can_rig: Any) -> None:
+    """Both axes move while parameters are read and written: no cycle waits, the positions
+    advance every cycle, and the transfers take one or two cycles each."""
+    rig, vd = can_rig()
+    mx = rig.add(MC_MoveVelocity(velocity=0.2))
+    my = rig.add(MC_MoveVelocity(velocity=0.5), rig.y)
+    mx.execute = my.execute = True
+    rig.run(200)
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x6064)))
+    wr = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6067), value=50))
+    reads = 0
+    last = None
+    cycles = 400
+    tick0 = rig.rt.tick
+    for k in range(cycles):
+        px, py = rig.x.p, rig.y.p
+        wr.execute = k % 20 < 10
+        rig.run(1)
+        assert rig.x.p > px and rig.y.p > py  # both axes advanced in this cycle
+        if rd.valid and rd.value != last:
+            reads += 1
+            last = rd.value
+    assert rig.rt.tick - tick0 == cycles
+    # the position actual value read over SDO, while moving: close to the axis' own feedback
+    assert abs(rd.value / 1e6 - rig.x.act_p) < 0.2 * 0.005
+    assert reads >= cycles // 4  # a fresh value every second cycle or so
+    assert rig.x.comm_ok and not rd.error and not wr.error
+
+
+def test_can_against_the_independent_servo(tmp_path: Path) -> None:
+    channel = f"dp-{uuid.uuid4()}"
+    servo_bus = can.Bus(interface="virtual", channel=channel)
+    servo = CanopenServo(servo_bus, 5)
+
+    class Peer:
+        def step(self, t: float) -> int:
+            return servo.process_pending()
+
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=Peer())
+    eds = servo.write_eds(tmp_path / "servo.eds")
+    drive = CanopenDrive("x", master, CanopenDriveConfig(node_id=5, eds=str(eds)))
+    rig = Rig(drive, [master.close, servo_bus.shutdown])
+    try:
+        rig.run(5)
+        wr = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6067), value=777))
+        wr.execute = True
+        rig.until(lambda: wr.done or wr.error)
+        assert wr.done and servo.od_value(0x6067) == 777
+        rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x6085)))
+        rig.until(lambda: rd.valid or rd.error)
+        assert rd.valid and rd.value == servo.od_value(0x6085)
+        # the servo's range check (0x6085 >= 1) answers with an abort
+        bad = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6085), value=0))
+        bad.execute = True
+        rig.until(lambda: bad.done or bad.error)
+        assert bad.error and bad.error_id is ErrorID.DRIVE_PARAMETER_FAILED
+        assert "0x0609003" in bad.error_text  # value range (too low)
+        # a write-only object read back: 0x06010001
+        wo = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x2000)))
+        rig.until(lambda: wo.error)
+        assert wo.error_id is ErrorID.DRIVE_PARAMETER_FAILED and "0x06010001" in wo.error_text
+        # a string object is not a number (EDS data type): refused at once
+        st = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x2001)))
+        rig.run(1)
+        assert st.error and st.error_id is ErrorID.INVALID_PARAMETER_NUMBER
+        # no 0x6077/0x6076 on this servo: the torque read fails with the abort
+        tq = rig.add(MC_ReadActualTorque(enable=True))
+        rig.until(lambda: tq.error)
+        assert tq.error_id is ErrorID.DRIVE_PARAMETER_FAILED and "0x6076" in tq.error_text
+    finally:
+        rig.close()
+
+
+# ------------------------------------------------------------------------------ torque
+def test_can_torque_from_0x6077_and_0x6076(can_rig: Any) -> None:
+    rig, vd = can_rig()
+    assert struct.unpack("<I", _upload(vd, 0x6076))[0] == 1000  # rated torque 1 N m (mN m)
+    tq = rig.add(MC_ReadActualTorque(enable=True))
+    rig.until(lambda: tq.valid)
+    assert tq.torque == 0.0  # at rest
+    ma = rig.add(MC_MoveAbsolute(position=0.3, velocity=0.5, acceleration=8.0))
+    ma.execute = True
+    seen = []
+    for _ in range(40):
+        rig.run(1)
+        seen.append(tq.torque)
+    # accelerating at up to 8 m/s^2 = 8e6 inc/s^2 -> 8 per mille (plant 1e-6 per inc/s^2)
+    peak = max(seen)
+    assert 0.004 <= peak <= 0.0125
+    assert all(round(s * 1000) == s * 1000 for s in seen)  # whole per mille of 1 N m
+
+
+def test_can_torque_with_configured_rated_torque(can_rig: Any) -> None:
+    rig, vd = can_rig(rated_torque=2.5)
+    vd.device.reset  # noqa: B018 - the drive is the same; only the scale differs
+    tq = rig.add(MC_ReadActualTorque(enable=True))
+    ma = rig.add(MC_MoveVelocity(velocity=0.4, acceleration=8.0))
+    ma.execute = True
+    rig.run(10)
+    assert tq.valid
+    raw = struct.unpack("<h", _upload(vd, 0x6077))[0]
+    values = set()
+    for _ in range(20):
+        rig.run(1)
+        values.add(round(tq.torque / 2.5 * 1000, 9))
+    assert all(v == int(v) for v in values) and raw != 0
+
+
+def test_torque_model_of_the_ideal_drive() -> None:
+    drive = IdealDrive("x")
+    drive.torque_model = TorqueModel(inertia=0.5, coulomb=0.1, viscous=0.2)
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=1.0, a_max=4.0, drive=drive)
+    power = MC_Power(axis=x, enable=True)
+    tq = MC_ReadActualTorque(axis=x, enable=True)
+    mv = MC_MoveVelocity(axis=x, velocity=0.5)
+    rt.add_task("main", lambda ctx: (power(), tq(), mv()))
+    rt.run(cycles=3)
+    assert tq.valid and tq.torque == 0.0
+    mv.execute = True
+    for _ in range(300):
+        rt.run(cycles=1)
+        v, a = x.img_act_v, x.img_act_a
+        friction = 0.0 if v == 0.0 else math.copysign(0.1, v) + 0.2 * v
+        assert tq.torque == pytest.approx(0.5 * a + friction, abs=1e-12)
+    assert tq.torque == pytest.approx(0.1 + 0.2 * 0.5)  # cruising: friction only
+    with pytest.raises(ValueError, match="inertia"):
+        TorqueModel(inertia=-1.0)
+
+
+def test_a_drive_without_torque_is_an_error() -> None:
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=1.0, a_max=4.0)
+    tq = MC_ReadActualTorque(axis=x, enable=True)
+    rt.add_task("main", lambda ctx: tq())
+    rt.run(cycles=1)
+    assert tq.error and tq.error_id is ErrorID.INVALID_AXIS and "torque_model" in tq.error_text
+    assert not tq.valid and tq.torque == 0.0
