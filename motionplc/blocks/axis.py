@@ -77,6 +77,9 @@ from motionplc.blocks.override import TimeScale, ramp_limits
 from motionplc.blocks.planner_guard import guarded as _guarded
 from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
+from motionplc.blocks.sync_job import SYNC_KINDS, SyncCommand
+from motionplc.blocks.sync_job import prepare as _prepare_sync
+from motionplc.blocks.sync_job import submit as _submit_sync
 from motionplc.fieldbus.base import Drive, DriveCommand
 from motionplc.fieldbus.error_codes import describe
 from motionplc.fieldbus.ideal import IdealDrive
@@ -648,6 +651,8 @@ class Axis:
                 "(disable the group first)",
             )
             return h
+        if cmd.kind in SYNC_KINDS and isinstance(cmd, SyncCommand):
+            return _submit_sync(self, cmd)  # gear / cam couplings: motionplc.blocks.sync_job
         if cmd.kind == "setpos":
             job = AxisJob(cmd, h)
             if cmd.mode is BufferMode.ABORTING or (self.mq.active is None and not self.mq.queue):
@@ -981,11 +986,13 @@ class Axis:
         without a motion)."""
         act = self.mq.active
         st = self.state
-        if st not in (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION):
+        if st not in (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             return
         if act is None:
             if not self.mq.queue and not self.mq.inbox:
                 self.state = S.STANDSTILL
+        elif act.sync:
+            self.state = S.SYNCHRONIZED_MOTION
         elif act.kind == "velocity":
             self.state = S.CONTINUOUS_MOTION
         elif act.kind in ("absolute", "relative", "additive", "halt", "feedstop"):
@@ -1029,6 +1036,9 @@ class Axis:
                 ok = prepare_home(self, job)
                 if not ok:
                     return True
+            elif kind in SYNC_KINDS:
+                if not _prepare_sync(self, job):
+                    return False
             else:
                 if job.target is None:
                     err = self._resolve(job, self.p)

@@ -50,6 +50,11 @@ EVENTS = {
     "velocity": Event.CONTINUOUS,
     "home": Event.HOME,
     "stop": Event.STOP,
+    # master/slave couplings (motionplc.blocks.sync_job)
+    "gear": Event.SYNC,
+    "gearpos": Event.SYNC,
+    "cam": Event.SYNC,
+    "syncout": Event.SYNC_OUT,
 }
 # kinds the override does not scale (stops, homing, the ErrorStop ramp)
 NO_OVERRIDE = frozenset({"halt", "stop", "home", "estop"})
@@ -57,6 +62,8 @@ NO_OVERRIDE = frozenset({"halt", "stop", "home", "estop"})
 
 class AxisJob:
     """A command being executed or waiting in the queue (mutable, axis-internal)."""
+
+    sync = False  # a master/slave coupling (sync_job.SyncJob samples its master, not a chain)
 
     __slots__ = (
         "cmd",

@@ -22,6 +22,8 @@ class Event(Enum):
     STOP = "stop"
     DISCRETE = "discrete"  # MoveAbsolute/Relative/Additive, Halt
     CONTINUOUS = "continuous"  # MoveVelocity
+    SYNC = "sync"  # GearIn, GearInPos, CamIn (as slave)
+    SYNC_OUT = "sync_out"  # GearOut, CamOut
     RESET = "reset"
     POWER_OFF = "power_off"
     # completion / system events (dashed arrows)
@@ -63,6 +65,11 @@ for _s in _MOVING:  # T12-T17 and re-issue within the same group
 for _s in (S.STANDSTILL, S.HOMING, *_MOVING, S.STOPPING):
     TRANSITIONS[(Event.STOP, _s)] = S.STOPPING  # T18 (and another MC_Stop while Stopping)
 TRANSITIONS[(Event.STOP_RELEASED, S.STOPPING)] = S.STANDSTILL  # T19
+# T11, T13, T15 and re-issue: GearIn / GearInPos / CamIn make the slave SynchronizedMotion; only
+# GearOut / CamOut leave it, to ContinuousMotion (the slave keeps its velocity; spec p. 14)
+for _s in (S.STANDSTILL, *_MOVING):
+    TRANSITIONS[(Event.SYNC, _s)] = S.SYNCHRONIZED_MOTION
+TRANSITIONS[(Event.SYNC_OUT, S.SYNCHRONIZED_MOTION)] = S.CONTINUOUS_MOTION
 # T11 as a member of a moving axes group (CODESYS: the members of a GroupMoving group are in
 # SynchronizedMotion), back to Standstill when the group stops moving
 TRANSITIONS[(Event.GROUP_MOTION, S.STANDSTILL)] = S.SYNCHRONIZED_MOTION

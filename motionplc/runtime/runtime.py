@@ -310,6 +310,7 @@ class Runtime:
                 raise ValueError(f"axis {ax.name!r}: unknown task {ax.task_name!r}")
             task = next(t for t in self.tasks if t.name == ax.task_name)
             task.axes.append(ax)
+            ax.task_axes = task.axes  # re-sorted in place: masters step before their slaves
             bind = getattr(ax.drive, "bind_clock", None)
             if bind is not None:
                 bind(self.clock.realtime)
