@@ -124,6 +124,17 @@ class SlavePeaks(NamedTuple):
     j: float
 
 
+class SlaveBounds(NamedTuple):
+    """Signed extremes of the slave's velocity, acceleration and jerk over a cam table."""
+
+    v_min: float
+    v_max: float
+    a_min: float
+    a_max: float
+    j_min: float
+    j_max: float
+
+
 # --------------------------------------------------------------------------------------------
 # Normalised rest-to-rest laws, u in [0, 1] -> s in [0, 1]
 #
@@ -335,8 +346,14 @@ def _eval_section(sec: _Section, x: float) -> tuple[float, float, float, float]:
 
 
 def _section_max(sec: _Section, k1: float, k2: float, k3: float) -> float:
-    """max |k1 y' + k2 y'' + k3 y'''| over the section: the ends and every root of the
-    derivative inside (polynomial roots, or closed form for the sine pieces)."""
+    """max |k1 y' + k2 y'' + k3 y'''| over the section."""
+    lo, hi = _section_range(sec, k1, k2, k3)
+    return max(-lo, hi)
+
+
+def _section_range(sec: _Section, k1: float, k2: float, k3: float) -> tuple[float, float]:
+    """(min, max) of k1 y' + k2 y'' + k3 y''' over the section: the ends and every root of
+    the derivative inside (polynomial roots, or closed form for the sine pieces)."""
     length = sec.xe - sec.xs
     cand = [0.0, length]
     if sec.b == 0.0:
@@ -370,11 +387,12 @@ def _section_max(sec: _Section, k1: float, k2: float, k3: float) -> float:
                     t = (psi - delta - sec.ph) / w
                     if 0.0 < t < length:
                         cand.append(t)
-    best = 0.0
+    lo, hi = math.inf, -math.inf
     for t in cand:
         _, dy, d2y, d3y = _eval_section(sec, sec.xs + t)
-        best = max(best, abs(k1 * dy + k2 * d2y + k3 * d3y))
-    return best
+        f = k1 * dy + k2 * d2y + k3 * d3y
+        lo, hi = min(lo, f), max(hi, f)
+    return lo, hi
 
 
 def _num(value: Any, index: int, name: str, bound: float) -> float:
@@ -790,27 +808,65 @@ class CamTable:
         _, v1, a1, _ = _eval_section(self._secs[-1], self.master_end)
         return PeriodicGaps(v1 - v0, a1 - a0, self.lift)
 
+    def slave_bounds(
+        self,
+        master_v: float,
+        master_a: float = 0.0,
+        master_j: float = 0.0,
+        periodic: bool = False,
+    ) -> SlaveBounds:
+        """Exact signed extremes over the table of the slave's v = y' vm,
+        a = y'' vm^2 + y' am and j = y''' vm^3 + 3 y'' vm am + y' jm for a master at velocity
+        ``master_v``, acceleration ``master_a`` and jerk ``master_j`` (each section's ends and
+        the roots of the derivative inside). A curvature jump inside the table (or, with
+        ``periodic``, at the seam) is an acceleration step: j = -inf / +inf when the master
+        moves; a slope jump at the seam (``periodic``) is a velocity step: a and j infinite."""
+        vm, am, jm = (
+            _finite(master_v, "master_v"),
+            _finite(master_a, "master_a"),
+            _finite(master_j, "master_j"),
+        )
+        secs = self._secs
+        rv = [_section_range(s, vm, 0.0, 0.0) for s in secs]
+        ra = [_section_range(s, am, vm * vm, 0.0) for s in secs]
+        rj = [_section_range(s, jm, 3.0 * vm * am, vm**3) for s in secs]
+        b = [
+            min(r[0] for r in rv),
+            max(r[1] for r in rv),
+            min(r[0] for r in ra),
+            max(r[1] for r in ra),
+            min(r[0] for r in rj),
+            max(r[1] for r in rj),
+        ]
+        if vm != 0.0:
+            gaps = self.periodic_gaps() if periodic else None
+            if self.curvature_jumps or (
+                gaps is not None and abs(gaps.curvature) > 1e-9 * (1.0 + self.peak_curvature)
+            ):
+                b[4], b[5] = -math.inf, math.inf
+            if gaps is not None and abs(gaps.slope) > 1e-9 * (1.0 + self.peak_slope):
+                b[2], b[3], b[4], b[5] = -math.inf, math.inf, -math.inf, math.inf
+        return SlaveBounds(*b)
+
     def slave_peaks(
-        self, master_v: float, master_a: float = 0.0, master_j: float = 0.0
+        self,
+        master_v: float,
+        master_a: float = 0.0,
+        master_j: float = 0.0,
+        periodic: bool = False,
     ) -> SlavePeaks:
         """Exact maxima over the table of the slave's |v| = |y' vm|, |a| = |y'' vm^2 + y' am|,
-        |j| = |y''' vm^3 + 3 y'' vm am + y' jm| for a master at velocity ``master_v``,
-        acceleration ``master_a`` and jerk ``master_j`` (each section's ends and the roots of
-        the derivative). A curvature jump inside the table gives ``j = inf`` when the master
-        moves (an acceleration step)."""
-        for nm, val in (("master_v", master_v), ("master_a", master_a), ("master_j", master_j)):
-            if not math.isfinite(val):
-                raise ValueError(f"{nm}: must be a finite number, got {val!r}")
-        vm, am, jm = float(master_v), float(master_a), float(master_j)
-        v = self.peak_slope * abs(vm)
-        if am == 0.0:
-            a = self.peak_curvature * vm * vm
-        else:
-            a = max(_section_max(s, am, vm * vm, 0.0) for s in self._secs)
-        if am == 0.0 and jm == 0.0:
-            j = self.peak_jerk * abs(vm) ** 3
-        else:
-            j = max(_section_max(s, jm, 3.0 * vm * am, vm**3) for s in self._secs)
-        if self.curvature_jumps and vm != 0.0:
-            j = math.inf
-        return SlavePeaks(v, a, j)
+        |j| = |y''' vm^3 + 3 y'' vm am + y' jm| (see :meth:`slave_bounds`; ``inf`` for the
+        steps it reports)."""
+        if master_a == 0.0 and master_j == 0.0 and not periodic:
+            vm = abs(_finite(master_v, "master_v"))
+            j = math.inf if self.curvature_jumps and vm != 0.0 else self.peak_jerk * vm**3
+            return SlavePeaks(self.peak_slope * vm, self.peak_curvature * vm * vm, j)
+        b = self.slave_bounds(master_v, master_a, master_j, periodic)
+        return SlavePeaks(max(-b.v_min, b.v_max), max(-b.a_min, b.a_max), max(-b.j_min, b.j_max))
+
+
+def _finite(value: Any, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValueError(f"{name}: must be a finite number, got {value!r}")
+    return float(value)

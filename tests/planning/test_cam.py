@@ -275,8 +275,31 @@ def test_slave_peaks_against_sampling() -> None:
             m = float(np.max(arr))
             assert m <= got * (1 + 1e-12) + 1e-12
             assert m >= got * (1 - 1e-6)
+        bd = t.slave_bounds(vm, am, jm)
+        for lo, hi, arr in (
+            (bd.v_min, bd.v_max, s.dy * vm),
+            (bd.a_min, bd.a_max, s.d2y * vm * vm + s.dy * am),
+            (bd.j_min, bd.j_max, s.d3y * vm**3 + 3 * s.d2y * vm * am + s.dy * jm),
+        ):
+            span = hi - lo
+            assert float(np.min(arr)) >= lo - 1e-12 * span
+            assert float(np.max(arr)) <= hi + 1e-12 * span
+            assert float(np.min(arr)) <= lo + 1e-6 * span
+            assert float(np.max(arr)) >= hi - 1e-6 * span
     with pytest.raises(ValueError, match="master_v"):
         t.slave_peaks(math.nan)
+    with pytest.raises(ValueError, match="master_a"):
+        t.slave_bounds(1.0, math.inf)
+
+
+def test_periodic_steps_in_bounds() -> None:
+    # slope 0 at the start, 1 at the end: used periodically the slave's velocity steps
+    t = CamTable.from_points([(0, 0), (1, 0.5), (2, 1.5)], laws=["poly5", "linear"])
+    assert t.periodic_gaps().slope == pytest.approx(1.0)
+    assert math.isfinite(t.slave_peaks(1.0).a)
+    pk = t.slave_peaks(1.0, periodic=True)
+    assert pk.a == math.inf and pk.j == math.inf and math.isfinite(pk.v)
+    assert t.slave_peaks(0.0, periodic=True) == (0.0, 0.0, 0.0)
 
 
 def test_at_range_and_sample_agree() -> None:
