@@ -75,6 +75,7 @@ the axis in ErrorStop at rest (counted in ``reconfigurations``).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -91,9 +92,12 @@ from pymodbus.pdu.register_message import (
 
 from motionplc.fieldbus.base import (
     Drive,
+    DriveAddress,
     DriveCommand,
     DriveFeedback,
     FieldbusError,
+    ParameterError,
+    ParameterTransfer,
     reset_in_progress,
 )
 from motionplc.fieldbus.cia402 import (
@@ -118,6 +122,8 @@ from motionplc.fieldbus.modbus_regmap import (
     RegisterMap,
     RegisterValueError,
     Request,
+    decode_value,
+    encode_value,
     load_register_map,
     read_requests,
 )
@@ -166,6 +172,11 @@ class ModbusDriveConfig:
     requests_in_flight: int = 1
     reconnect_every: int = 10  # cycles between reconnect attempts
     reset_timeout: float = 0.05  # [s] a fault reset (MC_Reset) that has not succeeded by then fails
+    # MC_ReadActualTorque: the holding register of the actual torque (i16, per mille of the
+    # rated torque; None: 0x0208 TORQUE_ACTUAL with the motionplc-v1 map, else none) and the
+    # rated torque [N m, or N] it refers to (None: not configured, the torque is refused)
+    torque_register: int | None = None
+    rated_torque: float | None = None
 
     def __post_init__(self) -> None:
         if not 0 < self.port < 65536:
@@ -209,6 +220,17 @@ class ModbusDriveConfig:
                 raise ValueError(
                     f"{key} is given but the register map {rmap.name!r} has no {key} register"
                 )
+        if self.torque_register is not None and not (
+            isinstance(self.torque_register, int) and 0 <= self.torque_register <= 0xFFFF
+        ):
+            raise ValueError(
+                f"torque_register must be a register address in 0..0xFFFF, got "
+                f"{self.torque_register!r}"
+            )
+        if self.rated_torque is not None and not (
+            isinstance(self.rated_torque, (int, float)) and 0 < self.rated_torque < math.inf
+        ):
+            raise ValueError(f"rated_torque must be a finite number > 0, got {self.rated_torque!r}")
         if self.velocity_feed_forward and "target_velocity" not in rmap:
             raise ValueError(
                 f"velocity_feed_forward needs a target_velocity register; the register map "
@@ -281,6 +303,35 @@ class _Exchange:
     peer_seq: int = 0  # lockstep: the peer's request count before this exchange was sent
 
 
+class _ParamOp:
+    """A drive parameter transfer riding in a cycle's exchange (after its cyclic requests):
+    one read (FC 03) or write (FC 16 / FC 06) of ``count`` registers of type ``kind``. A read
+    finishes with the decoded value times ``factor``, a write with ``written``."""
+
+    __slots__ = (
+        "count",
+        "factor",
+        "function",
+        "kind",
+        "label",
+        "order",
+        "pdu",
+        "transfer",
+        "written",
+    )
+
+    def __init__(self, pdu: ModbusPDU, label: str, kind: str, order: WordOrder, count: int) -> None:
+        self.function = 0  # not a cyclic request: _pump sends ``pdu`` as it is
+        self.pdu = pdu
+        self.label = label
+        self.kind = kind
+        self.order = order
+        self.count = count
+        self.factor = 1.0
+        self.written = 0.0
+        self.transfer = ParameterTransfer(label)
+
+
 def _exception_detail(code: int) -> str:
     name = ExcCodes(code).name if code in iter(ExcCodes) else "?"
     return f"Modbus exception 0x{code:02X} ({name})"
@@ -348,6 +399,8 @@ class ModbusDrive(Drive):
         self.timeouts = 0  # COMM_TIMEOUTs (exchanges abandoned)
         self.unexpected_replies = 0  # answers to no request in flight (ignored)
         self.reconfigurations = 0  # setups repeated on a reset after a reconnection
+        # drive parameter transfers waiting for a cycle's exchange (one rides in each)
+        self._param_ops: deque[_ParamOp] = deque()
 
     def bind_clock(self, realtime: bool) -> None:
         """Real time: never wait for an answer inside the cycle (see the module docstring)."""
@@ -530,6 +583,9 @@ class ModbusDrive(Drive):
             if ex is None or req is None:
                 self.unexpected_replies += 1
                 continue
+            if type(req) is _ParamOp:
+                self._param_reply(req, reply)
+                continue
             reads = req.function in (3, 4, 23)
             rr = reply.pdu
             if rr is None or (
@@ -574,7 +630,16 @@ class ModbusDrive(Drive):
         if self._opened and not self.link.connected and not self.link.connecting:
             if not self._disconnected:
                 self._disconnected = self.link.error or "connection lost"
+            self._drop_params(self._disconnected)
             self._exchange = None
+
+    def _drop_params(self, why: str) -> None:
+        """The exchange in flight is given up: its parameter transfer fails."""
+        ex = self._exchange
+        if ex is not None:
+            for req in [*ex.pending.values(), *ex.queue]:
+                if type(req) is _ParamOp:
+                    req.transfer.fail(f"{self.name}: {req.label}: {why}")
 
     def _collect(self) -> None:
         """Take in the answers that have arrived (never blocks)."""
@@ -584,6 +649,7 @@ class ModbusDrive(Drive):
     def _abandon(self) -> None:
         """Give up the exchange in flight: re-open the connection so that its answer, if it
         ever comes, cannot be taken for the answer to a later request."""
+        self._drop_params(self._timed_out or "no response")
         self._exchange = None
         self.link.close()
         self._start_connect()
@@ -703,10 +769,13 @@ class ModbusDrive(Drive):
             ex.parked_due = None
         while ex.queue and len(ex.pending) < self.config.requests_in_flight:
             req = ex.queue.pop(0)
-            if req.function in (3, 4):
+            fn = req.function
+            if fn in (3, 4):
                 pdu = self._read_pdus[id(req)]
-            else:
+            elif fn:
                 pdu = _write_pdu(req, ex.blocks[id(req)])
+            else:  # a drive parameter transfer (_ParamOp)
+                pdu = req.pdu  # type: ignore[attr-defined]
             if not self._send(ex, pdu, req):
                 return False
         return True
@@ -787,6 +856,8 @@ class ModbusDrive(Drive):
         self.life_sign = life_sign
         ex = _Exchange(life_sign, self._tick, len(self.codec.reads), [None] * len(STATUS_KEYS))
         ex.queue = list(self.codec.requests)
+        if self._param_ops:
+            ex.queue.append(self._param_ops.popleft())  # type: ignore[arg-type]
         ex.blocks = {id(r): b for r, b in zip(self.codec.writes, blocks, strict=True)}
         self._exchange = ex
         if not self._pump(ex):
@@ -794,6 +865,106 @@ class ModbusDrive(Drive):
         elif not self.realtime:
             self._wait_settled()
         self._step_peer(t)
+
+    # ------------------------------------------------------- drive parameters
+    def _register_type(self, address: DriveAddress) -> tuple[str, WordOrder]:
+        """(type, word order) of a parameter: its number's type, else the map's holding
+        register at that address, else one u16 register."""
+        reg = next(
+            (r for r in self.map.registers if r.wire == address.index and r.table == "holding"),
+            None,
+        )
+        order = self.map.word_order if reg is None else self.map.order_of(reg)
+        if address.size:
+            return ("i" if address.signed else "u") + str(8 * address.size), order
+        return ("u16" if reg is None else reg.type), order
+
+    def _param_op(self, address: int, kind: str, order: WordOrder, value: float | None) -> _ParamOp:
+        count = 2 if kind in ("u32", "i32", "f32") else 1
+        if value is None:
+            pdu: ModbusPDU = ReadHoldingRegistersRequest(address=address, count=count)
+            label = f"FC03 read 0x{address:04X}+{count} ({kind})"
+        else:
+            regs = encode_value(value, kind, order)
+            if count == 1 and self.map.write_function == 6:
+                pdu = WriteSingleRegisterRequest(address=address, registers=regs)
+                label = f"FC06 write 0x{address:04X} ({kind})"
+            else:
+                pdu = WriteMultipleRegistersRequest(address=address, registers=regs)
+                label = f"FC16 write 0x{address:04X}+{count} ({kind})"
+        op = _ParamOp(pdu, label, kind, order, count)
+        if value is not None:
+            op.written = float(value)
+        return op
+
+    def start_parameter(
+        self, address: DriveAddress, value: float | None = None
+    ) -> ParameterTransfer:
+        """Read or write holding registers (the raw register value in its type; the type
+        from the number, else from the register map, else u16), carried in the next cycle's
+        exchange after its cyclic requests (never blocking; on the simulated clock the cycle
+        waits for the answer as for the cyclic ones). A Modbus exception fails the transfer
+        (the exception code in its text) without touching the axis' communication state."""
+        if address.bus != "modbus":
+            raise ParameterError(
+                f"{self.name}: {address.describe()} is not a Modbus register "
+                "(0x10000 + the register address on a Modbus drive)",
+                number_error=True,
+            )
+        kind, order = self._register_type(address)
+        if value is not None:
+            if kind != "f32" and math.isfinite(value) and value != int(value):
+                raise ParameterError(
+                    f"{self.name}: register 0x{address.index:04X} ({kind}) takes an integer, "
+                    f"got {value!r}"
+                )
+            try:
+                encode_value(value, kind, order)
+            except RegisterValueError as exc:
+                raise ParameterError(
+                    f"{self.name}: register 0x{address.index:04X} ({kind}): {exc}"
+                ) from None
+        op = self._param_op(address.index, kind, order, value)
+        self._param_ops.append(op)
+        return op.transfer
+
+    def _param_reply(self, op: _ParamOp, reply: Reply) -> None:
+        rr = reply.pdu
+        where = f"{self.name}: {op.label}"
+        if rr is None:
+            op.transfer.fail(f"{where}: malformed response")
+        elif isinstance(rr, ExceptionResponse):
+            op.transfer.fail(f"{where}: {_exception_detail(int(rr.exception_code))}")
+        elif rr.function_code != op.pdu.function_code:
+            op.transfer.fail(f"{where}: answer of function {rr.function_code}")
+        elif op.pdu.function_code == 3:
+            regs = list(rr.registers)
+            if len(regs) != op.count:
+                op.transfer.fail(f"{where}: {len(regs)} registers in the answer")
+            else:
+                op.transfer.finish(float(decode_value(regs, op.kind, op.order)) * op.factor)
+        else:
+            op.transfer.finish(op.written)
+
+    def start_torque_read(self) -> ParameterTransfer | None:
+        """The actual torque: the torque register (i16, per mille of ``rated_torque``) read
+        in the next exchange; None when the drive has no torque register."""
+        cfg = self.config
+        reg = cfg.torque_register
+        if reg is None and self.map.name == "motionplc-v1":
+            reg = 0x0208  # TORQUE_ACTUAL of map v1 (read through by the status block)
+        if reg is None:
+            return None
+        if cfg.rated_torque is None:
+            raise ParameterError(
+                f"{self.name}: the torque register 0x{reg:04X} is in per mille of the rated "
+                "torque: configure rated_torque"
+            )
+        op = self._param_op(reg, "i16", self.map.word_order, None)
+        op.factor = cfg.rated_torque / 1000.0
+        op.transfer.label = f"torque {op.label}"
+        self._param_ops.append(op)
+        return op.transfer
 
     def _step_peer(self, t: float) -> None:
         if self.peer is not None:

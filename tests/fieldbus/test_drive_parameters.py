@@ -21,6 +21,7 @@ from typing import Any
 
 import can
 import pytest
+from pymodbus.client import ModbusTcpClient
 
 from motionplc.blocks import (
     ErrorID,
@@ -36,7 +37,9 @@ from motionplc.blocks.axis_params import coe_parameter_number, modbus_parameter_
 from motionplc.fieldbus.base import TorqueModel
 from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
 from motionplc.fieldbus.ideal import IdealDrive
+from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig
 from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive, eds_path
+from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
 from motionplc.runtime import Runtime
 from tests.interop.canopen_servo import CanopenServo
 
@@ -339,3 +342,180 @@ def test_a_drive_without_torque_is_an_error() -> None:
     rt.run(cycles=1)
     assert tq.error and tq.error_id is ErrorID.INVALID_AXIS and "torque_model" in tq.error_text
     assert not tq.valid and tq.torque == 0.0
+
+
+# ------------------------------------------------------------------------------ Modbus
+MAP_FILE = Path(__file__).parents[1] / "interop" / "data" / "modbus_servo_map.yaml"
+
+
+@pytest.fixture
+def modbus_rig() -> Iterator[Any]:
+    rigs: list[Rig] = []
+
+    def make(**cfg: Any) -> tuple[Rig, VirtualModbusDrive]:
+        vd = VirtualModbusDrive(1)
+        srv = VirtualModbusServer([vd])
+        srv.start()
+        config = ModbusDriveConfig(port=srv.port, timeout=0.05, cycle_time=0.001, **cfg)
+        drive = ModbusDrive("x", config, peer=srv)
+        rig = Rig(drive, [drive.close, srv.stop])
+        rigs.append(rig)
+        rig.run(5)
+        return rig, vd
+
+    yield make
+    for rig in rigs:
+        rig.close()
+
+
+def _holding(port: int, address: int, count: int, device_id: int = 1) -> list[int]:
+    """Registers read by pymodbus' own client (the peer library, not our master)."""
+    c = ModbusTcpClient("127.0.0.1", port=port, timeout=1.0, retries=0)
+    assert c.connect()
+    try:
+        rr = c.read_holding_registers(address, count=count, device_id=device_id)
+        assert not rr.isError(), rr
+        return list(rr.registers)
+    finally:
+        c.close()
+
+
+def test_modbus_read_write_against_the_virtual_drive(modbus_rig: Any) -> None:
+    rig, vd = modbus_rig()
+    port = rig.x.drive.config.port
+    # following error window: u32 in the map (0x0300, high word first)
+    pn = modbus_parameter_number(0x0300)
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=pn))
+    k = rig.until(lambda: rd.valid)
+    assert k <= 2 and not rd.error
+    hi, lo = _holding(port, 0x0300, 2)
+    assert rd.value == (hi << 16 | lo) == vd.device.following_error_window
+    wr = rig.add(MC_WriteParameter(parameter_number=pn, value=123456))
+    wr.execute = True
+    k = rig.until(lambda: wr.done or wr.error)
+    assert wr.done and k <= 3  # queued behind the reader's transfer: one per exchange
+    assert vd.device.following_error_window == 123456
+    assert _holding(port, 0x0300, 2) == [123456 >> 16, 123456 & 0xFFFF]
+    # a register not in the map, typed by the number: MAX_VELOCITY u32 at 0x0306
+    mv = rig.add(
+        MC_ReadParameter(enable=True, parameter_number=modbus_parameter_number(0x0306, size=4))
+    )
+    rig.until(lambda: mv.valid)
+    assert mv.value == vd.params["MAX_VELOCITY"]
+    # the torque register as a signed 16-bit parameter
+    tq = rig.add(
+        MC_ReadParameter(
+            enable=True, parameter_number=modbus_parameter_number(0x0208, size=2, signed=True)
+        )
+    )
+    rig.until(lambda: tq.valid)
+    assert tq.value == 0.0
+    assert rig.x.comm_ok
+
+
+def test_modbus_exceptions_are_drive_parameter_failed(modbus_rig: Any) -> None:
+    rig, vd = modbus_rig()
+    # the quick stop option takes 0..8: 9 is answered with exception 0x03
+    wr = rig.add(
+        MC_WriteParameter(parameter_number=modbus_parameter_number(0x030A, 2, True), value=9)
+    )
+    wr.execute = True
+    rig.until(lambda: wr.done or wr.error)
+    assert wr.error and wr.error_id is ErrorID.DRIVE_PARAMETER_FAILED
+    assert "0x03" in wr.error_text and "ILLEGAL_VALUE" in wr.error_text
+    # a write into the read-only status block: 0x02
+    ro = rig.add(MC_WriteParameter(parameter_number=modbus_parameter_number(0x0200), value=1))
+    ro.execute = True
+    rig.until(lambda: ro.done or ro.error)
+    assert ro.error and "0x02" in ro.error_text
+    # the axis' communication is unaffected by the exceptions
+    rig.run(5)
+    assert rig.x.comm_ok and rig.x.axis_error is ErrorID.OK
+    # values the register cannot hold are refused before sending
+    big = rig.add(MC_WriteParameter(parameter_number=modbus_parameter_number(0x0302), value=-1))
+    big.execute = True
+    rig.run(1)
+    assert big.error and big.error_id is ErrorID.INVALID_PARAMETER_VALUE
+    # a CAN number on a Modbus drive
+    can_pn = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x6065)))
+    rig.run(1)
+    assert can_pn.error and can_pn.error_id is ErrorID.INVALID_PARAMETER_NUMBER
+
+
+def test_modbus_torque_register(modbus_rig: Any) -> None:
+    rig, vd = modbus_rig(rated_torque=2.0)
+    tq = rig.add(MC_ReadActualTorque(enable=True))
+    ma = rig.add(MC_MoveVelocity(velocity=0.4, acceleration=8.0))
+    ma.execute = True
+    seen = []
+    for _ in range(40):
+        rig.run(1)
+        if tq.valid:
+            seen.append(tq.torque)
+    assert len(seen) >= 30
+    # per mille of 2 N m, the virtual drive's acceleration x 1e-6 per inc/s^2
+    assert max(seen) > 0.0 and all(abs(round(s / 0.002) - s / 0.002) < 1e-9 for s in seen)
+    plain, _ = modbus_rig()
+    t2 = plain.add(MC_ReadActualTorque(enable=True))
+    plain.run(1)
+    assert t2.error and t2.error_id is ErrorID.INVALID_AXIS and "rated_torque" in t2.error_text
+
+
+def test_modbus_cycle_runs_on_and_transfers_count(modbus_rig: Any) -> None:
+    rig, vd = modbus_rig()
+    mx = rig.add(MC_MoveVelocity(velocity=0.2))
+    my = rig.add(MC_MoveVelocity(velocity=0.5), rig.y)
+    mx.execute = my.execute = True
+    rig.run(100)
+    rd = rig.add(MC_ReadParameter(enable=True, parameter_number=modbus_parameter_number(0x0300)))
+    cycles = 200
+    done = 0
+    for _ in range(cycles):
+        px, py = rig.x.p, rig.y.p
+        before = rd._transfer
+        rig.run(1)
+        assert rig.x.p > px and rig.y.p > py
+        if rd._transfer is not before:
+            done += 1
+    assert done >= cycles - 2  # one register read per cycle, riding in the exchange
+    assert rig.x.drive.timeouts == 0 and rig.x.comm_ok
+
+
+def test_modbus_against_the_independent_servo() -> None:
+    from tests.interop.modbus_servo import ModbusServo
+
+    with ModbusServo(unit_id=7) as servo:
+        config = ModbusDriveConfig(
+            port=servo.port, device_id=7, cycle_time=0.001, timeout=1.0, register_map=MAP_FILE
+        )
+        drive = ModbusDrive("x", config)
+        rig = Rig(drive, [drive.close])
+        try:
+            rig.run(5)
+            # following error window (u32, low word first in this map)
+            pn = modbus_parameter_number(0x3000)
+            wr = rig.add(MC_WriteParameter(parameter_number=pn, value=70000))
+            wr.execute = True
+            rig.until(lambda: wr.done or wr.error)
+            assert wr.done, wr.error_text
+            rd = rig.add(MC_ReadParameter(enable=True, parameter_number=pn))
+            rig.until(lambda: rd.valid or rd.error)
+            assert rd.value == 70000 == servo.parameters["following_error_window"]
+            # the servo's range check: cycle time 250..100000 us -> exception 0x04
+            ct = modbus_parameter_number(0x3004)
+            bad = rig.add(MC_WriteParameter(parameter_number=ct, value=10))
+            bad.execute = True
+            rig.until(lambda: bad.done or bad.error)
+            assert bad.error and bad.error_id is ErrorID.DRIVE_PARAMETER_FAILED
+            assert "0x04" in bad.error_text
+            # an f32 parameter typed by the number is refused: f32 must come from the map;
+            # as u32 raw registers it reads the bits
+            vmax = rig.add(
+                MC_ReadParameter(enable=True, parameter_number=modbus_parameter_number(0x3008, 4))
+            )
+            rig.until(lambda: vmax.valid or vmax.error)
+            lo, hi = vmax.value % 65536, int(vmax.value) >> 16
+            assert struct.unpack(">f", struct.pack(">HH", int(hi), int(lo)))[0] == 1_000_000.0
+            assert rig.x.comm_ok
+        finally:
+            rig.close()
