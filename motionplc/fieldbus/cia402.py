@@ -15,15 +15,19 @@ done, 15 fault reset. Masks are those of CiA 402 (and ``canopen.profiles.p402.St
 
 from __future__ import annotations
 
+import math
 from enum import Enum, IntEnum
 
 __all__ = [
     "CONTROLWORD_VALUE",
     "DEVICE_TRANSITIONS",
+    "HOMING_METHODS",
     "MASTER_TABLE",
     "STATUSWORD_PATTERNS",
     "Cia402Command",
     "Cia402State",
+    "HomingProcedure",
+    "HomingSwitches",
     "OperationMode",
     "decode_command",
     "decode_statusword",
@@ -295,3 +299,338 @@ def next_controlword(
     if state is Cia402State.FAULT and fault_reset:
         return 0x80 if previous_controlword in (0x00, 0x06) else 0x00
     return MASTER_TABLE[(state, target)][0]
+
+
+# ----------------------------------------------------------------------------- homing mode
+# CiA 402 homing mode (0x6060 = 6): controlword bit 4 starts the procedure; statusword bit 10
+# target reached, bit 12 homing attained, bit 13 homing error.
+CW_HOMING_START = 0x0010
+SW_HOMING_ATTAINED = 0x1000
+SW_HOMING_ERROR = 0x2000
+
+# the methods the virtual drive implements: 17..30 (limit / home switch, no index pulse),
+# 33 / 34 (index pulse in the negative / positive direction), 35 and 37 (current position)
+HOMING_METHODS: frozenset[int] = frozenset({*range(17, 31), 33, 34, 35, 37})
+
+# methods 19..30: (home-switch edge "lo" / "hi", final approach direction, switch kind):
+# kind +1 / -1 = a home switch active on the positive / negative side of the edge (19..22),
+# 0 = a home cam [lo, hi] searched first in the direction of the limit switch named by the
+# method (23..26 positive, 27..30 negative; reversed at that limit switch)
+_SWITCH_METHODS: dict[int, tuple[str, int, int]] = {
+    19: ("lo", -1, +1),  # positive home switch, falling edge (left of it, approached moving -)
+    20: ("lo", +1, +1),  # positive home switch, rising edge
+    21: ("hi", +1, -1),  # negative home switch, falling edge
+    22: ("hi", -1, -1),  # negative home switch, rising edge
+    23: ("lo", -1, 0),  # home cam with the positive limit switch: left edge, falling
+    24: ("lo", +1, 0),  # left edge, rising
+    25: ("hi", -1, 0),  # right edge, rising
+    26: ("hi", +1, 0),  # right edge, falling
+    27: ("hi", +1, 0),  # home cam with the negative limit switch: right edge, falling
+    28: ("hi", -1, 0),  # right edge, rising
+    29: ("lo", +1, 0),  # left edge, rising
+    30: ("lo", -1, 0),  # left edge, falling
+}
+
+
+class HomingSwitches:
+    """The virtual switches and encoder index of a drive, in drive increments (physical
+    coordinates: they do not move when homing sets the position).
+
+    ``negative_limit`` / ``positive_limit``: the limit switch is active at and beyond that
+    position; ``home_switch``: (lo, hi), active for lo <= p <= hi (use -inf / inf for a
+    switch active on a whole side: methods 19..22); ``index_pitch``: an index pulse at
+    ``index_offset + k * index_pitch`` for every integer k. None = not fitted.
+    """
+
+    __slots__ = ("home_switch", "index_offset", "index_pitch", "negative_limit", "positive_limit")
+
+    def __init__(
+        self,
+        *,
+        negative_limit: float | None = None,
+        positive_limit: float | None = None,
+        home_switch: tuple[float, float] | None = None,
+        index_pitch: float | None = None,
+        index_offset: float = 0.0,
+    ) -> None:
+        if home_switch is not None:
+            lo, hi = home_switch
+            if not lo < hi:
+                raise ValueError(f"home_switch (lo, hi) needs lo < hi, got {home_switch!r}")
+        if negative_limit is not None and positive_limit is not None:
+            if not negative_limit < positive_limit:
+                raise ValueError(
+                    f"negative_limit {negative_limit} must be below positive_limit {positive_limit}"
+                )
+        if index_pitch is not None and not index_pitch > 0:
+            raise ValueError(f"index_pitch must be > 0, got {index_pitch!r}")
+        self.negative_limit = negative_limit
+        self.positive_limit = positive_limit
+        self.home_switch = home_switch
+        self.index_pitch = index_pitch
+        self.index_offset = index_offset
+
+    def state(self, kind: str, p: float) -> bool:
+        """Level of switch ``kind`` ("nls", "pls", "hs") at position ``p``."""
+        if kind == "nls":
+            return self.negative_limit is not None and p <= self.negative_limit
+        if kind == "pls":
+            return self.positive_limit is not None and p >= self.positive_limit
+        hs = self.home_switch
+        return hs is not None and hs[0] <= p <= hs[1]
+
+    def crossing(self, kind: str, want: bool, p0: float, p1: float) -> float | None:
+        """The position where switch ``kind`` takes the level ``want`` moving from ``p0`` to
+        ``p1`` (the first such switching point), None if it does not."""
+        if p0 == p1:
+            return None
+        if kind == "index":
+            pitch = self.index_pitch
+            if pitch is None:
+                return None
+            off = self.index_offset
+            if p1 > p0:
+                k = math.floor((p0 - off) / pitch) + 1
+                x = off + k * pitch
+                return x if x <= p1 else None
+            k = math.ceil((p0 - off) / pitch) - 1
+            x = off + k * pitch
+            return x if x >= p1 else None
+        if kind == "nls":
+            bounds = [] if self.negative_limit is None else [self.negative_limit]
+        elif kind == "pls":
+            bounds = [] if self.positive_limit is None else [self.positive_limit]
+        else:
+            bounds = [] if self.home_switch is None else list(self.home_switch)
+        up = p1 > p0
+        bounds = sorted(b for b in bounds if math.isfinite(b) and min(p0, p1) <= b <= max(p0, p1))
+        if not up:
+            bounds.reverse()
+        level = self.state(kind, p0)
+        for b in bounds:
+            if b == p0:
+                continue
+            # the level just past b in the direction of motion
+            eps = 1e-9 * (1.0 + abs(b))
+            after = self.state(kind, b + eps if up else b - eps)
+            if after != level:
+                level = after
+                if after == want:
+                    return b
+        return None
+
+
+class HomingProcedure:
+    """One run of a CiA 402 homing method on the device side (no I/O, no clock).
+
+    The device calls :meth:`next_demand` before each cycle's plant step (the demand position
+    at the end of the cycle: a velocity ramp with ``acceleration`` towards the phase's speed)
+    and :meth:`observe` after it with the positions the motor went through (physical
+    coordinates). The phases of a method: the searches of the method figure (fast
+    ``speed_switch`` towards the switch, ``speed_zero`` on the final approach), then, once the
+    final approach crosses the home edge (an edge found in the motor's sampled motion), a
+    stop and a move back to the edge at ``speed_zero``. ``done`` with ``edge`` (the home
+    position, physical) when the motor rests there; ``error`` (text) when a switch the method
+    needs is not fitted or a limit switch is hit where the method does not expect one.
+    """
+
+    def __init__(
+        self,
+        method: int,
+        switches: HomingSwitches,
+        speed_switch: float,
+        speed_zero: float,
+        acceleration: float,
+        demand: float,
+        position: float,
+    ) -> None:
+        self.method = method
+        self.sw = switches
+        self.fast = float(speed_switch)
+        self.slow = float(speed_zero)
+        self.acc = float(acceleration)
+        self.demand = float(demand)
+        self.velocity = 0.0  # of the demand
+        self.edge: float | None = None
+        self.done = False
+        self.error = ""
+        self.reversed = False
+        self.interrupted = False
+        # phases: ("move", direction, speed, switch, level, final) or ("find", direction)
+        self.phases: list[tuple] = []
+        self.phase: tuple | None = None
+        if method not in HOMING_METHODS:
+            self._fail(f"homing method {method} is not supported")
+            return
+        if not (speed_switch > 0 and speed_zero > 0 and acceleration > 0):
+            self._fail("homing speeds and acceleration must be > 0")
+            return
+        self._plan(position)
+        self._next_phase()
+
+    def _fail(self, text: str) -> None:
+        self.error = text
+        self.phase = ("brake",)
+
+    def interrupt(self) -> None:
+        """Controlword bit 4 fell (or halt): brake to rest, then the procedure ends (not
+        attained, no error)."""
+        self.interrupted = True
+        self.phases = []
+        self.edge = None
+        self.phase = ("brake",)
+
+    def _plan(self, p: float) -> None:
+        m = self.method
+        sw = self.sw
+        add = self.phases.append
+        if m in (35, 37):
+            self.edge = p
+            self.phases = [("settle",)]
+            return
+        if m in (33, 34):
+            if sw.index_pitch is None:
+                self._fail(f"homing method {m} needs the encoder index pulse (index_pitch)")
+                return
+            add(("move", -1 if m == 33 else +1, self.slow, "index", True, True))
+            return
+        if m in (17, 18):
+            kind = "nls" if m == 17 else "pls"
+            if (sw.negative_limit if m == 17 else sw.positive_limit) is None:
+                self._fail(
+                    f"homing method {m} needs the {'negative' if m == 17 else 'positive'}"
+                    " limit switch"
+                )
+                return
+            r = -1 if m == 17 else +1
+            if not sw.state(kind, p):
+                add(("move", r, self.fast, kind, True, False))
+            add(("move", -r, self.slow, kind, False, True))
+            return
+        edge, d_final, region = _SWITCH_METHODS[m]
+        if sw.home_switch is None:
+            self._fail(f"homing method {m} needs the home switch")
+            return
+        exit_ = (edge == "lo" and d_final < 0) or (edge == "hi" and d_final > 0)
+        active = sw.state("hs", p)
+        if region != 0:  # a switch active on one side (19..22)
+            if exit_:
+                if not active:
+                    add(("move", region, self.fast, "hs", True, False))
+                add(("move", d_final, self.slow, "hs", False, True))
+            else:
+                if active:
+                    add(("move", -d_final, self.fast, "hs", False, False))
+                add(("move", d_final, self.slow, "hs", True, True))
+            return
+        start = +1 if m <= 26 else -1
+        if start > 0 and sw.positive_limit is None or start < 0 and sw.negative_limit is None:
+            side = "positive" if start > 0 else "negative"
+            self._fail(f"homing method {m} needs the {side} limit switch")
+            return
+        if not active:
+            add(("find", start))
+        if exit_:
+            add(("move", d_final, self.slow, "hs", False, True))
+        else:
+            add(("move", -d_final, self.fast, "hs", False, False))
+            add(("move", d_final, self.slow, "hs", True, True))
+
+    def _next_phase(self) -> None:
+        if self.error:
+            return
+        if self.phases:
+            self.phase = self.phases.pop(0)
+        elif self.edge is not None:
+            self.phase = ("return",)
+
+    def _target_velocity(self) -> float:
+        ph = self.phase
+        if ph is None:
+            return 0.0
+        kind = ph[0]
+        if kind == "move":
+            return ph[1] * ph[2]
+        if kind == "find":
+            return ph[1] * self.fast
+        if kind == "return":
+            assert self.edge is not None
+            dist = self.edge - self.demand
+            v = min(self.slow, math.sqrt(2.0 * self.acc * abs(dist)))
+            return math.copysign(v, dist)
+        return 0.0  # brake, settle
+
+    def next_demand(self, dt: float) -> float:
+        """The demand position at the end of the next cycle of length ``dt``."""
+        if self.done:
+            return self.demand
+        vt = self._target_velocity()
+        dv = self.acc * dt
+        v0 = self.velocity
+        v1 = vt if abs(vt - v0) <= dv else v0 + math.copysign(dv, vt - v0)
+        d = self.demand + 0.5 * (v0 + v1) * dt
+        ph = self.phase
+        if ph is not None and ph[0] == "return":
+            assert self.edge is not None
+            if (self.edge - d) * (self.edge - self.demand) <= 0.0 or abs(self.edge - d) < 1e-6:
+                d, v1 = self.edge, 0.0  # arrived
+                self.phase = ("settle",)
+        self.demand = d
+        self.velocity = v1
+        if ph is not None and ph[0] == "brake" and v1 == 0.0:
+            if self.error or self.interrupted:
+                self.phase = None
+            else:
+                self._next_phase()
+        return d
+
+    def observe(self, samples: list[float], velocity: float) -> None:
+        """The positions the motor went through in the cycle (first: at its start) and its
+        velocity at the end: switch edges, limit switches, arrival at the home position."""
+        ph = self.phase
+        if ph is None or self.done:
+            return
+        kind = ph[0]
+        p1 = samples[-1]
+        if kind in ("move", "find"):
+            d = ph[1]
+            for i in range(len(samples) - 1):
+                a, b = samples[i], samples[i + 1]
+                # a limit switch in the direction of motion that the phase does not look for
+                lim = "pls" if d > 0 else "nls"
+                hit_limit = self.sw.crossing(lim, True, a, b) is not None or (
+                    self.sw.state(lim, b) and (b - a) * d > 0
+                )
+                if kind == "find":
+                    if self.sw.crossing("hs", True, a, b) is not None:
+                        self._next_phase()
+                        return
+                    if hit_limit:
+                        if self.reversed:
+                            self._fail("home switch not found between the limit switches")
+                            return
+                        self.reversed = True
+                        self.phase = ("find", -d)
+                        return
+                    continue
+                _, _, _, switch, level, final = ph
+                x = self.sw.crossing(switch, level, a, b)
+                if x is not None:
+                    if final:
+                        self.edge = x
+                        self.phases = []
+                        self.phase = ("brake",)
+                    else:
+                        self._next_phase()
+                    return
+                if hit_limit and switch not in ("nls", "pls"):
+                    self._fail(
+                        f"{'positive' if d > 0 else 'negative'} limit switch reached while "
+                        f"searching ({'home switch' if switch == 'hs' else 'index pulse'} "
+                        "not found)"
+                    )
+                    return
+        elif kind == "settle":
+            assert self.edge is not None
+            if abs(p1 - self.edge) <= 1.0 and abs(velocity) <= 1000.0:
+                self.done = True

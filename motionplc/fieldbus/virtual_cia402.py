@@ -52,7 +52,7 @@ from canopen.objectdictionary import ObjectDictionary
 from canopen.sdo import SdoAbortedError
 
 from motionplc.fieldbus.can_faults import FaultInjectingBus
-from motionplc.fieldbus.cia402 import OperationMode
+from motionplc.fieldbus.cia402 import HomingSwitches, OperationMode
 from motionplc.fieldbus.fastcan import (
     DEFAULT_MAX_FRAMES,
     GuardedEndpoint,
@@ -359,6 +359,14 @@ class VirtualCia402Drive:
             d.latch(struct.unpack("<i", data)[0], d.velocity_offset)
         elif index == 0x60B1:
             d.latch(d.target, struct.unpack("<i", data)[0])
+        elif index == 0x6098:
+            d.homing_method = struct.unpack("<b", data)[0]
+        elif index == 0x6099 and subindex in (1, 2):
+            d.homing_speeds[subindex - 1] = struct.unpack("<I", data)[0]
+        elif index == 0x609A:
+            d.homing_acceleration = struct.unpack("<I", data)[0]
+        elif index == 0x607C:
+            d.home_offset = struct.unpack("<i", data)[0]
         elif index == 0x60B8:
             try:
                 d.write_probe_function(struct.unpack("<H", data)[0])
@@ -497,6 +505,10 @@ class VirtualCia402Drive:
     def set_probe_sensor(self, probe: int, sensor: ProbeSensor | None) -> None:
         """The virtual sensor on touch probe input ``probe`` (1 or 2), in increments."""
         self.device.probes[probe].sensor = sensor
+
+    def set_switches(self, switches: HomingSwitches) -> None:
+        """The virtual limit switches, home switch and index pulse (increments, physical)."""
+        self.device.switches = switches
 
     def set_probe_input(self, probe: int, level: bool | None) -> None:
         """Set touch probe input ``probe`` from a program (``None``: back to the sensor)."""

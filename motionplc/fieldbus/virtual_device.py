@@ -17,13 +17,18 @@ from dataclasses import dataclass
 
 from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.cia402 import (
+    CW_HOMING_START,
     SW_DRIVE_FOLLOWS,
     SW_FOLLOWING_ERROR,
+    SW_HOMING_ATTAINED,
+    SW_HOMING_ERROR,
     SW_REMOTE,
     SW_TARGET_REACHED,
     SW_VOLTAGE_ENABLED,
     SW_WARNING,
     Cia402State,
+    HomingProcedure,
+    HomingSwitches,
     OperationMode,
     decode_command,
     device_transition,
@@ -55,7 +60,7 @@ POWERED_STATES = (
     Cia402State.FAULT_REACTION_ACTIVE,
 )
 
-SUPPORTED_MODES = (OperationMode.CYCLIC_SYNCHRONOUS_POSITION,)
+SUPPORTED_MODES = (OperationMode.CYCLIC_SYNCHRONOUS_POSITION, OperationMode.HOMING)
 
 
 def error_register_for(code: int) -> int:
@@ -133,6 +138,11 @@ class Cia402Device:
         # touch probes 1 and 2 (0x60B8..0x60BD); their sensors (ProbeInput.sensor) and forced
         # levels are wiring, kept over a reset
         self.probes = {1: ProbeInput(), 2: ProbeInput()}
+        # homing mode: the virtual switches and index pulse (wiring, physical coordinates),
+        # and the shift of the position values from them set by homing (0x6064 = physical +
+        # coord_shift); both kept over a reset (the encoder keeps counting)
+        self.switches = HomingSwitches()
+        self.coord_shift = 0.0
         self.reset()
 
     # ------------------------------------------------------------------ state
@@ -154,6 +164,14 @@ class Cia402Device:
         self.last_transition: int | None = None
         self.pending_emcy: list[tuple[int, int]] = []  # (code, error register)
         self.probe_function = 0  # 0x60B8
+        # homing (0x6098 method, 0x6099:01/02 speeds, 0x609A acceleration, 0x607C offset)
+        self.homing_method = 0
+        self.homing_speeds = [100_000, 10_000]  # [inc/s] search for switch / for zero
+        self.homing_acceleration = 1_000_000  # [inc/s²]
+        self.home_offset = 0
+        self.homing: HomingProcedure | None = None
+        self.homing_status = "idle"  # idle | running | attained | error
+        self.homing_error = ""
         self._probing = False  # a probe is enabled: the cycle records the motion within it
         for unit in self.probes.values():
             unit.disarm()
@@ -182,6 +200,14 @@ class Cia402Device:
             sw |= SW_FOLLOWING_ERROR
         if self.persistent_fault and self.state is not Cia402State.FAULT:
             sw |= SW_WARNING
+        if self.mode_display == OperationMode.HOMING:
+            st = self.homing_status
+            if st == "attained":
+                sw |= SW_HOMING_ATTAINED | SW_TARGET_REACHED
+            elif st == "error":
+                sw |= SW_HOMING_ERROR | (SW_TARGET_REACHED if self.actual.velocity == 0.0 else 0)
+            elif st == "idle":
+                sw |= SW_TARGET_REACHED  # not started or interrupted
         return sw
 
     def snapshot(self) -> DeviceSnapshot:
@@ -213,6 +239,9 @@ class Cia402Device:
         """Write 0x6060; False if the mode is not supported (the caller rejects the write)."""
         if mode != 0 and mode not in SUPPORTED_MODES:
             return False
+        if mode != self.mode_display and self.homing is not None:
+            self.homing = None  # leaving homing mode interrupts the procedure
+            self.homing_status = "idle"
         self.mode = mode
         self.mode_display = mode  # switches at once
         return True
@@ -220,7 +249,10 @@ class Cia402Device:
     def apply_controlword(self, controlword: int) -> int | None:
         """Decode and apply a controlword; returns the transition number taken (or None)."""
         command = decode_command(controlword, self.controlword)
+        previous = self.controlword
         self.controlword = controlword
+        if self.mode_display == OperationMode.HOMING:
+            self._homing_control(controlword, previous)
         new, number = device_transition(self.state, command, self.quick_stop_option)
         if number == 15 and self.persistent_fault:
             number = None  # the fault is still present: no reset
@@ -269,6 +301,66 @@ class Cia402Device:
         """Latch the setpoint of this cycle (0x607A, 0x60B1)."""
         self.target = target
         self.velocity_offset = velocity_offset
+
+    # ------------------------------------------------------------------ homing
+    def _homing_control(self, controlword: int, previous: int) -> None:
+        """Controlword bit 4 in homing mode: rising edge starts the method, falling edge
+        interrupts a running procedure."""
+        start = controlword & CW_HOMING_START and not previous & CW_HOMING_START
+        if start and self.state is Cia402State.OPERATION_ENABLED and controlword & 0x0F == 0x0F:
+            self.homing = HomingProcedure(
+                self.homing_method,
+                self.switches,
+                self.homing_speeds[0],
+                self.homing_speeds[1],
+                self.homing_acceleration,
+                self.demand - self.coord_shift,
+                self.actual.position - self.coord_shift,
+            )
+            self.homing_status = "running"
+            self.homing_error = ""
+        elif not controlword & CW_HOMING_START and self.homing is not None:
+            self.homing.interrupt()  # brakes to rest, then ends
+            self.homing_status = "idle"
+
+    def _homing_step(self, dt: float) -> tuple[float, list[float] | None]:
+        """Demand of this cycle in homing mode (plant coordinates) and the sample list the
+        plant step is to fill (None: no procedure running)."""
+        proc = self.homing
+        if proc is None:
+            self.demand_velocity = 0.0
+            return self.demand, None
+        if self.homing_status == "running" and proc.error:
+            self.homing_status = "error"  # bit 13 at once, bit 10 once at rest
+            self.homing_error = proc.error
+        demand_to = proc.next_demand(dt) + self.coord_shift
+        self.demand_velocity = (demand_to - self.demand) / dt
+        return demand_to, [self.actual.position]
+
+    def _homing_observe(self, samples: list[float]) -> None:
+        proc = self.homing
+        assert proc is not None
+        shift = self.coord_shift
+        proc.observe([s - shift for s in samples] if shift else samples, self.actual.velocity)
+        if proc.done:
+            assert proc.edge is not None
+            # the home position becomes the home offset: shift the position values
+            delta = self.home_offset - (proc.edge + shift)
+            self.coord_shift += delta
+            self.actual = PlantState(self.actual.position + delta, 0.0, 0.0)
+            self.demand += delta
+            self.target = round(self.target + delta)
+            self.demand_velocity = 0.0
+            self.homing = None
+            self.homing_status = "attained"
+        elif proc.phase is None and (proc.error or proc.interrupted):
+            self.homing = None
+            self.homing_status = "idle" if proc.interrupted else "error"
+            self.homing_error = proc.error
+
+    def physical_position(self) -> float:
+        """The motor position in the switches' (physical) coordinates."""
+        return self.actual.position - self.coord_shift
 
     # ------------------------------------------------------------ touch probe
     def write_probe_function(self, value: int) -> None:
@@ -342,6 +434,11 @@ class Cia402Device:
         powered = self.powered
         v_offset = 0.0
         stopped = False
+        homing_samples: list[float] | None = None
+        if self.homing is not None and self.state is not Cia402State.OPERATION_ENABLED:
+            self.homing = None  # fault, quick stop, disable: the procedure ends
+            self.homing_status = "error"
+            self.homing_error = f"interrupted in {self.state.value}"
         if self.following:
             demand_to = float(self.target)
             if self.position_limits is not None:
@@ -349,6 +446,11 @@ class Cia402Device:
                 demand_to = min(max(demand_to, float(lo)), float(hi))
             self.demand_velocity = (demand_to - demand_from) / dt
             v_offset = float(self.velocity_offset)
+        elif (
+            self.state is Cia402State.OPERATION_ENABLED
+            and self.mode_display == OperationMode.HOMING
+        ):
+            demand_to, homing_samples = self._homing_step(dt)
         elif self.state is Cia402State.OPERATION_ENABLED:
             demand_to = demand_from  # enabled in an unsupported/no mode: hold position
             self.demand_velocity = 0.0
@@ -356,8 +458,8 @@ class Cia402Device:
             demand_to, stopped = self._stop_ramp(dt)
         else:
             demand_to = demand_from
-        if self._probing:
-            samples = [self.actual.position]
+        if self._probing or homing_samples is not None:
+            samples = homing_samples if homing_samples is not None else [self.actual.position]
             self.actual = plant_step(
                 self.plant,
                 self.actual,
@@ -369,9 +471,14 @@ class Cia402Device:
                 stalled=self.stalled,
                 positions=samples,
             )
-            for unit in self.probes.values():
-                if unit.enabled:
-                    unit.scan(0.0, dt, samples)
+            if self._probing:
+                shift = self.coord_shift
+                phys = [s - shift for s in samples] if shift else samples
+                for unit in self.probes.values():
+                    if unit.enabled:
+                        unit.scan(0.0, dt, phys)
+            if homing_samples is not None:
+                self._homing_observe(samples)
         else:
             self.actual = plant_step(
                 self.plant,
