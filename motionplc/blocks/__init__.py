@@ -15,6 +15,7 @@ from motionplc.blocks.admin import (
     MC_SetPosition,
 )
 from motionplc.blocks.axis import Axis, AxisConfig, Command, Handle, Status
+from motionplc.blocks.cam_select import CamTableID, MC_CamTableSelect
 from motionplc.blocks.enums import (
     AxisState,
     BufferMode,
@@ -47,12 +48,14 @@ __all__ = [
     "AxisConfig",
     "AxisState",
     "BufferMode",
+    "CamTableID",
     "Command",
     "Direction",
     "ErrorID",
     "ExecutionMode",
     "Handle",
     "MC_AbortTrigger",
+    "MC_CamTableSelect",
     "MC_Halt",
     "MC_Home",
     "MC_MoveAbsolute",
