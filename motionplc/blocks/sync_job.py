@@ -219,6 +219,7 @@ class SyncJob(AxisJob):
         "chk",
         "lim",
         "peaks",
+        "locked_at",
     )
 
     def __init__(self, cmd: SyncCommand, handle: Handle, slave: Axis) -> None:
@@ -255,6 +256,7 @@ class SyncJob(AxisJob):
         self.chk = (0.0, 0.0, 0.0)  # master |v|, |a|, |j| the cam's peaks were checked for
         self.lim = (0.0, 0.0, 0.0)  # the slave's |v|, |a|, |j| limits
         self.peaks = (0.0, 0.0, 0.0)  # the cam's slave |v|, |a|, |j| at engagement
+        self.locked_at = math.inf  # trajectory time the coupling locked
 
     # -- the coupling law ---------------------------------------------------------------------
     def _cam_x(self, m: float) -> tuple[float, int]:
@@ -364,13 +366,14 @@ class SyncJob(AxisJob):
         self.last = out
         self.last_tau = tau
         # a buffered successor takes over at InGear / InSync / EndOfProfile (spec Table 4)
-        if ax.mq.queue and self._handover_due():
+        if ax.mq.queue and self._handover_due(tau):
             h._finish(Status.ABORTED)
             self.duration = tau  # the kernel hands over at its next step, from ``last``
         return out
 
-    def _handover_due(self) -> bool:
-        if self.stage != _LOCKED:
+    def _handover_due(self, tau: float) -> bool:
+        # InGear / InSync is shown for at least one scan before the successor takes over
+        if self.stage != _LOCKED or self.locked_at >= tau:
             return False
         if self.kind == "cam":
             return self.handle.eop > 0 and self._eop_now
@@ -413,6 +416,7 @@ class SyncJob(AxisJob):
             t = tau - self.d_t0
             if t >= d.duration:
                 self.stage = _LOCKED
+                self.locked_at = tau
                 h.in_target = True
                 h.start_sync = False
                 self.c = d.end.p if self.kind == "gear" else 0.0
@@ -430,7 +434,11 @@ class SyncJob(AxisJob):
         return p, v, a, j
 
     def _within(self, v: float, a: float) -> bool:
+        """The slave's velocity, also after bringing its acceleration to 0 at full jerk (so
+        that a stop from here stays within the limit), and (locked) its acceleration."""
         cfg = self.slave.cfg
+        if math.isfinite(cfg.j_max):
+            v += a * abs(a) / (2.0 * cfg.j_max)
         if not (-cfg.v_neg * (1 + _TOL) <= v <= cfg.v_max * (1 + _TOL)):
             return False
         # the ramp's acceleration adds to the law's: only the locked law is held to a_max
