@@ -23,8 +23,9 @@ machinery: ``fb.axis is fb.slave``). The kernel side, its rules and guarantees a
   state does not change; NOT_SYNCHRONIZED without a coupling; CommandAborted when the coupling
   ends first. Outputs ``absolute_phase_shift`` / ``covered_phase_shift``.
 * MC_CamIn: ``cam_table_id`` from MC_CamTableSelect (its ``table``, ``periodic``,
-  ``master_absolute``, ``slave_absolute``); table coordinate x = (master - master_offset) /
-  master_scaling, slave = slave_offset + slave_scaling x y(x) (relative master: x starts at
+  ``master_absolute``, ``slave_absolute``); table coordinate x = master_scaling x master +
+  master_offset, slave = slave_offset + slave_scaling x y(x) (as MC_CamTableSelect's limit
+  check reads them; relative master: x starts at
   the table's start where the coupling starts; relative slave or StartMode RELATIVE: the table
   is shifted to the slave's position). The slave is brought onto the table jerk-limited (every
   StartMode: motionplc never jumps), then ``in_sync``; ``end_of_profile`` is a one-scan pulse at

@@ -9,7 +9,7 @@ plus a jerk-limited *catch-up* term:
     slave(t) = law(m_seen(t)) + d(t),        m_seen = master + phase(t)
 
 * ``law``: GearIn ``r * m``; GearInPos ``slave_sync + r * (m - master_sync)``; CamIn
-  ``slave_offset' + slave_scaling * y((m - master_offset') / master_scaling)`` (periodic tables
+  ``slave_offset' + slave_scaling * y(master_scaling * m + master_offset')`` (periodic tables
   repeat, adding their lift each period; non-periodic ones hold their end values outside the
   table). Velocity, acceleration and jerk follow by the chain rule from the master's v, a, j.
 * ``d``: planned once, when the coupling starts, from the difference between the slave's set
@@ -220,6 +220,7 @@ class SyncJob(AxisJob):
         "lim",
         "peaks",
         "locked_at",
+        "_eop_now",
     )
 
     def __init__(self, cmd: SyncCommand, handle: Handle, slave: Axis) -> None:
@@ -257,12 +258,13 @@ class SyncJob(AxisJob):
         self.lim = (0.0, 0.0, 0.0)  # the slave's |v|, |a|, |j| limits
         self.peaks = (0.0, 0.0, 0.0)  # the cam's slave |v|, |a|, |j| at engagement
         self.locked_at = math.inf  # trajectory time the coupling locked
+        self._eop_now = False  # an EndOfProfile in this step
 
     # -- the coupling law ---------------------------------------------------------------------
     def _cam_x(self, m: float) -> tuple[float, int]:
         """Table coordinate (wrapped into the table when periodic) and the period index."""
         tab = self.table
-        x = (m - self.mo) / self.msc
+        x = m * self.msc + self.mo
         xs, xe = tab.master_start, tab.master_end
         if self.periodic:
             span = xe - xs
@@ -296,7 +298,7 @@ class SyncJob(AxisJob):
             y += k * self.lift
         elif k != 0:  # outside a non-periodic table: the slave holds the end value
             return self.so + ss * y, 0.0, 0.0, 0.0
-        q = 1.0 / self.msc
+        q = self.msc
         xv, xa, xj = v * q, a * q, j * q
         return (
             self.so + ss * y,
@@ -379,8 +381,6 @@ class SyncJob(AxisJob):
             return self.handle.eop > 0 and self._eop_now
         return True
 
-    _eop_now = False
-
     def _step(self, tau: float, own: bool = True) -> tuple[float, float, float, float] | None:
         """The slave's values at ``tau``; None if the coupling failed (``own``: it controls the
         slave; else it only runs on as the previous motion of a waiting coupling)."""
@@ -424,7 +424,7 @@ class SyncJob(AxisJob):
             else:
                 s = d.at(t)
                 p, v, a, j = lp + s.p, lv + s.v, la + s.a, lj + s.j
-        if own and self.kind != "cam" and not self._within(v, a):
+        if own and not self._within(v, a):
             self._fail(
                 ErrorID.SLAVE_LIMITS_EXCEEDED,
                 f"slave {self.slave.name!r}: v {v:.6g} / a {a:.6g} beyond its limits "
@@ -485,7 +485,7 @@ class SyncJob(AxisJob):
         cmd = self.cmd
         try:
             if self.kind == "gear":
-                lim = self._room(ax._axis_limits(cmd.acceleration, cmd.deceleration, cmd.jerk))
+                lim = self._room(ax._axis_limits(cmd.acceleration, cmd.deceleration, cmd.jerk), mv)
                 if d0.v == 0.0 and d0.a == 0.0:
                     self.d = Profile(d0, ())
                 else:
@@ -506,18 +506,27 @@ class SyncJob(AxisJob):
             return ErrorID.PLANNING_FAILED, f"planner: {exc}"
         return None
 
-    def _room(self, lim: Limits) -> Limits:
+    def _room(self, lim: Limits, mv: float) -> Limits:
         """The catch-up's limits: what the slave's own acceleration and jerk limits leave beside
-        the law's (ratio x the master's configured limits; cams: the table's peaks at the
-        master's motion at engagement), where that leaves anything; else ``lim`` as it is (the
-        supervision then guards the slave's limits)."""
+        the law's (ratio x the master's configured limits, its velocity at the start; cams: the
+        table's peaks at the master's motion at engagement), where that leaves anything; else
+        ``lim`` as it is (the supervision then guards the slave's limits)."""
         cfg = self.slave.cfg
         if self.kind == "cam":
-            la, lj = self.peaks[1], self.peaks[2]
+            lv, la, lj = self.peaks
         else:
             mc = self.master.cfg
             r = abs(self.ratio)
-            la, lj = r * max(mc.a_max, mc.a_neg), r * mc.j_max
+            lv, la, lj = r * abs(mv), r * max(mc.a_max, mc.a_neg), r * mc.j_max
+        v_room = min(cfg.v_max, cfg.v_neg) - lv
+        if v_room > 0.05 * lim.v_max:
+            lim = Limits(
+                min(lim.v_max, v_room),
+                lim.a_max,
+                lim.j_max,
+                v_min=max(lim.v_min, -v_room),  # type: ignore[arg-type]
+                a_min=lim.a_min,
+            )
         a_room = min(cfg.a_max, cfg.a_neg) - la
         j_room = cfg.j_max - lj
         a = min(lim.a_max, a_room) if a_room > 0.05 * lim.a_max else lim.a_max
@@ -530,7 +539,7 @@ class SyncJob(AxisJob):
         cmd = self.cmd
         assert isinstance(cmd, SyncCommand)
         v = cmd.velocity if cmd.velocity > 0.0 else None
-        lim = self._room(ax._axis_limits(cmd.acceleration, cmd.deceleration, cmd.jerk, v))
+        lim = self._room(ax._axis_limits(cmd.acceleration, cmd.deceleration, cmd.jerk, v), mv)
         mode = cmd.sync_mode
         if mode is SyncMode.SHORTEST or self.kind == "cam":
             return lim
@@ -551,9 +560,9 @@ class SyncJob(AxisJob):
         assert isinstance(cmd, SyncCommand)
         cam = cmd.cam
         tab = self.table
-        if not cam.master_absolute:
+        if not cam.master_absolute:  # the table starts where the coupling starts
             base = cmd.master_sync if cmd.start_distance > 0.0 else mp
-            self.mo = cmd.master_offset + base - tab.master_start * self.msc
+            self.mo = cmd.master_offset + tab.master_start - self.msc * base
         if not cam.slave_absolute or cmd.start_mode is StartMode.RELATIVE:
             self.so = 0.0
             y = self.law(mp, 0.0, 0.0, 0.0)[0]  # with so = 0
@@ -636,23 +645,23 @@ def _limits(ax: Axis) -> tuple[float, float, float]:
 
 def cam_limits(job: SyncJob, mv: float, ma: float, mj: float) -> str | None:
     """Why the cam of ``job`` at this master motion exceeds the slave's limits (None: fits)."""
-    q = 1.0 / job.msc
+    from motionplc.blocks.cam_select import cam_limit_violation  # (imports the kernel)
+
+    q = job.msc
     peaks = job.table.slave_peaks(mv * q, ma * q, mj * q)
     ss = abs(job.ssc)
     job.peaks = (ss * peaks[0], ss * peaks[1], ss * peaks[2])
-    vl, al, jl = _limits(job.slave)
-    for name, val, lim in (("velocity", peaks[0], vl), ("acceleration", peaks[1], al)):
-        if ss * val > lim * (1 + _TOL):
-            return (
-                f"the cam needs a slave {name} of {ss * val:.6g} at the master's velocity "
-                f"{mv:.6g} (acceleration {ma:.6g}); the slave's limit is {lim:.6g}"
-            )
-    if math.isfinite(jl) and ss * peaks[2] > jl * (1 + _TOL):
-        return (
-            f"the cam needs a slave jerk of {ss * peaks[2]:.6g} at the master's velocity "
-            f"{mv:.6g}; the slave's limit is {jl:.6g}"
-        )
-    return None
+    why = cam_limit_violation(
+        job.table,
+        job.slave.cfg,
+        mv,
+        ma,
+        mj,
+        master_scaling=job.msc,
+        slave_scaling=job.ssc,
+        periodic=job.periodic,
+    )
+    return why or None
 
 
 def _engage_check(job: SyncJob) -> tuple[ErrorID, str] | None:
