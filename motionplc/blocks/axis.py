@@ -65,7 +65,13 @@ from motionplc.blocks.axis_job import EVENTS, AxisJob, Command, sign
 from motionplc.blocks.axis_state import Event, allowed, next_state
 from motionplc.blocks.drive_errors import drive_error_kind
 from motionplc.blocks.enums import AxisState, BufferMode, Direction, ErrorID
-from motionplc.blocks.homing import finish_home, home_check, home_direction, prepare_home
+from motionplc.blocks.homing import (
+    drive_home_step,
+    finish_home,
+    home_check,
+    home_direction,
+    prepare_home,
+)
 from motionplc.blocks.motion_queue import (
     Handle,
     MotionQueue,
@@ -265,6 +271,10 @@ class Axis:
         self.homed = False
         # touch probes armed by MC_TouchProbe: probe input -> its job (motionplc.blocks.probe)
         self.probe_jobs: dict[int, Any] = {}
+        # homing by the drive in progress (motionplc.blocks.homing); _io_watch: a probe or
+        # drive homing to look after in READ INPUTS (one test per cycle otherwise)
+        self.drive_homing_job: AxisJob | None = None
+        self._io_watch = False
 
     def apply_config(self, config: AxisConfig) -> None:
         """Replace the applied configuration (MC_WriteParameter) and refresh the kernel's
@@ -395,6 +405,7 @@ class Axis:
             return err
         self.probe_jobs[probe] = job
         self._ideal = None
+        self._io_watch = True
         return ""
 
     def probe_disarm(self, probe: int, job: Any) -> bool:
@@ -409,6 +420,19 @@ class Axis:
     def _probe_released(self) -> None:
         if not self.probe_jobs and type(self.drive) is IdealDrive:
             self._ideal = self.drive  # the in-process fast path again
+        self._io_watch = bool(self.probe_jobs) or self.drive_homing_job is not None
+
+    def _watch_io(self) -> None:
+        """READ INPUTS while a probe is armed or the drive homes: latched edges to their
+        jobs; a drive homing whose MC_Home ended otherwise (MC_Stop, an axis error) is
+        cancelled on the drive."""
+        if self.probe_jobs:
+            self._poll_probes()
+        job = self.drive_homing_job
+        if job is not None and job.handle.terminal:
+            self.drive_homing_job = None
+            self.drive.cancel_homing()
+        self._io_watch = bool(self.probe_jobs) or self.drive_homing_job is not None
 
     def _poll_probes(self) -> None:
         for probe, job in list(self.probe_jobs.items()):
@@ -500,8 +524,8 @@ class Axis:
             elif state is not S.DISABLED and self.power_request and self._was_enabled:
                 self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
         self._was_enabled = enabled
-        if self.probe_jobs:
-            self._poll_probes()
+        if self._io_watch:
+            self._watch_io()
         if self._reset_handle is not None and self._reset_sent and not fb.reset_pending:
             self._try_finish_reset(fault, comm_ok)
         state = self.state
@@ -1351,6 +1375,9 @@ class Axis:
             # fast path: a one-profile job still running, no override scaling
             p, self.v, self.a, self.j = job.single.at(tau)
             self.p = p + job.shift
+            return
+        if job.home_phase >= 3:  # homing by the drive: the set values follow it
+            drive_home_step(self, job, dt)
             return
         while True:
             tau = job.tau

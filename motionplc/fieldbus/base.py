@@ -117,6 +117,26 @@ class Drive(ABC):
     def disarm_probe(self, probe: int) -> None:  # noqa: B027 - optional hook
         """Stop waiting for an edge on ``probe`` (MC_AbortTrigger); idempotent."""
 
+    # homing by the drive (CiA 402 homing mode): the HomingSpec when the drive homes the axis
+    # (MC_Home then runs it), None: the axis homes itself (set position / reference switch)
+    drive_homing: object = None
+    # the change of the drive's position values when homing set them (SI, the backend sets
+    # it when the feedback carrying the new values arrives; the axis takes and clears it)
+    homing_shift: float = 0.0
+
+    def start_homing(self) -> str:
+        """Start the drive's homing procedure (never blocks); "" when started, else why not.
+        :meth:`homing_result` tells when it is over."""
+        return f"{self.name}: the drive has no homing mode"
+
+    def homing_result(self) -> str | None:
+        """None while the drive homes; "" when homing was attained and the drive is back in
+        its cyclic mode (its position is the axis' position); else why homing failed."""
+        return "no homing in progress"
+
+    def cancel_homing(self) -> None:  # noqa: B027 - optional hook
+        """Interrupt a running homing procedure and return to the cyclic mode; idempotent."""
+
     def open(self) -> None:  # noqa: B027 - optional hook
         """Connect and configure (may raise on I/O failure)."""
 

@@ -138,7 +138,11 @@ from motionplc.fieldbus.canopen_startup import (
     startup_script,
 )
 from motionplc.fieldbus.cia402 import (
+    SW_HOMING_ATTAINED,
+    SW_HOMING_ERROR,
+    SW_TARGET_REACHED,
     Cia402State,
+    HomingSpec,
     OperationMode,
     decode_statusword,
     next_controlword,
@@ -244,6 +248,7 @@ class CanopenDriveConfig:
     scaling_objects: ScalingSpec | str | None = None
     setup_timeout: float = 2.0  # [s] whole re-configuration after a reboot (MC_Reset)
     external_wait: float = 0.2  # [s wall clock] wait for an external drive's TPDOs per SYNC
+    homing: HomingSpec | None = None  # homing by the drive (MC_Home); None: by the axis
     # [N m, or N] the drive's rated torque (0x6076) for MC_ReadActualTorque; None: read 0x6076
     rated_torque: float | None = None
 
@@ -294,6 +299,8 @@ class CanopenDriveConfig:
             raise ValueError(f"scaling_objects must be a ScalingSpec, 'read' or None, got {s!r}")
         _check_range("setup_timeout", self.setup_timeout, 0.001, 600.0)
         _check_range("external_wait", self.external_wait, 0.0, 10.0)
+        if self.homing is not None and not isinstance(self.homing, HomingSpec):
+            raise ValueError(f"homing must be a HomingSpec or None, got {self.homing!r}")
         if self.rated_torque is not None:
             _check_range("rated_torque", self.rated_torque, 1e-9, 1e9, "N m")
         if self.pdos is not None:
@@ -848,6 +855,21 @@ class _ProbeRun:
         self.result: ProbeResult | None = None
 
 
+class _HomingRun:
+    """One homing by the drive (see :meth:`CanopenDrive.start_homing`)."""
+
+    __slots__ = ("deadline", "error", "last_position", "phase", "result", "run_from", "t0")
+
+    def __init__(self, t0: float, timeout: float) -> None:
+        self.t0 = t0
+        self.deadline = t0 + timeout
+        self.phase = "setup"  # setup | mode | start | run | back | over
+        self.error = ""  # why it failed (reported once back in CSP)
+        self.result: str | None = None
+        self.run_from = 0
+        self.last_position = 0
+
+
 class CanopenDrive(Drive):
     """One CiA 402 axis in CSP on a :class:`CanopenMaster`.
 
@@ -911,6 +933,12 @@ class CanopenDrive(Drive):
         self._acyc_busy = False  # _acyclic or _acyc_op (one test per cycle when idle)
         self._probes: dict[int, _ProbeRun] = {}
         self._probe_function = 0  # what this master last wrote to 0x60B8
+        # homing by the drive (MC_Home): the run in progress, the controlword bit 4 it adds,
+        # the mode of operation of the cyclic RPDO (if 0x6060 is mapped)
+        self.drive_homing = config.homing
+        self._hm: _HomingRun | None = None
+        self._hm_cw = 0
+        self._cyclic_mode = int(CSP)
         self._reset_cycle_state()
 
     def _reset_cycle_state(self) -> None:
@@ -1243,6 +1271,8 @@ class CanopenDrive(Drive):
         enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
         self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
         reset_pending = reconfiguring or self._reset_until is not None
+        if self._hm is not None:
+            self._homing_read(t, fresh)
         return _feedback(
             self.scaling.position_to_si(self.position_counts),
             self.scaling.velocity_to_si(self.velocity_counts),
@@ -1338,12 +1368,18 @@ class CanopenDrive(Drive):
             self.emcy_code = 0  # warnings / communication errors acknowledged
         target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
         cw = next_controlword(state, target, self.controlword, resetting)
+        if self._hm_cw and state is Cia402State.OPERATION_ENABLED and cw == 0x0F:
+            cw |= self._hm_cw  # homing: bit 4 starts the procedure
+            hm = self._hm
+            if hm is not None and hm.phase == "start":
+                hm.phase = "run"
+                hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
         if state is Cia402State.OPERATION_ENABLED and command.enable:
             target_counts = self.scaling.position_to_counts(command.position)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
-        values = {0x6040: cw, 0x607A: target_counts, 0x60B2: 0, 0x6060: int(CSP)}
+        values = {0x6040: cw, 0x607A: target_counts, 0x60B2: 0, 0x6060: self._cyclic_mode}
         if self._needs_velocity:
             values[0x60B1] = self.scaling.velocity_to_counts(command.velocity)
         try:
@@ -1627,6 +1663,152 @@ class CanopenDrive(Drive):
         else:
             self.sdo_submit(0x6077, 0, None, got_torque)
         return transfer
+
+    # ------------------------------------------------------------ homing by the drive
+    def start_homing(self) -> str:
+        """Homing by the drive with ``config.homing``, never blocking: by SDO in the cycle
+        0x607C (home offset), 0x6098 (method), 0x6099:01/02 (speeds), 0x609A (acceleration),
+        then 0x6060 = 6 and 0x6061 read back until it shows 6 (within ``mode_timeout``);
+        then the cyclic controlword carries bit 4 (a rising edge starts the procedure) and
+        the statusword (TPDO) is watched: bit 13 = homing error, bits 12 + 10 = attained.
+        Either way bit 4 is cleared and 0x6060 = 8 written and read back (CSP again);
+        :meth:`homing_result` is then "" or the reason (also an SDO failure, or the
+        procedure not attained within ``homing.timeout``). While the drive homes its
+        position values keep coming as feedback; the jump homing makes in them (the home
+        position becomes the home offset) is reported in :attr:`homing_shift`."""
+        spec = self.config.homing
+        if spec is None:
+            return f"{self.name}: no homing by the drive configured (homing)"
+        if not self._opened or not self._configured:
+            return f"{self.name}: node {self.config.node_id} is not configured"
+        if self._hm is not None and self._hm.result is None:
+            self.cancel_homing()
+        t = self.master.t
+        hm = self._hm = _HomingRun(t, spec.timeout)
+        sc = self.scaling
+        cpu = abs(sc.counts_per_unit)
+
+        def u32(x: float) -> bytes:
+            return struct.pack("<I", min(0xFFFFFFFF, max(1, round(x * cpu))))
+
+        offset = max(-(1 << 31), min((1 << 31) - 1, sc.position_to_counts(spec.offset)))
+        steps = [
+            (0x607C, 0, struct.pack("<i", offset)),
+            (0x6098, 0, struct.pack("<b", spec.method)),
+            (0x6099, 1, u32(spec.speed_switch)),
+            (0x6099, 2, u32(spec.speed_zero)),
+            (0x609A, 0, u32(spec.acceleration)),
+            (0x6060, 0, struct.pack("<b", int(OperationMode.HOMING))),
+        ]
+        for index, sub, data in steps[:-1]:
+            self.sdo_submit(index, sub, data, self._homing_step(hm, None))
+        index, sub, data = steps[-1]
+        self.sdo_submit(index, sub, data, self._homing_step(hm, "mode"))
+        return ""
+
+    def _homing_step(
+        self, hm: _HomingRun, then: str | None
+    ) -> Callable[[bytes | None, str], None]:
+        def done(data: bytes | None, error: str) -> None:
+            if self._hm is not hm or hm.phase in ("back", "over"):
+                return
+            if data is None:
+                self._homing_back(hm, error)
+            elif then == "mode":
+                self._cyclic_mode = int(OperationMode.HOMING)
+                hm.phase = "mode"
+                self.sdo_submit(0x6061, 0, None, self._homing_mode_check(hm, 6))
+
+        return done
+
+    def _homing_mode_check(
+        self, hm: _HomingRun, mode: int
+    ) -> Callable[[bytes | None, str], None]:
+        limit = self.master.t + self.config.mode_timeout
+
+        def check(data: bytes | None, error: str) -> None:
+            if self._hm is not hm:
+                return
+            shown = None if data is None else struct.unpack("<b", bytes(data[:1]))[0]
+            if shown == mode:
+                if mode == 6:
+                    hm.phase = "start"
+                    self._hm_cw = 0x10
+                else:
+                    hm.phase = "over"
+                    hm.result = hm.error
+                return
+            if data is None or self.master.t > limit + 1e-9:
+                why = error or f"0x6061 shows {shown}, not {mode}, {self.config.mode_timeout:g} s"
+                if mode == 6:
+                    self._homing_back(hm, why)
+                else:
+                    hm.phase = "over"
+                    hm.result = hm.error or why
+                return
+            self.sdo_submit(0x6061, 0, None, check)
+
+        return check
+
+    def _homing_back(self, hm: _HomingRun, error: str) -> None:
+        """End of the procedure (attained: ``error`` ""): bit 4 off, back to CSP."""
+        hm.error = error
+        hm.phase = "back"
+        self._hm_cw = 0
+        self._cyclic_mode = int(CSP)
+
+        def written(data: bytes | None, why: str) -> None:
+            if self._hm is not hm:
+                return
+            if data is None:
+                hm.phase = "over"
+                hm.result = hm.error or why
+                return
+            self.sdo_submit(0x6061, 0, None, self._homing_mode_check(hm, int(CSP)))
+
+        self.sdo_submit(0x6060, 0, struct.pack("<b", int(CSP)), written)
+
+    def _homing_read(self, t: float, fresh: bool) -> None:
+        """Every READ INPUTS while homing: the statusword bits of the procedure."""
+        hm = self._hm
+        assert hm is not None
+        if hm.phase != "run":
+            if hm.phase not in ("back", "over") and t > hm.deadline + 1e-9:
+                self._homing_back(hm, self._located("homing not attained in time"))
+            hm.last_position = self.position_counts
+            return
+        if fresh and self._tpdo_count > hm.run_from:
+            sw = self.statusword
+            if sw & SW_HOMING_ERROR:
+                self._homing_back(hm, self._located("homing error (statusword bit 13)"))
+            elif sw & (SW_HOMING_ATTAINED | SW_TARGET_REACHED) == (
+                SW_HOMING_ATTAINED | SW_TARGET_REACHED
+            ):
+                sc = self.scaling
+                self.homing_shift += sc.position_to_si(self.position_counts) - sc.position_to_si(
+                    hm.last_position
+                )
+                self._homing_back(hm, "")
+            elif t > hm.deadline + 1e-9:
+                spec = self.config.homing
+                limit = spec.timeout if spec is not None else 0.0
+                self._homing_back(hm, self._located(f"homing not attained within {limit:g} s"))
+        hm.last_position = self.position_counts
+
+    def homing_result(self) -> str | None:
+        hm = self._hm
+        if hm is None:
+            return "no homing in progress"
+        if hm.result is None:
+            return None
+        self._hm = None
+        return hm.result
+
+    def cancel_homing(self) -> None:
+        hm = self._hm
+        if hm is None or hm.phase in ("back", "over"):
+            return
+        self._homing_back(hm, "cancelled")
 
     def _restart_node(self) -> None:
         try:

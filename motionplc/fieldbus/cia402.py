@@ -16,6 +16,7 @@ done, 15 fault reset. Masks are those of CiA 402 (and ``canopen.profiles.p402.St
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from enum import Enum, IntEnum
 
 __all__ = [
@@ -27,6 +28,7 @@ __all__ = [
     "Cia402Command",
     "Cia402State",
     "HomingProcedure",
+    "HomingSpec",
     "HomingSwitches",
     "OperationMode",
     "decode_command",
@@ -634,3 +636,44 @@ class HomingProcedure:
             assert self.edge is not None
             if abs(p1 - self.edge) <= 1.0 and abs(velocity) <= 1000.0:
                 self.done = True
+
+
+def _finite(name: str, value: object, lo: float, hi: float, lo_open: bool = False) -> float:
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    x = float(value) if ok else math.nan  # type: ignore[arg-type]
+    if not (math.isfinite(x) and (x > lo if lo_open else x >= lo) and x <= hi):
+        rng = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+        raise ValueError(f"homing.{name} must be a finite number in {rng}, got {value!r}")
+    return x
+
+
+@dataclass(frozen=True, slots=True)
+class HomingSpec:
+    """Homing by the drive (CiA 402 homing mode) of one axis, SI units (m or rad).
+
+    ``method`` goes to 0x6098 (the CiA 402 methods 1..37, or a manufacturer's negative one;
+    motionplc's virtual drive implements :data:`HOMING_METHODS`), ``speed_switch`` /
+    ``speed_zero`` [m/s] to 0x6099:01 / :02, ``acceleration`` [m/s²] to 0x609A, ``offset``
+    [m] to 0x607C: the axis position at the home position afterwards. ``timeout`` [s]: the
+    procedure must be attained within it (else HOMING_FAILED).
+    """
+
+    method: int
+    speed_switch: float
+    speed_zero: float
+    acceleration: float
+    offset: float = 0.0
+    timeout: float = 60.0
+
+    def __post_init__(self) -> None:
+        m = self.method
+        if isinstance(m, bool) or not isinstance(m, int) or not -128 <= m <= 127 or m == 0:
+            raise ValueError(
+                f"homing.method must be a CiA 402 homing method (1..37, or a manufacturer's "
+                f"-128..-1), got {m!r}"
+            )
+        _finite("speed_switch", self.speed_switch, 0.0, 1e9, lo_open=True)
+        _finite("speed_zero", self.speed_zero, 0.0, 1e9, lo_open=True)
+        _finite("acceleration", self.acceleration, 0.0, 1e12, lo_open=True)
+        _finite("offset", self.offset, -1e12, 1e12)
+        _finite("timeout", self.timeout, 0.0, 3600.0, lo_open=True)

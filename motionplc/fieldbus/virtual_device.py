@@ -239,9 +239,9 @@ class Cia402Device:
         """Write 0x6060; False if the mode is not supported (the caller rejects the write)."""
         if mode != 0 and mode not in SUPPORTED_MODES:
             return False
-        if mode != self.mode_display and self.homing is not None:
+        if mode != self.mode_display:
             self.homing = None  # leaving homing mode interrupts the procedure
-            self.homing_status = "idle"
+            self.homing_status = "idle"  # entering it: not started
         self.mode = mode
         self.mode_display = mode  # switches at once
         return True
@@ -477,8 +477,6 @@ class Cia402Device:
                 for unit in self.probes.values():
                     if unit.enabled:
                         unit.scan(0.0, dt, phys)
-            if homing_samples is not None:
-                self._homing_observe(samples)
         else:
             self.actual = plant_step(
                 self.plant,
@@ -491,6 +489,8 @@ class Cia402Device:
                 stalled=self.stalled,
             )
         self.demand = demand_to if powered else self.actual.position
+        if homing_samples is not None:
+            self._homing_observe(homing_samples)  # may shift the position values
         if not powered:
             self.demand_velocity = 0.0
         self._monitor_following_error(dt)
