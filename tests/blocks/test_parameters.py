@@ -418,3 +418,112 @@ def test_appl_writes_within_the_system_values_read_back(
     over = b.add(MC_WriteParameter())
     _write(b, 13, 4.0 * (1 + 1e-9), over)
     assert over.error and over.error_id is ErrorID.INVALID_PARAMETER_VALUE
+
+
+# --------------------------------------------------------------------------- stateful
+from hypothesis.stateful import RuleBasedStateMachine, invariant, rule  # noqa: E402
+
+SYS = {"v": 2.0, "a": 4.0, "d": 4.0, "j": 40.0}
+
+
+class ParameterMachine(RuleBasedStateMachine):
+    """Random writes (valid and invalid) of every writable number and moves in between; a
+    model predicts each write's outcome, every number reads back as the model says, and each
+    move is refused at an active software limit or runs within the applied limits."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.b = Bench(cycle=0.01, **AXIS).powered()
+        self.m: dict[int, Any] = {2: 1.0, 3: -1.0, 4: True, 5: True, 6: False, 7: math.inf}
+        self.m.update({9: 2.0, 13: 4.0, 15: 4.0, 17: 40.0})
+        self.wr = self.b.add(MC_WriteParameter())
+        self.wb = self.b.add(MC_WriteBoolParameter())
+        self.ma = self.b.add(MC_MoveAbsolute())
+
+    def _expect(self, n: int, x: float) -> ErrorID:
+        """The outcome of writing REAL ``x`` to ``n`` by the model."""
+        m = self.m
+        bad = ErrorID.INVALID_PARAMETER_VALUE
+        top = {9: SYS["v"], 13: SYS["a"], 15: SYS["d"], 17: SYS["j"]}.get(n)
+        if top is not None:
+            return ErrorID.OK if 1e-6 <= x <= top else bad
+        if n == 7:
+            return ErrorID.OK if 0 < x <= 1e12 else bad
+        if n == 2 and m[4] and m[5] and not x > m[3]:
+            return bad
+        if n == 3 and m[4] and m[5] and not x < m[2]:
+            return bad
+        return ErrorID.OK
+
+    @rule(
+        n=st.sampled_from([2, 3, 7, 9, 13, 15, 17]),
+        x=st.one_of(st.floats(-3.0, 50.0), st.sampled_from([0.0, 2.0, 4.0, 40.0, 1e-6])),
+    )
+    def write_real(self, n: int, x: float) -> None:
+        want = self._expect(n, x)
+        self.b.run(1)
+        _write(self.b, n, x, self.wr)
+        assert self.wr.error_id is want, (n, x, self.wr.error_text)
+        if want is ErrorID.OK:
+            assert self.wr.done
+            self.m[n] = x
+
+    @rule(n=st.sampled_from([4, 5, 6]), x=st.booleans())
+    def write_bool(self, n: int, x: bool) -> None:
+        m = self.m
+        want = ErrorID.OK
+        if n == 6 and x and m[7] == math.inf:
+            want = ErrorID.INVALID_PARAMETER_VALUE
+        if n == 4 and x and m[5] and not m[2] > m[3]:
+            want = ErrorID.INVALID_PARAMETER_VALUE
+        if n == 5 and x and m[4] and not m[3] < m[2]:
+            want = ErrorID.INVALID_PARAMETER_VALUE
+        self.b.run(1)
+        _write(self.b, n, x, self.wb)
+        assert self.wb.error_id is want, (n, x, self.wb.error_text)
+        if want is ErrorID.OK:
+            m[n] = x
+
+    @rule(pos=st.floats(-1.2, 1.2))
+    def move(self, pos: float) -> None:
+        b, m = self.b, self.m
+        x = b.x
+        if x.state is not AxisState.STANDSTILL:
+            return
+        hi = m[2] if m[4] else math.inf
+        lo = m[3] if m[5] else -math.inf
+        dist = abs(pos - x.p)
+        acc = min(m[13], m[15])
+        if dist / m[9] + 2.0 * math.sqrt(dist / acc) + 2.0 * acc / m[17] > 20.0:
+            return  # a move of more than ~20 s (tiny *Appl limits): not run here
+        k0 = b.cycle
+        b.run(1)
+        b.pulse(self.ma, position=pos, velocity=m[9])
+        if (pos > hi and pos > x.p) or (pos < lo and pos < x.p):
+            assert self.ma.error and self.ma.error_id is ErrorID.TARGET_OUTSIDE_SW_LIMITS
+            return
+        assert not self.ma.error, self.ma.error_text
+        b.run_until_idle()
+        assert x.p == pos
+        v = b.col("x.velocity")[k0:]
+        a = b.col("x.acceleration")[k0:]
+        assert np.max(np.abs(v)) <= m[9] * (1 + 1e-9)
+        assert np.max(a) <= m[13] * (1 + 1e-9) and np.min(a) >= -m[15] * (1 + 1e-9)
+
+    @invariant()
+    def reads_match_the_model(self) -> None:
+        if not hasattr(self, "b"):
+            return
+        cfg = self.b.x.cfg
+        m = self.m
+        assert (cfg.v_top, cfg.a_max, cfg.a_neg, cfg.j_max) == (m[9], m[13], m[15], m[17])
+        assert cfg.sw_limit_pos == (m[2] if m[4] else None)
+        assert cfg.sw_limit_neg == (m[3] if m[5] else None)
+        lag = m[7] if m[6] else None
+        assert cfg.following_error_limit == lag
+
+
+ParameterMachine.TestCase.settings = settings(
+    max_examples=15, stateful_step_count=10, deadline=None
+)
+test_parameter_machine = ParameterMachine.TestCase

@@ -519,3 +519,18 @@ def test_modbus_against_the_independent_servo() -> None:
             assert rig.x.comm_ok
         finally:
             rig.close()
+
+
+def test_modbus_parameter_without_answer_times_out(modbus_rig: Any) -> None:
+    """A drive that does not answer the parameter request: after ``timeout`` the transfer
+    fails (DRIVE_PARAMETER_FAILED, "no response"); the exchange it rode in timed out too, so
+    the axis reports COMM_TIMEOUT like for any unanswered exchange."""
+    rig, vd = modbus_rig()
+    wr = rig.add(MC_WriteParameter(parameter_number=modbus_parameter_number(0x0303), value=0))
+    wr.execute = True
+    vd.drop_every = vd.requests + 2  # the request after the next cyclic one: ours
+    k = rig.until(lambda: wr.error or wr.done, limit=200)
+    assert wr.error and wr.error_id is ErrorID.DRIVE_PARAMETER_FAILED, wr.error_text
+    assert "no response" in wr.error_text
+    assert 50 <= k <= 60  # timeout 0.05 s at 1 ms cycles
+    assert rig.x.axis_error is ErrorID.COMM_TIMEOUT
