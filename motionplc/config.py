@@ -27,6 +27,13 @@ without P and of TM_MAX_CORNER_DEVIATION with parameter 0 [m]; > 0 and <= 1, def
 ``v_share`` / ``blend_share`` (share of the axes' acceleration and jerk budget the curvature
 of paths / corner blends may use; 0.01..0.99, defaults 0.7 / 0.95).
 
+``cams:`` declares cam tables by name (:class:`~motionplc.planning.CamTable`, in
+``Config.cams`` and ``Machine.cams``): ``points`` (``[master, slave[, slope[, curvature]]]`` or
+mappings that may name the ``law`` of the segment starting there) or ``file`` (a CSV file of the
+same columns plus the law, relative to the configuration file), a default ``law`` (``poly5``)
+and ``periodic``; a malformed table is reported at the offending point's line (in the CSV file
+for ``file``).
+
 :func:`load_config` reads a file with ``yaml.SafeLoader`` (plus a resolver for floats such as
 ``1e-6``, which YAML 1.1 reads as strings) while recording the line of every node, checks
 everything and raises **one** :class:`~motionplc.errors.ConfigError` listing every problem as
@@ -68,11 +75,13 @@ from motionplc.schema.nodes import (
 if TYPE_CHECKING:
     from motionplc.blocks.axis import Axis
     from motionplc.blocks.group import AxesGroup
+    from motionplc.planning.cam import CamTable
     from motionplc.runtime import CycleContext, Runtime
 
 __all__ = [
     "AxisSpec",
     "BusSpec",
+    "CamSpec",
     "Config",
     "GroupSpec",
     "DriveSpec",
@@ -543,6 +552,15 @@ class GroupSpec:
 
 
 @dataclass(frozen=True, slots=True)
+class CamSpec:
+    """A cam table of ``cams:`` (built and checked while loading); ``line``: its key's line."""
+
+    name: str
+    table: CamTable
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
 class Config:
     """A validated machine configuration."""
 
@@ -551,6 +569,7 @@ class Config:
     buses: tuple[BusSpec, ...]
     axes: tuple[AxisSpec, ...]
     groups: tuple[GroupSpec, ...] = ()
+    cams: tuple[CamSpec, ...] = ()
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -560,6 +579,10 @@ class Config:
 
     def group(self, name: str) -> GroupSpec:
         return next(g for g in self.groups if g.name == name)
+
+    def cam(self, name: str) -> CamTable:
+        """The cam table ``cams.<name>``."""
+        return next(c.table for c in self.cams if c.name == name)
 
     @property
     def group_map(self) -> dict[str, tuple[str, ...]]:
@@ -1051,9 +1074,19 @@ def parse_config(data: Any, file: str | Path) -> Config:
             g = _parse_group(c, gm, name, body, lines, specs, owner)
             if g is not None:
                 groups.append(g)
+    cams: list[CamSpec] = []
+    if top.get("cams") is not None:
+        cm = c.mapping(top["cams"], top.line_of("cams"), "cams", None)
+        for name, body in (cm or {}).items():
+            if c.name(cm, name, "cams"):
+                cam = _parse_cam(c, cm, name, body)
+                if cam is not None:
+                    cams.append(cam)
     c.raise_if_any()
     assert runtime is not None
-    return Config(str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups))
+    return Config(
+        str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups), tuple(cams)
+    )
 
 
 _GROUP = S.GROUP.table()
@@ -1158,6 +1191,117 @@ def _parse_group(
     return GroupSpec(name, tuple(members), **opts)
 
 
+_CAM = S.CAM.table()
+_CSV_FIELDS = ("master", "slave", "slope", "curvature", "law")
+
+
+def _read_cam_csv(
+    c: Checker, fpath: Path, line: int, path: str
+) -> tuple[list[dict[str, Any]], list[int]] | None:
+    """The points of a cam CSV file (``master, slave[, slope[, curvature[, law]]]`` a line;
+    ``#`` comments, a header line before the first point) and the line of each; problems
+    are reported at the file's own lines."""
+    try:
+        text = fpath.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        c.error(line, join(path, "file"), f"cannot read {str(fpath)!r}: {exc}", "a CSV file")
+        return None
+    points: list[dict[str, Any]] = []
+    lines: list[int] = []
+    ok = True
+    header_ok = True  # a header line may come before the first point
+    for n, raw in enumerate(text.splitlines(), 1):
+        row = raw.split("#", 1)[0].strip()
+        if not row:
+            continue
+        fields = [f.strip() for f in row.split(",")]
+        where = f"{fpath}:{n}: {path}.points[{len(points)}]"
+        if header_ok:
+            header_ok = False
+            try:
+                float(fields[0])
+            except ValueError:
+                continue
+        if not 2 <= len(fields) <= 5:
+            c.errors.append(
+                f"{where}: {len(fields)} fields "
+                "(allowed: master, slave[, slope[, curvature[, law]]])"
+            )
+            ok = False
+            continue
+        point: dict[str, Any] = {}
+        for key, f in zip(_CSV_FIELDS, fields, strict=False):
+            if f == "":
+                continue
+            if key == "law":
+                point[key] = f
+                continue
+            try:
+                point[key] = float(f)
+            except ValueError:
+                c.errors.append(f"{where}.{key}: got {f!r} (allowed: a number)")
+                ok = False
+        points.append(point)
+        lines.append(n)
+    return (points, lines) if ok else None
+
+
+def _parse_cam(c: Checker, cm: YamlMap, name: str, body: Any) -> CamSpec | None:
+    """One entry of ``cams:``: ``points`` (a list) or ``file`` (CSV), ``law``, ``periodic``;
+    the table is built here, its problems located at the point's line."""
+    from motionplc.planning.cam import CamTable, CamTableError
+
+    path = join("cams", name)
+    m = c.mapping(body, cm.line_of(name), path, _CAM)
+    if m is None:
+        return None
+    law = c.field(m, "law", path, S.CAM["law"], "poly5")
+    periodic = c.field(m, "periodic", path, S.CAM["periodic"], False)
+    given = [k for k in ("points", "file") if m.get(k) is not None]
+    if len(given) != 1:
+        c.error(
+            m.line,
+            path,
+            "both `points` and `file`" if given else "no `points` and no `file`",
+            "exactly one of points, file",
+        )
+        return None
+    src = c.file
+    if given == ["file"]:
+        fname = c.string(m, "file", path)
+        if fname is None:
+            return None
+        fpath = Path(c.file).parent / fname
+        got = _read_cam_csv(c, fpath, m.line_of("file"), path)
+        if got is None:
+            return None
+        points: list[Any] = list(got[0])
+        lines = got[1]
+        src = str(fpath)
+        whole = m.line_of("file")
+    else:
+        pts = m["points"]
+        if not isinstance(pts, YamlList):
+            c.error(m.line_of("points"), join(path, "points"), f"got {_tname(pts)}", "a list")
+            return None
+        points = list(pts)
+        lines = [pts.line_of(i) for i in range(len(pts))]
+        whole = m.line_of("points")
+    try:
+        table = CamTable.from_points(points, law=law, periodic=periodic, name=name)
+    except CamTableError as exc:
+        where, _, problem = str(exc).partition(": ")
+        line = whole
+        if exc.index is not None and exc.index < len(points):
+            line = lines[exc.index]
+            item = points[exc.index]
+            if isinstance(item, YamlMap) and exc.field in item:
+                line = item.line_of(exc.field)
+        c.errors.append(f"{src}:{line}: {path}.{where}: {problem}")
+        return None
+    return CamSpec(name, table, cm.line_of(name))
+
+
 def load_config(path: str | Path) -> Config:
     """Load and validate a machine configuration; raises ConfigError listing every problem."""
     return parse_config(load_yaml(path), path)
@@ -1188,6 +1332,7 @@ class Machine:
         self.axes: dict[str, Axis] = {}
         self.groups: dict[str, tuple[str, ...]] = config.group_map  # name -> member names
         self.axes_groups: dict[str, AxesGroup] = {}  # name -> the runtime's group
+        self.cams: dict[str, CamTable] = {c.name: c.table for c in config.cams}  # cams:
         self.bodies: dict[str, _TaskBody] = {}
         self.peers: dict[str, Any] = {}  # bus name -> simulated drives (VirtualCanBus, server)
         self._closers: list[Callable[[], None]] = []

@@ -33,6 +33,9 @@ __all__ = [
     "BUS",
     "BUS_DRIVES",
     "BUS_TYPES",
+    "CAM",
+    "CAM_LAWS",
+    "CAM_POINT",
     "CANOPEN_DRIVE",
     "CANOPEN_DRIVE_KEYS",
     "CAN_BITRATES",
@@ -935,6 +938,123 @@ GROUP_ENTRY = OneOf(
     checks=("a group cannot have the name of an axis",),
 )
 
+# ------------------------------------------------------------------------------- cams
+# the motion laws and ranges of motionplc.planning.cam (LAWS, COORD_MAX, SLOPE_MAX,
+# CURVATURE_MAX; a test keeps them equal; literals so that the schema does not import numpy)
+CAM_LAWS = (
+    "cycloid",
+    "harmonic",
+    "linear",
+    "modified_sine",
+    "modified_trapezoid",
+    "poly5",
+    "poly7",
+)
+CAM_COORD_MAX = 1e12
+CAM_SLOPE_MAX = 1e9
+CAM_CURVATURE_MAX = 1e15
+_CAM_RULES = (
+    "at least 2 points, master strictly increasing (segments at least 1e-9 long)",
+    "a slope a segment's law cannot meet is refused (a rest-to-rest law next to a non-zero "
+    "slope, two linear segments of different slopes, an explicit slope against a linear "
+    "segment): use poly5 or poly7 there",
+)
+_CAM_MASTER = Number(
+    ge=-CAM_COORD_MAX, le=CAM_COORD_MAX, description="The master position (m or rad)."
+)
+_CAM_SLAVE = Number(ge=-CAM_COORD_MAX, le=CAM_COORD_MAX, description="The slave position.")
+_CAM_SLOPE = Number(
+    ge=-CAM_SLOPE_MAX,
+    le=CAM_SLOPE_MAX,
+    default_text="from a neighbouring linear or rest-to-rest segment, else 0",
+    description="dy/dx at the point (slave units per master unit).",
+)
+_CAM_CURVATURE = Number(
+    ge=-CAM_CURVATURE_MAX,
+    le=CAM_CURVATURE_MAX,
+    default_text="from a neighbouring linear or rest-to-rest segment, else 0",
+    description="d2y/dx2 at the point.",
+)
+CAM_POINT = OneOf(
+    description="A point: `[master, slave]`, `[master, slave, slope]`, "
+    "`[master, slave, slope, curvature]` or a mapping (which may also name the law of the "
+    "segment starting at the point).",
+    variants=(
+        ListOf(
+            item=Number(ge=-CAM_COORD_MAX, le=CAM_COORD_MAX),
+            min_items=2,
+            max_items=4,
+            description="master, slave[, slope[, curvature]].",
+        ),
+        Obj(
+            title="cam point",
+            description="A point with names.",
+            keys=(
+                Key("master", _CAM_MASTER, True),
+                Key("slave", _CAM_SLAVE, True),
+                Key("slope", _CAM_SLOPE),
+                Key("curvature", _CAM_CURVATURE),
+                Key(
+                    "law",
+                    Choice(
+                        options=CAM_LAWS,
+                        default_text="the cam's `law`",
+                        description="The motion law of the segment from this point to the next.",
+                    ),
+                ),
+            ),
+        ),
+    ),
+)
+CAM = Obj(
+    title="cam",
+    description="A cam table master -> slave (`motionplc.planning.CamTable`): points joined by "
+    "VDI 2143 motion laws; C2 (continuous slave acceleration at constant master speed) "
+    "wherever the laws allow. Given inline (`points`) or as a CSV file (`file`).",
+    keys=(
+        Key(
+            "points",
+            ListOf(
+                item=CAM_POINT,
+                min_items=2,
+                description="The points in master order.",
+                checks=_CAM_RULES,
+            ),
+        ),
+        Key(
+            "file",
+            String(
+                what="a file",
+                description="A CSV file of points, relative to the configuration file: one "
+                "point a line, `master, slave[, slope[, curvature[, law]]]` (an empty field: "
+                "not given), `#` comments and a header line allowed.",
+            ),
+        ),
+        Key(
+            "law",
+            Choice(
+                options=CAM_LAWS,
+                default_text="`poly5`",
+                description="The motion law of every segment whose point names none: "
+                "`poly5`/`poly7` (3-4-5 / 4-5-6-7 polynomials; Hermite polynomials meeting "
+                "non-zero end slopes and curvatures), `modified_sine`, `modified_trapezoid`, "
+                "`cycloid`, `harmonic` (rest to rest; harmonic's acceleration jumps at its "
+                "ends), `linear` (constant velocity).",
+            ),
+        ),
+        Key(
+            "periodic",
+            Bool(
+                default_text="`false`",
+                description="The first and last point are one point of a repeating profile: "
+                "their slope and curvature are resolved together, so the table repeats "
+                "without a step (a lift `slave_end - slave_start` is allowed).",
+            ),
+        ),
+    ),
+    checks=("exactly one of `points` and `file`",),
+)
+
 TOP = Obj(
     title="machine configuration",
     keys=(
@@ -951,6 +1071,13 @@ TOP = Obj(
         Key(
             "groups",
             MapOf(value=GROUP_ENTRY, description="Axes groups by name (PLCopen Part 4)."),
+        ),
+        Key(
+            "cams",
+            MapOf(
+                value=CAM,
+                description="Cam tables by name (`Machine.cams`; for MC_CamTableSelect).",
+            ),
         ),
     ),
 )
@@ -976,6 +1103,10 @@ axes:
     drive: {bus: mb0, unit_id: 1, word_order: big}
 groups:
   xy: [x, y]
+cams:
+  lift:                        # master x -> slave y, VDI 2143 motion laws
+    law: poly5
+    points: [[0.0, 0.0], [0.5, 0.1], {master: 1.0, slave: 0.1, law: modified_sine}, [1.5, 0.0]]
 """
 
 CONFIG = FileSchema(
@@ -984,7 +1115,8 @@ CONFIG = FileSchema(
     root=TOP,
     intro="A machine configuration describes the runtime (base tick, clock, tasks, real-time "
     "settings), the buses (CAN, Modbus TCP), the axes (limits, software limits, modulo, "
-    "following error, homing, drive) and the axes groups. `motionplc validate CONFIG` checks "
+    "following error, homing, drive), the axes groups and cam tables. `motionplc validate "
+    "CONFIG` checks "
     "a file; every problem is reported as `FILE:LINE: key.path: problem (allowed: ...)`. "
     "Units are SI (m or rad, s). Floats such as `1e-6` are read as numbers.",
     example=EXAMPLE,
