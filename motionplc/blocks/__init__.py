@@ -23,6 +23,8 @@ from motionplc.blocks.enums import (
     ErrorID,
     ExecutionMode,
     Source,
+    StartMode,
+    SyncMode,
 )
 from motionplc.blocks.motion import (
     MC_Halt,
@@ -42,6 +44,15 @@ from motionplc.blocks.params import (
     MC_WriteParameter,
 )
 from motionplc.blocks.probe import MC_AbortTrigger, MC_TouchProbe, TriggerRef
+from motionplc.blocks.sync import (
+    MC_CamIn,
+    MC_CamOut,
+    MC_GearIn,
+    MC_GearInPos,
+    MC_GearOut,
+    MC_PhasingAbsolute,
+    MC_PhasingRelative,
+)
 
 __all__ = [
     "Axis",
@@ -55,13 +66,20 @@ __all__ = [
     "ExecutionMode",
     "Handle",
     "MC_AbortTrigger",
+    "MC_CamIn",
+    "MC_CamOut",
     "MC_CamTableSelect",
+    "MC_GearIn",
+    "MC_GearInPos",
+    "MC_GearOut",
     "MC_Halt",
     "MC_Home",
     "MC_MoveAbsolute",
     "MC_MoveAdditive",
     "MC_MoveRelative",
     "MC_MoveVelocity",
+    "MC_PhasingAbsolute",
+    "MC_PhasingRelative",
     "MC_Power",
     "MC_ReadActualPosition",
     "MC_ReadActualTorque",
@@ -80,6 +98,8 @@ __all__ = [
     "MC_WriteBoolParameter",
     "MC_WriteParameter",
     "Source",
+    "StartMode",
     "Status",
+    "SyncMode",
     "TriggerRef",
 ]

@@ -350,6 +350,7 @@ class _PhasingFB(_SlaveFB, InputChecks, MotionFB):
         "buffer_mode",
     )
     _RELATIVE = False
+    PARALLEL = True  # Active beside the coupling FB (spec 2.1: parallel FBs)
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
         self.master: Axis | None = None

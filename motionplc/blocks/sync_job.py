@@ -544,9 +544,10 @@ class SyncJob(AxisJob):
         if mode is SyncMode.SHORTEST or self.kind == "cam":
             return lim
         s = 1.0 if self.ratio * mv >= 0.0 else -1.0  # the direction the law moves the slave
-        # CATCH_UP: d's velocity along s never negative; SLOW_DOWN: never positive
+        # CATCH_UP: the slave approaches the law from behind, d's velocity along s never
+        # negative (once braked from its start); SLOW_DOWN: from ahead, never positive
         up = s if mode is SyncMode.CATCH_UP else -s
-        if up * d0.p > 0.0 or up * d0.v < 0.0:
+        if up * d0.p > 0.0:  # (a start velocity the wrong way is braked first)
             return None
         tiny = 1e-12 * max(1.0, lim.v_max)
         if up > 0.0:
@@ -870,9 +871,25 @@ def request_phasing(
     old = job.ph_req
     if old is not None:
         old[0]._finish(Status.ABORTED)
-    lim = ax._axis_limits(acc, dec, jerk, velocity)
-    job.ph_req = (h, shift, relative, lim)
+    job.ph_req = (h, shift, relative, _phase_limits(job, velocity, acc, dec, jerk))
     return h
+
+
+def _phase_limits(job: SyncJob, velocity: float, acc: float, dec: float, jerk: float) -> Limits:
+    """Limits of a phase shift (a motion of the master as the slave sees it): the inputs, 0 =
+    the master's own limits, for gearing also at most the slave's limits / |ratio| (the slave
+    moves ratio x the shift on top of the law)."""
+    mc, sc = job.master.cfg, job.slave.cfg
+    r = abs(job.ratio) if job.kind != "cam" else 0.0
+
+    def cap(x: float, m_lim: float, s_lim: float) -> float:
+        base = m_lim if r == 0.0 else min(m_lim, s_lim / r)
+        return min(x, base) if x > 0.0 else base
+
+    v = cap(velocity, min(mc.v_max, mc.v_neg), min(sc.v_max, sc.v_neg))
+    a = cap(max(acc, dec), min(mc.a_max, mc.a_neg), min(sc.a_max, sc.a_neg))
+    j = cap(jerk, mc.j_max, sc.j_max)
+    return Limits(v, a, j, v_min=-v, a_min=-a)
 
 
 # -- invariants -----------------------------------------------------------------------------------

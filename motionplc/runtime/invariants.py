@@ -11,7 +11,9 @@ Installed by ``Runtime(check_invariants=True)``; raises :class:`InvariantError` 
   phase event plus a program/kernel one); set values: v_min <= v <= v_max, a_min <= a <= a_max
   (without override; the axis' own, possibly asymmetric, limits), no position jump, v continuous
   within a_max * dt (|a_min| * dt downwards), a continuous within
-  j_max * dt for finite j_max; zero velocity in Standstill and Disabled.
+  j_max * dt for finite j_max; zero velocity in Standstill and Disabled. SynchronizedMotion
+  slaves are held to the same limits; a locked coupling (InGear / InSync) satisfies its law
+  (``sync_job.check_coupling``: slave = law(master seen) to rounding).
 * H: tasks of a tick ran in (priority, declaration) order; virtual time t = k * cycle; in
   virtual time without injected overruns all latencies are 0.
 """
@@ -24,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from motionplc.blocks.axis_state import EDGES
 from motionplc.blocks.base import EnableFB, ExecuteFB
 from motionplc.blocks.enums import AxisState
+from motionplc.blocks.sync_job import check_coupling
 
 if TYPE_CHECKING:
     from motionplc.runtime.runtime import Runtime
@@ -57,8 +60,8 @@ class InvariantChecker:
             for fb in ax.fbs:
                 if isinstance(fb, ExecuteFB):
                     self._check_execute(fb, cycle)
-                    if fb.active:
-                        active.append(fb.name)
+                    if fb.active and not getattr(fb, "PARALLEL", False):
+                        active.append(fb.name)  # parallel FBs (phasing) beside the active one
                 elif isinstance(fb, EnableFB):
                     valid = fb.valid or getattr(fb, "enabled", False)
                     if valid and fb.error:
@@ -66,6 +69,10 @@ class InvariantChecker:
             if len(active) > 1:
                 _fail(cycle, ax.name, "A4", f"more than one active FB: {active}")
             self._check_axis(rt, ax, cycle)
+            if ax.state is S.SYNCHRONIZED_MOTION and ax.active is not None and ax.active.sync:
+                why = check_coupling(ax)  # InGear / InSync: the coupling law holds
+                if why is not None:
+                    _fail(cycle, ax.name, "C-sync", why)
         for g in getattr(rt, "groups", {}).values():
             for fb in g.fbs:
                 if isinstance(fb, ExecuteFB):
