@@ -66,11 +66,11 @@ def _start(axis: Axis, number: int, value: float | None) -> ParameterTransfer:
     try:
         return axis.drive.start_parameter(address, value)
     except ParameterError as exc:
-        eid = (
-            ErrorID.INVALID_PARAMETER_NUMBER
-            if exc.number_error
-            else ErrorID.INVALID_PARAMETER_VALUE
-        )
+        eid = ErrorID.INVALID_PARAMETER_VALUE
+        if exc.number_error:
+            eid = ErrorID.INVALID_PARAMETER_NUMBER
+        elif exc.failed:
+            eid = ErrorID.DRIVE_PARAMETER_FAILED
         raise InputError(eid, str(exc)) from None
 
 
@@ -351,7 +351,8 @@ class MC_ReadActualTorque(_Reader):
             try:
                 t = drive.start_torque_read()
             except ParameterError as exc:
-                raise InputError(ErrorID.INVALID_AXIS, str(exc)) from None
+                eid = ErrorID.DRIVE_PARAMETER_FAILED if exc.failed else ErrorID.INVALID_AXIS
+                raise InputError(eid, str(exc)) from None
             if t is None:
                 raise InputError(
                     ErrorID.INVALID_AXIS,

@@ -198,13 +198,20 @@ class DriveAddress:
         return f"register 0x{self.index:04X}"
 
 
-class ParameterError(ValueError):
-    """A drive parameter that cannot be transferred: an unknown number (``number_error``)
-    or a value its type cannot hold; the text names the parameter and the allowed range."""
+# drive parameter transfers a backend queues at most (a program re-enabling readers every
+# cycle cannot grow the queue without bound)
+MAX_QUEUED_PARAMETERS = 16
 
-    def __init__(self, text: str, number_error: bool = False) -> None:
+
+class ParameterError(ValueError):
+    """A drive parameter that cannot be transferred: an unknown number (``number_error``),
+    a value its type cannot hold (the text names the parameter and the allowed range), or
+    ``failed``: the drive cannot take the transfer now (its queue is full)."""
+
+    def __init__(self, text: str, number_error: bool = False, failed: bool = False) -> None:
         super().__init__(text)
         self.number_error = number_error
+        self.failed = failed
 
 
 class ParameterTransfer:

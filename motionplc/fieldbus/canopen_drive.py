@@ -106,6 +106,7 @@ from canopen.objectdictionary import ObjectDictionary
 
 from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import (
+    MAX_QUEUED_PARAMETERS,
     Drive,
     DriveAddress,
     DriveCommand,
@@ -1563,6 +1564,12 @@ class CanopenDrive(Drive):
     # ------------------------------------------- drive parameters (MC_Read/WriteParameter)
     _rated_torque: float | None = None  # [N m] 0x6076 as read (or the configured value)
 
+    def _check_queue(self) -> None:
+        if len(self._acyclic) >= MAX_QUEUED_PARAMETERS:
+            raise ParameterError(
+                f"{self.name}: {len(self._acyclic)} SDO transfers already queued", failed=True
+            )
+
     def _object_type(self, address: DriveAddress) -> tuple[int, bool, bool] | None:
         """(size, signed, real) of a parameter: from its number, else from the EDS; None
         without either (a read then takes the size of the answer, unsigned)."""
@@ -1597,6 +1604,7 @@ class CanopenDrive(Drive):
         segmented), queued behind other SDO transfers of the cycle (:meth:`sdo_submit`);
         the value is the object's raw number (REAL32 as a float). An abort or no answer
         within ``sdo_timeout`` fails the transfer with the abort code and its meaning."""
+        self._check_queue()
         if address.bus != "coe":
             raise ParameterError(
                 f"{self.name}: {address.describe()} is not a CANopen object (index * 0x100 + "
@@ -1635,6 +1643,7 @@ class CanopenDrive(Drive):
     def start_torque_read(self) -> ParameterTransfer:
         """The actual torque: 0x6077 [per mille of the rated torque] x 0x6076 [mN m] (read
         once, or ``rated_torque`` of the configuration), over SDO."""
+        self._check_queue()
         transfer = ParameterTransfer("torque 0x6077")
 
         def got_torque(reply: bytes | None, error: str) -> None:

@@ -91,6 +91,7 @@ from pymodbus.pdu.register_message import (
 )
 
 from motionplc.fieldbus.base import (
+    MAX_QUEUED_PARAMETERS,
     Drive,
     DriveAddress,
     DriveCommand,
@@ -867,6 +868,13 @@ class ModbusDrive(Drive):
         self._step_peer(t)
 
     # ------------------------------------------------------- drive parameters
+    def _check_queue(self) -> None:
+        if len(self._param_ops) >= MAX_QUEUED_PARAMETERS:
+            raise ParameterError(
+                f"{self.name}: {len(self._param_ops)} parameter transfers already queued",
+                failed=True,
+            )
+
     def _register_type(self, address: DriveAddress) -> tuple[str, WordOrder]:
         """(type, word order) of a parameter: its number's type, else the map's holding
         register at that address, else one u16 register."""
@@ -905,6 +913,7 @@ class ModbusDrive(Drive):
         exchange after its cyclic requests (never blocking; on the simulated clock the cycle
         waits for the answer as for the cyclic ones). A Modbus exception fails the transfer
         (the exception code in its text) without touching the axis' communication state."""
+        self._check_queue()
         if address.bus != "modbus":
             raise ParameterError(
                 f"{self.name}: {address.describe()} is not a Modbus register "
@@ -949,6 +958,7 @@ class ModbusDrive(Drive):
     def start_torque_read(self) -> ParameterTransfer | None:
         """The actual torque: the torque register (i16, per mille of ``rated_torque``) read
         in the next exchange; None when the drive has no torque register."""
+        self._check_queue()
         cfg = self.config
         reg = cfg.torque_register
         if reg is None and self.map.name == "motionplc-v1":

@@ -34,7 +34,7 @@ from motionplc.blocks import (
     MC_WriteParameter,
 )
 from motionplc.blocks.axis_params import coe_parameter_number, modbus_parameter_number
-from motionplc.fieldbus.base import TorqueModel
+from motionplc.fieldbus.base import MAX_QUEUED_PARAMETERS, TorqueModel
 from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig
@@ -534,3 +534,24 @@ def test_modbus_parameter_without_answer_times_out(modbus_rig: Any) -> None:
     assert "no response" in wr.error_text
     assert 50 <= k <= 60  # timeout 0.05 s at 1 ms cycles
     assert rig.x.axis_error is ErrorID.COMM_TIMEOUT
+
+
+@pytest.mark.parametrize("bus", ["can", "modbus"])
+def test_the_transfer_queue_is_bounded(bus: str, can_rig: Any, modbus_rig: Any) -> None:
+    """Twenty readers started in one cycle: at most MAX_QUEUED_PARAMETERS transfers wait,
+    the next starts are refused (DRIVE_PARAMETER_FAILED), and a reader works again once the
+    queue has drained."""
+    rig, _ = can_rig() if bus == "can" else modbus_rig()
+    pn = coe_parameter_number(0x6065) if bus == "can" else modbus_parameter_number(0x0300)
+    readers = [rig.add(MC_ReadParameter(parameter_number=pn)) for _ in range(20)]
+    for r in readers:
+        r.enable = True
+    rig.run(1)
+    errors = [r for r in readers if r.error]
+    assert errors and all(r.error_id is ErrorID.DRIVE_PARAMETER_FAILED for r in errors)
+    assert "already queued" in errors[0].error_text
+    queue = rig.x.drive._acyclic if bus == "can" else rig.x.drive._param_ops
+    assert len(queue) <= MAX_QUEUED_PARAMETERS
+    for r in readers[1:]:
+        r.enable = False
+    rig.until(lambda: readers[0].valid and not readers[0].error, limit=200)
