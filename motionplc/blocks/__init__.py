@@ -22,10 +22,12 @@ from motionplc.blocks.enums import (
     Direction,
     ErrorID,
     ExecutionMode,
+    JogMode,
     Source,
     StartMode,
     SyncMode,
 )
+from motionplc.blocks.jog import MC_Jog
 from motionplc.blocks.motion import (
     MC_Halt,
     MC_Home,
@@ -44,6 +46,7 @@ from motionplc.blocks.params import (
     MC_WriteParameter,
 )
 from motionplc.blocks.probe import MC_AbortTrigger, MC_TouchProbe, TriggerRef
+from motionplc.blocks.superimposed import MC_HaltSuperimposed, MC_MoveSuperimposed
 from motionplc.blocks.sync import (
     MC_CamIn,
     MC_CamOut,
@@ -65,6 +68,7 @@ __all__ = [
     "ErrorID",
     "ExecutionMode",
     "Handle",
+    "JogMode",
     "MC_AbortTrigger",
     "MC_CamIn",
     "MC_CamOut",
@@ -73,10 +77,13 @@ __all__ = [
     "MC_GearInPos",
     "MC_GearOut",
     "MC_Halt",
+    "MC_HaltSuperimposed",
     "MC_Home",
+    "MC_Jog",
     "MC_MoveAbsolute",
     "MC_MoveAdditive",
     "MC_MoveRelative",
+    "MC_MoveSuperimposed",
     "MC_MoveVelocity",
     "MC_PhasingAbsolute",
     "MC_PhasingRelative",

@@ -271,6 +271,8 @@ class Axis:
         self.homed = False
         # touch probes armed by MC_TouchProbe: probe input -> its job (motionplc.blocks.probe)
         self.probe_jobs: dict[int, Any] = {}
+        # superimposed motion (motionplc.blocks.superimposed.SuperimposedLayer), None: none
+        self.sup: Any = None
         # homing by the drive in progress (motionplc.blocks.homing); _io_watch: a probe or
         # drive homing to look after in READ INPUTS (one test per cycle otherwise)
         self.drive_homing_job: AxisJob | None = None
@@ -579,6 +581,8 @@ class Axis:
 
     def _fail_all(self, eid: ErrorID, status: Status = Status.ERROR) -> None:
         self.mq.fail_all(eid, status)
+        if self.sup is not None:
+            self.sup.end(self, status, eid)
         self.last_target = None
 
     def request_reset(self) -> Handle:
@@ -854,6 +858,9 @@ class Axis:
         using the axis' own limits.
         """
         try:
+            sup = self.sup
+            if sup is not None:  # the set values become the underlying ones (superimposed.py)
+                sup.lift(self)
             mq = self.mq
             if mq.inbox:
                 self._process_inbox()
@@ -877,12 +884,16 @@ class Axis:
             sw = self._sw_check
             if sw:
                 p0, v0, a0 = self.p, self.v, self.a
+                if self.sup is not None:  # the sum before this step
+                    p0, v0, a0 = p0 + self.sup.sp, v0 + self.sup.sv, a0 + self.sup.sa
             if job is None:
                 self.v = self.a = self.j = 0.0
             else:
                 self._advance(job, dt, ftau)
-                if sw:
-                    self._sw_guard(p0, v0, a0, dt)
+            if sup is not None and self.sup is not None:
+                self.sup.apply(self, dt)
+            if sw and (job is not None or sup is not None):
+                self._sw_guard(p0, v0, a0, dt)
             state = self.state
             if state is S.STOPPING and mq.active is None:
                 if all(not h.hold for h in mq.stops):
@@ -988,6 +999,8 @@ class Axis:
                 continue
             kind = job.kind
             if kind == "stop":
+                if self.sup is not None:  # MC_Stop aborts the superimposed motion too
+                    self.sup.end(self, Status.ABORTED)
                 self._abort_motion()
                 job.handle.status = Status.ACTIVE
                 self._start_job_ramp(job, job.cmd.deceleration, job.cmd.jerk)
@@ -1013,7 +1026,7 @@ class Axis:
         if st not in (S.DISCRETE_MOTION, S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             return
         if act is None:
-            if not self.mq.queue and not self.mq.inbox:
+            if not self.mq.queue and not self.mq.inbox and self.sup is None:
                 self.state = S.STANDSTILL
         elif act.sync:
             self.state = S.SYNCHRONIZED_MOTION
@@ -1051,6 +1064,10 @@ class Axis:
     def _start(self, job: AxisJob, immediate: bool) -> bool:
         """Plan ``job`` from the current set state; abort the old motion only on success."""
         kind = job.kind
+        sup = self.sup
+        folded = None
+        if sup is not None and immediate and job.cmd.mode is BufferMode.ABORTING:
+            folded = sup.fold(self)  # an aborting command: planned from the sum
         try:
             if kind == "halt":
                 self._prepare_ramp(job, 0.0, job.cmd.deceleration, job.cmd.jerk)
@@ -1073,7 +1090,11 @@ class Axis:
         except PlanningError as exc:  # keep the old motion, fail the new FB
             job.handle._finish(Status.ERROR, ErrorID.PLANNING_FAILED, f"planner: {exc}")
             self.axis_error_reason = f"planner: {exc}"
+            if folded is not None:
+                sup.unfold(self, folded)
             return False
+        if folded is not None:
+            sup.end(self, Status.ABORTED, keep_requests=True)  # aborted with the old motion
         if immediate:
             self._abort_motion()
         self.mq.active = job
@@ -1415,6 +1436,9 @@ class Axis:
         kind = job.kind
         end = job.end_state()
         self.p, self.v, self.a = end.p, end.v, end.a
+        sup = self.sup
+        if sup is not None and sup.done:  # a completed superimposed distance folds in
+            sup.fold_into_end(self)
         self.mq.active = None
         if kind == "velocity":
             h._finish(Status.ABORTED)  # taken over by a buffered command at InVelocity
@@ -1433,7 +1457,7 @@ class Axis:
             return nxt
         if kind == "home" or (kind == "feedstop" and self.state is S.HOMING):
             self.state = next_state(Event.HOME_DONE, self.state)  # T7
-        elif self.state is S.DISCRETE_MOTION:
+        elif self.state is S.DISCRETE_MOTION and self.sup is None:
             self.state = next_state(Event.DISCRETE_DONE, self.state)  # T9
         return None
 
@@ -1489,6 +1513,8 @@ class Axis:
         queued ones end with Error DIRECTION_NOT_ENABLED; controlled stop with the axis' limits
         (DiscreteMotion, like MC_Halt; from Homing the axis stays Homing until standstill)."""
         eid = ErrorID.DIRECTION_NOT_ENABLED
+        if self.sup is not None:
+            self.sup.end(self, Status.ABORTED)
         self.mq.abort_motion(status=Status.ERROR, error_id=eid)
         self.last_target = None
         if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
@@ -1596,6 +1622,8 @@ class Axis:
             self.mq.remove(job)
             return
         self.mq.active = None
+        if self.sup is not None:  # the controlled stop ends the superimposed motion too
+            self.sup.end(self, Status.ABORTED)
         if self.state in (S.CONTINUOUS_MOTION, S.SYNCHRONIZED_MOTION):
             self.state = next_state(Event.DISCRETE, self.state)
         if self.state is S.DISCRETE_MOTION and self._activate_queued() is not None:
@@ -1635,6 +1663,7 @@ class Axis:
             or mq.inbox
             or mq.pending
             or self._junction_due is not None
+            or self.sup is not None
             or not self._feed_all
             or self._sw_check
             or ts.prof is not None
