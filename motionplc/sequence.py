@@ -107,6 +107,7 @@ SYNC_MOVE = _schema.SYNC_MOVE
 _GROUP_ADMIN = _schema.GROUP_ADMIN
 # group FB inputs that are points (one value per member)
 _POINT_PINS = _schema.POINT_PINS
+_REF_PINS = _schema.REF_PINS
 _TOP = _schema.TOP.table()
 _STEP = _schema.STEP.table()
 _COND = _schema.COND.table()
@@ -195,6 +196,16 @@ class BlockDecl:
     axis: str
     line: int
     group: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class InputRef:
+    """An FB input naming another object of the machine, resolved when the call is issued:
+    ``kind`` "axis" (a master axis), "cam" (a cam table of ``cams:``) or "block" (the
+    ``cam_table_id`` output of an MC_CamTableSelect block)."""
+
+    kind: str
+    name: str
 
 
 @dataclass(frozen=True, slots=True)
@@ -305,10 +316,13 @@ class _Parser:
         fb_type = m.get("type")
         type_names = [*self.types, *self.group_types, SYNC_MOVE]
         # the types to suggest: those of the call's target (axis or group), else all
-        if "group" in m and "axis" not in m:
+        if "group" in m and "axis" not in m and "slave" not in m:
             shown = [*self.group_types, SYNC_MOVE]
+        elif "slave" in m and "group" not in m:
+            shown = [n for n, k in self.types.items() if _schema.target_pin(k) == "slave"]
         elif "axis" in m and "group" not in m:
-            shown = [*self.types, SYNC_MOVE]
+            shown = [n for n, k in self.types.items() if _schema.target_pin(k) == "axis"]
+            shown.append(SYNC_MOVE)
         else:
             shown = type_names
         if decl is None:
@@ -329,7 +343,7 @@ class _Parser:
                 )
                 return None
             on_group = fb_type == SYNC_MOVE or fb_type in self.group_types
-            target_key = "group" if on_group else "axis"
+            target_key = "group" if on_group else _schema.target_pin(self.types[fb_type])
             target = m.get(target_key)
             options = list(self.groups) if on_group else self.axes
             if target not in options:
@@ -354,7 +368,7 @@ class _Parser:
                     f"block {bname!r} is a {decl.type} (line {decl.line})",
                     decl.type,
                 )
-            key = "group" if decl.type == SYNC_MOVE or decl.group else "axis"
+            key = self.target_key(decl)
             if key in m and m[key] != decl.axis:
                 c.error(
                     m.line_of(key),
@@ -366,6 +380,34 @@ class _Parser:
         inputs = self.inputs(m, path, decl)
         complete = len(c.errors) == errors_before
         return Call(decl.name, inputs, line, path, tuple(self.lines.items()), complete)
+
+    def target_key(self, decl: BlockDecl) -> str:
+        """The key naming the block's axis or group: axis, slave or group."""
+        if decl.type == SYNC_MOVE or decl.group:
+            return "group"
+        return _schema.target_pin(self.types[decl.type])
+
+    def ref(self, val: Any, line: int, path: str, pin: str, decl: BlockDecl) -> InputRef | None:
+        """An input naming an axis (``master``), a cam table or a block's output."""
+        c = self.c
+        kind = _REF_PINS[pin]
+        if kind == "axis":
+            options = [a for a in self.axes if a != decl.axis]
+            what = f"an axis other than the slave {decl.axis!r}"
+        elif kind == "cam":
+            options = [cam.name for cam in self.config.cams]
+            what = "a cam of cams:" if options else "a cam of cams: (the configuration has none)"
+        else:
+            options = [b.name for b in self.blocks.values() if b.type == "MC_CamTableSelect"]
+            what = (
+                "an MC_CamTableSelect block used before"
+                if options
+                else "an MC_CamTableSelect block used before (there is none so far)"
+            )
+        if not isinstance(val, str) or val not in options:
+            c.error(line, path, f"got {_tname(val)}", ", ".join(options) or what)
+            return None
+        return InputRef(kind, val)
 
     def inputs(self, m: YamlMap, path: str, decl: BlockDecl) -> tuple[tuple[str, Any], ...]:
         c = self.c
@@ -389,10 +431,10 @@ class _Parser:
                         self.lines[f"position.{a}"] = pm.line_of(a)
             return (("position", tuple(out.items())),)
         cls = self.group_types[decl.type] if decl.group else self.types[decl.type]
-        ref = "axes_group" if decl.group else "axis"
+        ref = "axes_group" if decl.group else _schema.target_pin(cls)
         pins = [p for p in cls.INPUTS if p not in (ref, "execute")]  # type: ignore[attr-defined]
         has_execute = "execute" in cls.INPUTS  # type: ignore[attr-defined]
-        target = "group" if decl.group else "axis"
+        target = "group" if decl.group else ref
         keys = ["block", "type", target, *pins]
         checked = m
         if has_execute and "execute" in m:  # accepted, documented, not listed among the inputs
@@ -432,7 +474,12 @@ class _Parser:
             line = m.line_of(pin)
             p = join(path, pin)
             self.lines[pin] = line
-            if decl.group and pin in _POINT_PINS:
+            if not decl.group and pin in _REF_PINS:
+                r = self.ref(val, line, p, pin, decl)
+                if r is None:
+                    continue
+                val = r
+            elif decl.group and pin in _POINT_PINS:
                 if pin == "aux_point" and _is_number(val):
                     val = (float(val),)  # the radius (CircMode RADIUS)
                 else:
@@ -456,6 +503,10 @@ class _Parser:
                     c.error(line, p, f"got {_tname(val)}", ", ".join(names))
                     continue
                 val = enum[val]
+            elif isinstance(default, int):  # INT inputs (gear ratios, parameter numbers)
+                if isinstance(val, bool) or not isinstance(val, int):
+                    c.error(line, p, f"got {_tname(val)}", "an integer")
+                    continue
             elif isinstance(default, (int, float)):
                 if val is None:  # (Checker.number takes null for "not given")
                     c.error(line, p, "got null", "a number")
@@ -725,7 +776,11 @@ class _Block:
             if hasattr(fb, "status"):  # MC_Power: the drive reports OPERATION ENABLED
                 return bool(fb.status)
             return bool(getattr(fb, "valid", False) or getattr(fb, "enabled", False))
-        if getattr(fb, "in_velocity", False):
+        if (
+            getattr(fb, "in_velocity", False)
+            or getattr(fb, "in_gear", False)
+            or getattr(fb, "in_sync", False)
+        ):
             return True
         if fb.done:
             self.done = True
@@ -868,7 +923,8 @@ class SequenceRunner:
             group = self.machine.axes_groups[decl.axis]
             fb = cls(name=f"{decl.axis}.{decl.name}", axes_group=group)
         else:
-            fb = cls(name=f"{decl.axis}.{decl.name}", axis=self.machine.axes[decl.axis])
+            target = {_schema.target_pin(cls): self.machine.axes[decl.axis]}
+            fb = cls(name=f"{decl.axis}.{decl.name}", **target)
         blk = _Block(decl, fb, _is_enable_fb(cls))
         self._scan_order.append(blk)
         return blk
@@ -975,7 +1031,7 @@ class SequenceRunner:
         st = cur.step
         for call in st.calls:
             blk = self.blocks[call.block]
-            inputs = dict(call.inputs)
+            inputs = {k: self._resolve(v) for k, v in call.inputs}
             if isinstance(blk, _SyncBlock):
                 blk.issue(dict(inputs.get("position", ())))
             elif inputs.get("execute") is False:
@@ -989,6 +1045,18 @@ class SequenceRunner:
             sub = _Cursor(steps, label)
             cur.branches.append(sub)
             self._enter(sub, 0, t)
+
+    def _resolve(self, value: Any) -> Any:
+        """An input as the FB takes it: a master axis, a cam table or a block's output for an
+        :class:`InputRef` (the block's output as it is now), the value itself otherwise."""
+        if not isinstance(value, InputRef):
+            return value
+        if value.kind == "axis":
+            return self.machine.axes[value.name]
+        if value.kind == "cam":
+            return self.machine.cams[value.name]
+        blk = self.blocks[value.name]
+        return getattr(blk.fb, "cam_table_id", None) if isinstance(blk, _Block) else None
 
     def _advance(self, cur: _Cursor, t: float) -> None:
         while not cur.finished:

@@ -276,9 +276,14 @@ class _Check:
 
         if not isinstance(fb, InputChecks):
             return {}
+        from motionplc.sequence import InputRef
+
         checked = [p for p in type(fb).INPUTS if hasattr(fb, f"_in_{p}")]
         self.report.checks += len(checked)
-        return fb.input_problems(target)
+        probs = fb.input_problems(target)
+        # inputs naming a master axis, a cam or a block's output: the parser checked the
+        # names; what they hold is known at run time only
+        return {p: e for p, e in probs.items() if not isinstance(getattr(fb, p, None), InputRef)}
 
     def report_problems(
         self,
@@ -317,6 +322,7 @@ class _Check:
         given: dict[str, Any],
         ss: _StepState,
     ) -> None:
+        from motionplc.blocks.base import MotionFB
         from motionplc.blocks.enums import BufferMode, Direction
         from motionplc.blocks.motion import StaticAxis
 
@@ -370,7 +376,9 @@ class _Check:
             homed = cfg.home_switch is None and "position" not in probs and cfg.modulo is None
             ss.tail[axis] = float(fb.position) if homed else None
             ss.discrete[axis] = False
-        elif kind in ("MC_MoveVelocity", "MC_Halt", "MC_Stop"):
+        elif kind in ("MC_MoveVelocity", "MC_Halt", "MC_Stop") or issubclass(cls, MotionFB):
+            # any other motion (gearing, camming, superimposed, jog, ...): the position after
+            # it is not known statically
             ss.tail[axis] = None
             ss.discrete[axis] = False
 

@@ -18,6 +18,7 @@ from motionplc.schema.nodes import (
     Bool,
     Choice,
     FileSchema,
+    Integer,
     Key,
     ListOf,
     MapOf,
@@ -36,11 +37,13 @@ __all__ = [
     "GROUP_ADMIN",
     "GROUP_FIELDS",
     "POINT_PINS",
+    "REF_PINS",
     "STEP",
     "SYNC_MOVE",
     "TOP",
     "fb_types",
     "sequence_schema",
+    "target_pin",
 ]
 
 AXIS_FIELDS = ("position", "actual_position", "velocity", "following_error", "state")
@@ -50,6 +53,17 @@ SYNC_MOVE = "SyncMoveAbsolute"
 GROUP_ADMIN = ("MC_AddAxisToGroup", "MC_RemoveAxisFromGroup", "MC_UngroupAllAxes")
 # group FB inputs that are points (one value per member)
 POINT_PINS = ("position", "distance", "end_point", "aux_point")
+# FB inputs that name another object of the machine (resolved when the call is issued): what
+# they name -- an axis, a cam table of the configuration's `cams:`, the output of a block
+REF_PINS = {"master": "axis", "cam_table": "cam", "cam_table_id": "block"}
+
+
+def target_pin(cls: type) -> str:
+    """The input naming the axis an axis FB commands: `slave` for master/slave FBs
+    (MC_GearIn, MC_CamIn, ...), else `axis`."""
+    inputs = cls.INPUTS  # type: ignore[attr-defined]
+    return "slave" if "slave" in inputs and "axis" not in inputs else "axis"
+
 
 _TIME = Number(ge=0.0, unit="s", description="Seconds in the step.")
 COND = Obj(
@@ -215,6 +229,15 @@ _PIN_TEXT = {
     "end_point": "End point of the arc.",
     "path_choice": "Direction of the arc.",
     "points": "The passing points (a list of points).",
+    "master": "The master axis (an axis of the configuration other than the slave).",
+    "cam_table": "A cam table of the configuration's `cams:` section, by name.",
+    "cam_table_id": "The cam selected by an MC_CamTableSelect block (its name): that "
+    "block's `cam_table_id` output when this call is issued.",
+    "ratio_numerator": "Gear ratio numerator (INT, may be negative).",
+    "ratio_denominator": "Gear ratio denominator (UINT, > 0).",
+    "parameter_number": "PLCopen parameter number (1-17) or a drive parameter number (>= 1000).",
+    "trigger_input": "The probe input: its number (rising edge) or `{probe: N, edge: rising | "
+    "falling}`.",
 }
 
 _POINT = OneOf(
@@ -255,8 +278,40 @@ def _pin_node(cls: type, pin: str, default: Any, group: bool) -> Node:
         return OneOf(description=text, variants=_POINT.variants, checks=_POINT.checks)
     if group and pin == "points":
         return ListOf(item=_POINT, min_items=1, description=text)
+    if pin == "master":
+        return String(pattern=NAME_PATTERN, description=text, checks=("an axis, not the slave",))
+    if pin == "cam_table":
+        return String(pattern=NAME_PATTERN, description=text, checks=("a cam of `cams:`",))
+    if pin == "cam_table_id":
+        return String(
+            pattern=r"^[^.]+$",
+            description=text,
+            checks=("an MC_CamTableSelect block used before",),
+        )
+    if pin == "trigger_input":
+        return OneOf(
+            description=text,
+            variants=(
+                Integer(lo=1, description="The probe input (rising edge)."),
+                Obj(
+                    keys=(
+                        Key("probe", Integer(lo=1, default=1, description="The probe input.")),
+                        Key(
+                            "edge",
+                            Choice(
+                                options=("rising", "falling"),
+                                default="rising",
+                                description="The edge that latches.",
+                            ),
+                        ),
+                    ),
+                ),
+            ),
+        )
     if isinstance(default, bool):
         return Bool(default=default, description=text)
+    if isinstance(default, int) and not isinstance(default, Enum):
+        return Integer(default=default, description=text)
     if isinstance(default, Enum):
         return Choice(
             options=tuple(e.name for e in type(default)),
@@ -269,7 +324,7 @@ def _pin_node(cls: type, pin: str, default: Any, group: bool) -> Node:
 
 
 def _inputs(cls: type, group: bool) -> tuple[Key, ...]:
-    ref = "axes_group" if group else "axis"
+    ref = "axes_group" if group else target_pin(cls)
     proto = cls()
     return tuple(
         Key(pin, _pin_node(cls, pin, getattr(proto, pin), group))
@@ -336,6 +391,15 @@ def sequence_schema() -> FileSchema:
                 ),
             ),
             Key(
+                "slave",
+                String(
+                    pattern=NAME_PATTERN,
+                    description="The slave axis of a master/slave FB (MC_GearIn, MC_CamIn, "
+                    "MC_CamTableSelect, ...): the axis it commands.",
+                    checks=("an axis of the configuration; the block's axis on later uses",),
+                ),
+            ),
+            Key(
                 "group",
                 String(
                     pattern=NAME_PATTERN,
@@ -347,7 +411,7 @@ def sequence_schema() -> FileSchema:
         switch="type",
         cases=tuple(cases),
         checks=(
-            "`axis` for single-axis FBs, `group` for group FBs",
+            "`axis` for single-axis FBs, `slave` for master/slave FBs, `group` for group FBs",
             "with `execute: false` no other input",
         ),
     )
