@@ -528,6 +528,8 @@ class AxisSpec:
     homing: HomingSpec = field(default_factory=HomingSpec)
     drive: DriveSpec = field(default_factory=DriveSpec)
     queue_depth: int = 8
+    jog_velocity_slow: float | None = None
+    jog_velocity_fast: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -887,6 +889,12 @@ def _parse_axis(
         )
     fe = c.field(m, "following_error", path, S.AXIS["following_error"])
     qd = c.field(m, "queue_depth", path, S.AXIS["queue_depth"])
+    jogs = {k: c.field(m, k, path, S.AXIS[k]) for k in ("jog_velocity_slow", "jog_velocity_fast")}
+    if lim is not None:
+        v_cap = min(lim.v_max, -lim.v_min if lim.v_min is not None else lim.v_max)
+        for k, val in jogs.items():
+            if val is not None and val > v_cap:
+                c.error(m.line_of(k), join(path, k), f"got {_fmt(val)}", f"<= {_fmt(v_cap)}")
     homing = HomingSpec()
     if m.get("homing") is not None:
         hp = join(path, "homing")
@@ -923,6 +931,8 @@ def _parse_axis(
         homing,
         drive,
         qd if qd is not None else S.AXIS["queue_depth"].default,
+        jog_velocity_slow=jogs["jog_velocity_slow"],
+        jog_velocity_fast=jogs["jog_velocity_fast"],
     )
 
 
@@ -1425,6 +1435,8 @@ def build(
                 "sw_limit_pos": ax.sw_limit_max,
                 "sw_limit_neg": ax.sw_limit_min,
                 "queue_depth": ax.queue_depth,
+                "jog_velocity_slow": ax.jog_velocity_slow,
+                "jog_velocity_fast": ax.jog_velocity_fast,
             }
             if ax.homing.method == "switch":
                 options["home_switch"] = ax.homing.switch

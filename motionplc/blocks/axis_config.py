@@ -56,6 +56,10 @@ class AxisConfig:
     blend_after_continuous: str = "previous"  # or "error"
     v_min: float | None = None  # most negative velocity (< 0); None: -v_max (symmetric)
     a_min: float | None = None  # most negative acceleration (< 0); None: -a_max (symmetric)
+    # MC_Jog's STANDARD_SLOW / STANDARD_FAST speeds (None: 10 % / 50 % of each direction's
+    # speed limit); at most the lower of the two speed limits
+    jog_velocity_slow: float | None = None
+    jog_velocity_fast: float | None = None
 
     @property
     def v_neg(self) -> float:
@@ -141,6 +145,15 @@ class AxisConfig:
             pos("following_error_limit", self.following_error_limit)
         if self.home_velocity is not None:
             pos("home_velocity", self.home_velocity)
+        for name in ("jog_velocity_slow", "jog_velocity_fast"):
+            x = getattr(self, name)
+            if x is not None:
+                pos(name, x)
+                if x > min(self.v_max, self.v_neg):
+                    raise ValueError(
+                        f"axis {self.name!r}: {name} must be at most the speed limit "
+                        f"{min(self.v_max, self.v_neg):g}, got {x!r}"
+                    )
         if not isinstance(self.queue_depth, int) or self.queue_depth < 0:
             raise ValueError(
                 f"axis {self.name!r}: queue_depth must be an int >= 0, got {self.queue_depth!r}"

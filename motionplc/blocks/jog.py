@@ -9,8 +9,9 @@ Rules pinned here:
   starts a velocity move in its direction (ContinuousMotion while it is held); releasing it
   brakes the axis jerk-limited (MC_Halt: DiscreteMotion, then Standstill); ``done`` when the
   axis is at rest. STANDARD_SLOW / STANDARD_FAST take the axis' jog velocities
-  (``AxisConfig.jog_velocity_slow`` / ``jog_velocity_fast`` when the configuration has them,
-  else 10 % / 50 % of the speed limit of the direction); CONTINUOUS takes ``velocity``.
+  (YAML ``axes.<name>.jog_velocity_slow`` / ``jog_velocity_fast``, ``AxisConfig`` fields of the
+  same names; default 10 % / 50 % of the speed limit of the direction); CONTINUOUS takes
+  ``velocity``.
 * Software limits (linear axes): jogging towards a configured limit is a move to the limit at
   the jog velocity (DiscreteMotion instead of ContinuousMotion), so the axis stops exactly at
   the limit (``done``, no axis error), like a move; standing at the limit, jogging further out
@@ -48,12 +49,13 @@ _FRACTION = {JogMode.STANDARD_SLOW: 0.1, JogMode.STANDARD_FAST: 0.5}
 
 def jog_velocity(cfg: Any, mode: JogMode, s: float) -> float:
     """The jog speed of a STANDARD mode in direction ``s``: the axis' configured jog velocity
-    (``jog_velocity_slow`` / ``jog_velocity_fast``) or 10 % / 50 % of the direction's limit,
-    never above that limit."""
-    side = cfg.v_max if s >= 0.0 else cfg.v_neg
+    (``AxisConfig.jog_velocity_slow`` / ``jog_velocity_fast``, validated to be at most the
+    lower speed limit) or 10 % / 50 % of the direction's speed limit."""
     key = "jog_velocity_slow" if mode is JogMode.STANDARD_SLOW else "jog_velocity_fast"
     v = getattr(cfg, key, None)
-    return min(v, side) if v is not None else _FRACTION[mode] * side
+    if v is not None:
+        return float(v)
+    return _FRACTION[mode] * (cfg.v_max if s >= 0.0 else cfg.v_neg)
 
 
 class MC_Jog(InputChecks, MotionFB):

@@ -863,6 +863,26 @@ AXIS = Obj(
                 description="Moves that may wait (buffered or blending) behind the running one.",
             ),
         ),
+        Key(
+            "jog_velocity_slow",
+            Number(
+                gt=0.0,
+                unit="m/s or rad/s",
+                default_text="10 % of the speed limit of the jog direction",
+                description="MC_Jog's speed in mode STANDARD_SLOW.",
+                checks=("<= the lower of `limits.v_max` and `-limits.v_min`",),
+            ),
+        ),
+        Key(
+            "jog_velocity_fast",
+            Number(
+                gt=0.0,
+                unit="m/s or rad/s",
+                default_text="50 % of the speed limit of the jog direction",
+                description="MC_Jog's speed in mode STANDARD_FAST.",
+                checks=("<= the lower of `limits.v_max` and `-limits.v_min`",),
+            ),
+        ),
     ),
 )
 

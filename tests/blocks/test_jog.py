@@ -5,6 +5,7 @@ output rules with ``execute`` = jog_forward OR jog_backward, state changes along
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -12,9 +13,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from motionplc.blocks import AxisState, ErrorID, MC_Home, MC_MoveAbsolute, MC_MoveVelocity, MC_Stop
+from motionplc.blocks.axis_config import AxisConfig
 from motionplc.blocks.enums import JogMode
 from motionplc.blocks.jog import MC_Jog, jog_velocity
 from motionplc.blocks.motion import StaticAxis
+from motionplc.config import build, load_config
+from motionplc.errors import ConfigError
 from tests.runtime.helpers import Bench
 
 S = AxisState
@@ -288,3 +292,53 @@ def test_input_checks() -> None:
     jog.jog_forward = True
     b.run(1)
     assert jog.error and jog.error_id is ErrorID.INVALID_VELOCITY and b.x.state is S.STANDSTILL
+
+
+CFG = """\
+runtime:
+  tick: 0.001
+  tasks:
+    main: {period: 0.001}
+axes:
+  x:
+    limits: {v_max: 2.0, a_max: 4.0, v_min: -1.5}
+"""
+
+
+def test_jog_velocities_from_yaml(tmp_path: Path) -> None:
+    f = tmp_path / "m.yaml"
+    f.write_text(CFG + "    jog_velocity_slow: 0.05\n    jog_velocity_fast: 1.5\n")
+    with build(load_config(f)) as machine:
+        cfg = machine.axes["x"].cfg
+        assert (cfg.jog_velocity_slow, cfg.jog_velocity_fast) == (0.05, 1.5)
+        assert jog_velocity(cfg, JogMode.STANDARD_SLOW, -1.0) == 0.05
+        assert jog_velocity(cfg, JogMode.STANDARD_FAST, 1.0) == 1.5
+    f.write_text(CFG)  # defaults: 10 % / 50 % of each direction's limit
+    with build(load_config(f)) as machine:
+        cfg = machine.axes["x"].cfg
+        assert cfg.jog_velocity_slow is None
+        assert jog_velocity(cfg, JogMode.STANDARD_FAST, -1.0) == 0.75
+
+
+@pytest.mark.parametrize(
+    ("extra", "where", "allowed"),
+    [
+        ("    jog_velocity_fast: 1.6\n", "axes.x.jog_velocity_fast", "<= 1.5"),
+        ("    jog_velocity_slow: 0\n", "axes.x.jog_velocity_slow", "> 0"),
+        ("    jog_velocity_slow: fast\n", "axes.x.jog_velocity_slow", "number"),
+    ],
+)
+def test_bad_jog_velocities_are_located_errors(
+    tmp_path: Path, extra: str, where: str, allowed: str
+) -> None:
+    f = tmp_path / "m.yaml"
+    f.write_text(CFG + extra)
+    with pytest.raises(ConfigError) as exc:
+        load_config(f)
+    text = str(exc.value)
+    assert f"m.yaml:8: {where}" in text and allowed in text, text
+
+
+def test_axis_config_refuses_a_jog_velocity_above_the_limit() -> None:
+    with pytest.raises(ValueError, match="jog_velocity_fast must be at most the speed limit 1"):
+        AxisConfig("x", v_max=2.0, a_max=1.0, v_min=-1.0, jog_velocity_fast=1.5)
