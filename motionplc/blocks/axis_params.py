@@ -60,8 +60,9 @@ mean the same parameter, so CODESYS' negative numbers work as they are):
 * ``T`` (optional) gives the type: 1, 2, 4 = unsigned 8/16/32 bit, 0x41, 0x42, 0x44 = signed
   (0x40 + the size). With T = 0 the type comes from the drive's description (the EDS of a CAN
   drive, the register map of a Modbus drive); without one a CAN read takes the size the drive
-  answers with (unsigned, as CODESYS does) and a write needs T; a Modbus register not in the
-  map is one unsigned 16-bit register. On Modbus 1-byte types do not exist, 32-bit values
+  answers with (unsigned, as CODESYS does) and a write first uploads the object to learn its
+  size (a negative value is written as two's complement); a Modbus register not in the map
+  is one unsigned 16-bit register. On Modbus 1-byte types do not exist, 32-bit values
   take two registers in the map's word order.
 
 Values are the drive's raw integers (no unit scaling); :func:`coe_parameter_number` and

@@ -1603,7 +1603,10 @@ class CanopenDrive(Drive):
         """Read or write a CANopen object over SDO (expedited download; upload expedited or
         segmented), queued behind other SDO transfers of the cycle (:meth:`sdo_submit`);
         the value is the object's raw number (REAL32 as a float). An abort or no answer
-        within ``sdo_timeout`` fails the transfer with the abort code and its meaning."""
+        within ``sdo_timeout`` fails the transfer with the abort code and its meaning.
+        A write whose type is neither in the number nor in an EDS uploads the object first
+        and writes as many bytes as it answered with (a negative value as two's complement,
+        a positive one unsigned)."""
         self._check_queue()
         if address.bus != "coe":
             raise ParameterError(
@@ -1613,18 +1616,18 @@ class CanopenDrive(Drive):
             )
         kind = self._object_type(address)
         index, sub = address.index, address.subindex
+        where = object_name(index, sub)
         data: bytes | None = None
         if value is not None:
             if kind is None:
-                raise ParameterError(
-                    f"{self.name}: the type of {object_name(index, sub)} is unknown (no EDS): "
-                    "give the size in the parameter number (T = 1, 2, 4, or 0x41, 0x42, 0x44 "
-                    "signed, times 0x1000000)",
-                    number_error=True,
-                )
-            data = _encode_number(value, kind, object_name(index, sub))
+                if not math.isfinite(value) or value != int(value):
+                    raise ParameterError(
+                        f"{where} (an integer object) takes an integer, got {value!r}"
+                    )
+                return self._sized_download(index, sub, value)
+            data = _encode_number(value, kind, where)
         op = "upload" if data is None else "download"
-        transfer = ParameterTransfer(f"SDO {op} {object_name(index, sub)}")
+        transfer = ParameterTransfer(f"SDO {op} {where}")
 
         def done(reply: bytes | None, error: str) -> None:
             if reply is None:
@@ -1638,6 +1641,35 @@ class CanopenDrive(Drive):
                     transfer.fail(str(exc))
 
         self.sdo_submit(index, sub, data, done)
+        return transfer
+
+    def _sized_download(self, index: int, sub: int, value: float) -> ParameterTransfer:
+        """Upload ``index:sub`` to learn its size, then download ``value`` with it."""
+        where = object_name(index, sub)
+        transfer = ParameterTransfer(f"SDO download {where} (size from an upload)")
+
+        def written(reply: bytes | None, error: str) -> None:
+            if reply is None:
+                transfer.fail(error)
+            else:
+                transfer.finish(float(value))
+
+        def sized(reply: bytes | None, error: str) -> None:
+            if reply is None:
+                transfer.fail(error)
+                return
+            n = len(reply)
+            if n not in (1, 2, 4):
+                transfer.fail(f"{self._located(where)}: {n} bytes uploaded, not a number")
+                return
+            try:
+                data = _encode_number(value, (n, value < 0, False), where)
+            except ParameterError as exc:
+                transfer.fail(f"{self._located(str(exc))} (the size the drive answered with)")
+                return
+            self.sdo_submit(index, sub, data, written)
+
+        self.sdo_submit(index, sub, None, sized)
         return transfer
 
     def start_torque_read(self) -> ParameterTransfer:

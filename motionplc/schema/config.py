@@ -98,7 +98,7 @@ CAN_INTERFACES = (
 CAN_BITRATES = (10_000, 20_000, 50_000, 125_000, 250_000, 500_000, 800_000, 1_000_000)
 BUS_DRIVES = ("simulated", "external")
 UNITS = ("m", "rad")
-HOMING_METHODS = ("set_position", "switch")
+HOMING_METHODS = ("set_position", "switch", "drive")
 WORD_ORDERS = ("big", "little")
 # supported ranges of axis configuration, the same as motionplc.blocks.axis (AXIS_LIMIT_MIN,
 # AXIS_LIMIT_MAX, POSITION_MAX; a test keeps them equal)
@@ -815,7 +815,173 @@ HOMING = Obj(
                 checks=("method `switch` only",),
             ),
         ),
+        Key(
+            "drive_method",
+            Integer(
+                lo=-128,
+                hi=127,
+                example=17,
+                description="The CiA 402 homing method the drive runs (0x6098): 1..37, or a "
+                "manufacturer's negative one (the virtual drive: 17..30, 33, 34, 35, 37).",
+                checks=("required with method `drive`, refused otherwise", "not 0"),
+            ),
+        ),
+        Key(
+            "speed_switch",
+            Number(
+                gt=0.0,
+                le=LIMIT_HI,
+                unit="m/s or rad/s",
+                description="Speed during the search for the switch (0x6099:01).",
+                checks=("required with method `drive`",),
+            ),
+        ),
+        Key(
+            "speed_zero",
+            Number(
+                gt=0.0,
+                le=LIMIT_HI,
+                unit="m/s or rad/s",
+                description="Speed during the search for the zero / the final approach "
+                "(0x6099:02).",
+                checks=("required with method `drive`",),
+            ),
+        ),
+        Key(
+            "acceleration",
+            Number(
+                gt=0.0,
+                le=LIMIT_HI,
+                unit="m/s² or rad/s²",
+                description="Homing acceleration (0x609A).",
+                checks=("required with method `drive`",),
+            ),
+        ),
+        Key(
+            "offset",
+            Number(
+                ge=-POSITION_MAX,
+                le=POSITION_MAX,
+                default_text="0",
+                unit="m or rad",
+                description="Home offset (0x607C): the axis position at the home position.",
+                checks=("method `drive` only",),
+            ),
+        ),
+        Key(
+            "timeout",
+            Number(
+                gt=0.0,
+                le=3600.0,
+                default_text="60",
+                unit="s",
+                description="Homing by the drive that is not attained within this time fails "
+                "(HOMING_FAILED).",
+                checks=("method `drive` only",),
+            ),
+        ),
     ),
+    checks=("method `drive`: the axis' drive is on a CAN bus",),
+)
+PROBE_SENSOR = Obj(
+    title="probe sensor",
+    description="A virtual sensor switching a touch probe input: high on each mark "
+    "[m, m + width] (drive coordinates): the `marks` listed and, with `pitch`, one every "
+    "`pitch` from `first` on (a registration-mark web).",
+    keys=(
+        Key(
+            "marks",
+            ListOf(
+                item=Number(ge=-POSITION_MAX, le=POSITION_MAX, unit="m or rad"),
+                description="Mark positions.",
+            ),
+        ),
+        Key(
+            "width",
+            Number(gt=0.0, le=POSITION_MAX, unit="m or rad", description="Width of a mark."),
+            True,
+        ),
+        Key(
+            "first",
+            Number(
+                ge=-POSITION_MAX,
+                le=POSITION_MAX,
+                unit="m or rad",
+                description="First mark of the web.",
+                checks=("together with `pitch`",),
+            ),
+        ),
+        Key(
+            "pitch",
+            Number(
+                gt=0.0,
+                le=POSITION_MAX,
+                unit="m or rad",
+                description="Distance of the web's marks.",
+                checks=("together with `first`", "> width"),
+            ),
+        ),
+    ),
+)
+SIMULATION = Obj(
+    title="simulation",
+    description="Wiring of an in-process drive (ideal, or a simulated bus's virtual CiA 402 "
+    "drive), in drive coordinates: touch probe sensors and (virtual CiA 402 drive) the "
+    "limit switches, home switch and encoder index pulse its homing methods use.",
+    keys=(
+        Key("probe1", PROBE_SENSOR),
+        Key("probe2", PROBE_SENSOR),
+        Key(
+            "negative_limit",
+            Number(
+                ge=-POSITION_MAX,
+                le=POSITION_MAX,
+                unit="m or rad",
+                description="Negative limit switch: active at and below this position.",
+                checks=("a virtual CiA 402 drive",),
+            ),
+        ),
+        Key(
+            "positive_limit",
+            Number(
+                ge=-POSITION_MAX,
+                le=POSITION_MAX,
+                unit="m or rad",
+                description="Positive limit switch: active at and above this position.",
+                checks=("a virtual CiA 402 drive", "> negative_limit"),
+            ),
+        ),
+        Key(
+            "home_switch",
+            ListOf(
+                item=Number(ge=-POSITION_MAX, le=POSITION_MAX, unit="m or rad", inf_ok=True),
+                min_items=2,
+                max_items=2,
+                description="Home switch active on [lo, hi] (.inf / -.inf for a switch active "
+                "on a whole side, methods 19..22).",
+            ),
+        ),
+        Key(
+            "index_pitch",
+            Number(
+                gt=0.0,
+                le=POSITION_MAX,
+                unit="m or rad",
+                description="Encoder index pulse every `index_pitch` (from `index_offset`).",
+            ),
+        ),
+        Key(
+            "index_offset",
+            Number(
+                ge=-POSITION_MAX,
+                le=POSITION_MAX,
+                default_text="0",
+                unit="m or rad",
+                description="Position of an index pulse.",
+            ),
+        ),
+    ),
+    checks=("an ideal drive or one on a bus with `drives: simulated` (CAN)",),
 )
 AXIS = Obj(
     title="axis",
@@ -854,6 +1020,7 @@ AXIS = Obj(
             "drive",
             DRIVE,
         ),
+        Key("simulation", SIMULATION),
         Key(
             "queue_depth",
             Integer(

@@ -179,12 +179,27 @@ def test_can_sdo_aborts_are_drive_parameter_failed(can_rig: Any) -> None:
     rig.until(lambda: wr.error or wr.done)
     assert wr.error and wr.error_id is ErrorID.DRIVE_PARAMETER_FAILED
     assert "0x06010002" in wr.error_text
-    # without an EDS a write needs the size
-    wr2 = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6065), value=1))
+    # without an EDS or a type in the number: the size from an upload first, then the write
+    wr2 = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6065), value=777))
     wr2.execute = True
     rig.run(1)
-    assert wr2.error and wr2.error_id is ErrorID.INVALID_PARAMETER_NUMBER
-    assert "give the size" in wr2.error_text
+    assert wr2.busy
+    k = rig.until(lambda: wr2.done or wr2.error)
+    assert wr2.done and k <= 6 and vd.device.following_error_window == 777
+    assert struct.unpack("<I", _upload(vd, 0x6065))[0] == 777
+    neg = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x605A), value=-2))
+    neg.execute = True
+    rig.until(lambda: neg.done or neg.error)
+    assert neg.done and vd.device.quick_stop_option == -2  # I16: two's complement
+    big = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x605A), value=70000))
+    big.execute = True
+    rig.until(lambda: big.done or big.error)
+    assert big.error and big.error_id is ErrorID.DRIVE_PARAMETER_FAILED
+    assert "[0, 65535]" in big.error_text and "the size the drive answered with" in big.error_text
+    frac = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6065), value=1.5))
+    frac.execute = True
+    rig.run(1)
+    assert frac.error and frac.error_id is ErrorID.INVALID_PARAMETER_VALUE
     # the reader recovers when the number is fixed
     rd.parameter_number = coe_parameter_number(0x6065)
     rig.until(lambda: rd.valid)
