@@ -570,3 +570,36 @@ def test_the_transfer_queue_is_bounded(bus: str, can_rig: Any, modbus_rig: Any) 
     for r in readers[1:]:
         r.enable = False
     rig.until(lambda: readers[0].valid and not readers[0].error, limit=200)
+
+
+def test_modbus_realtime_never_waits_for_a_parameter() -> None:
+    """On the real-time clock the drive never waits inside a cycle: the parameter request
+    rides in an exchange, its answer is taken in by a later cycle's READ INPUTS."""
+    import threading
+
+    from motionplc.blocks.axis_params import decode_drive_number
+    from motionplc.fieldbus.base import DriveCommand
+
+    vd = VirtualModbusDrive(1)
+    with VirtualModbusServer([vd]) as srv:
+        drive = ModbusDrive("x", ModbusDriveConfig(port=srv.port, timeout=1.0, cycle_time=0.001))
+        drive.bind_clock(True)
+        drive.open()
+        try:
+            address = decode_drive_number(modbus_parameter_number(0x0300))
+            assert address is not None
+            transfer = drive.start_parameter(address, 4242.0)
+            pause = threading.Event()
+            cycles = 0
+            while transfer.busy and cycles < 2000:
+                t = cycles * 0.001
+                fb = drive.read_inputs(t)
+                drive.write_outputs(t, DriveCommand(fb.position))
+                cycles += 1
+                pause.wait(0.0005)  # wall time for the server thread
+            assert not transfer.busy and not transfer.error and transfer.value == 4242.0
+            assert vd.device.following_error_window == 4242
+            assert cycles >= 2  # answered in a later cycle than the one that sent it
+            assert drive.timeouts == 0
+        finally:
+            drive.close()
