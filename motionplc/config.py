@@ -493,11 +493,43 @@ class LimitsSpec:
 @dataclass(frozen=True, slots=True)
 class HomingSpec:
     """``set_position``: MC_Home sets the position; ``switch``: move to the reference switch
-    at ``switch`` (drive coordinates) with ``velocity`` first."""
+    at ``switch`` (drive coordinates) with ``velocity`` first; ``drive``: the drive (CAN)
+    runs CiA 402 homing method ``drive_method`` with the speeds, acceleration and home
+    ``offset`` given (:class:`motionplc.fieldbus.cia402.HomingSpec`)."""
 
     method: str = "set_position"
     switch: float | None = None
     velocity: float | None = None
+    drive_method: int | None = None
+    speed_switch: float | None = None
+    speed_zero: float | None = None
+    acceleration: float | None = None
+    offset: float = 0.0
+    timeout: float = 60.0
+
+
+@dataclass(frozen=True, slots=True)
+class SimulationSpec:
+    """``axes.<name>.simulation``: the wiring of an in-process drive (drive coordinates, SI):
+    touch probe sensors by input number, and the switches / index pulse of the virtual
+    CiA 402 drive's homing (None: not fitted)."""
+
+    probes: Mapping[int, Any] = field(default_factory=dict)  # number -> plant.ProbeSensor
+    negative_limit: float | None = None
+    positive_limit: float | None = None
+    home_switch: tuple[float, float] | None = None
+    index_pitch: float | None = None
+    index_offset: float = 0.0
+
+    @property
+    def has_switches(self) -> bool:
+        """Any homing switch or the index pulse is fitted."""
+        return (
+            self.negative_limit is not None
+            or self.positive_limit is not None
+            or self.home_switch is not None
+            or self.index_pitch is not None
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -528,6 +560,7 @@ class AxisSpec:
     homing: HomingSpec = field(default_factory=HomingSpec)
     drive: DriveSpec = field(default_factory=DriveSpec)
     queue_depth: int = 8
+    simulation: SimulationSpec | None = None
     jog_velocity_slow: float | None = None
     jog_velocity_fast: float | None = None
 
@@ -612,6 +645,16 @@ _POSITION_MAX = S.POSITION_MAX
 _LIMITS = S.LIMITS.table()
 _SWLIM = S.SOFTWARE_LIMITS.table()
 _HOMING = S.HOMING.table()
+_SIMULATION = S.SIMULATION.table()
+_PROBE_SENSOR = S.PROBE_SENSOR.table()
+_DRIVE_HOMING_KEYS = (
+    "drive_method",
+    "speed_switch",
+    "speed_zero",
+    "acceleration",
+    "offset",
+    "timeout",
+)
 _DRIVE_KEYS = {  # the keys of every bus drive; the bus-specific ones: canopen/modbus_options
     k: False for k in ("type", "bus", "node_id", "counts_per_unit")
 }
@@ -905,7 +948,7 @@ def _parse_axis(
             hv = c.field(hm, "velocity", hp, S.HOMING["velocity"])
             if method == "switch" and sw is None:
                 c.error(hm.line, join(hp, "switch"), "missing for method switch", "a number")
-            if method == "set_position" and ("switch" in hm or "velocity" in hm):
+            if method in ("set_position", "drive") and ("switch" in hm or "velocity" in hm):
                 key = "switch" if "switch" in hm else "velocity"
                 c.error(
                     hm.key_lines[key],
@@ -914,9 +957,31 @@ def _parse_axis(
                     "method: switch",
                 )
             homing = HomingSpec(method, sw, hv)
+            drive_homing = _parse_drive_homing(c, hm, hp)
+            if method == "drive":
+                homing = drive_homing
+            else:
+                for key in _DRIVE_HOMING_KEYS:
+                    if key in hm:
+                        c.error(
+                            hm.key_lines[key],
+                            join(hp, key),
+                            "only used by method drive",
+                            "method: drive",
+                        )
     drive = DriveSpec()
     if m.get("drive") is not None:
         drive = _parse_drive(c, m, path, buses) or drive
+    if homing.method == "drive" and drive.kind != "canopen":
+        c.error(
+            m.line_of("homing"),
+            join(join(path, "homing"), "method"),
+            "homing by the drive needs a drive on a CAN bus",
+            "set_position, switch",
+        )
+    simulation = None
+    if m.get("simulation") is not None:
+        simulation = _parse_simulation(c, m, path, drive, buses)
     if lim is None:
         return None
     return AxisSpec(
@@ -931,9 +996,137 @@ def _parse_axis(
         homing,
         drive,
         qd if qd is not None else S.AXIS["queue_depth"].default,
+        simulation=simulation,
         jog_velocity_slow=jogs["jog_velocity_slow"],
         jog_velocity_fast=jogs["jog_velocity_fast"],
     )
+
+
+def _parse_drive_homing(c: Checker, hm: YamlMap, hp: str) -> HomingSpec:
+    """The keys of ``method: drive`` (checked whatever the method; required with it): the
+    CiA 402 method, speeds, acceleration, offset, time-out."""
+    H = S.HOMING  # noqa: N806
+    values = {k: c.field(hm, k, hp, H[k]) for k in _DRIVE_HOMING_KEYS}
+    for key in ("drive_method", "speed_switch", "speed_zero", "acceleration"):
+        if key not in hm and hm.get("method") == "drive":
+            c.error(hm.line, join(hp, key), "missing for method drive", H[key].type_text())
+    if values["drive_method"] == 0:
+        c.error(hm.key_lines["drive_method"], join(hp, "drive_method"), "got 0", "1..37, -128..-1")
+    return HomingSpec(
+        "drive",
+        drive_method=values["drive_method"],
+        speed_switch=values["speed_switch"],
+        speed_zero=values["speed_zero"],
+        acceleration=values["acceleration"],
+        offset=values["offset"] if values["offset"] is not None else 0.0,
+        timeout=values["timeout"] if values["timeout"] is not None else 60.0,
+    )
+
+
+def _parse_simulation(
+    c: Checker, m: YamlMap, path: str, drive: DriveSpec, buses: dict[str, BusSpec]
+) -> SimulationSpec | None:
+    """``axes.<name>.simulation``: probe sensors, switches (see :class:`SimulationSpec`)."""
+    from motionplc.fieldbus.plant import ProbeSensor
+
+    sp = join(path, "simulation")
+    sm = c.mapping(m["simulation"], m.line_of("simulation"), sp, _SIMULATION)
+    if sm is None:
+        return None
+    in_process = drive.kind == "ideal" or (
+        drive.kind == "canopen" and drive.bus in buses and buses[drive.bus].drives == "simulated"
+    )
+    if not in_process:
+        c.error(
+            m.line_of("simulation"),
+            sp,
+            "only for an in-process drive",
+            "an ideal drive or a drive on a CAN bus with drives: simulated",
+        )
+        return None
+    probes: dict[int, Any] = {}
+    P = S.PROBE_SENSOR  # noqa: N806
+    for n in (1, 2):
+        key = f"probe{n}"
+        if sm.get(key) is None:
+            continue
+        pp = join(sp, key)
+        pm = c.mapping(sm[key], sm.line_of(key), pp, _PROBE_SENSOR)
+        if pm is None:
+            continue
+        marks = _numbers(c, pm, "marks", pp, P["marks"].item)  # type: ignore[attr-defined]
+        width = c.field(pm, "width", pp, P["width"])
+        first = c.field(pm, "first", pp, P["first"])
+        pitch = c.field(pm, "pitch", pp, P["pitch"])
+        if width is None or marks is None:
+            continue
+        try:
+            probes[n] = ProbeSensor(marks=tuple(marks), width=width, first=first, pitch=pitch)
+        except ValueError as exc:
+            c.error(
+                pm.line,
+                pp,
+                str(exc).replace("ProbeSensor.", "").replace("ProbeSensor: ", ""),
+                "marks more than width apart; first and pitch (> width) together",
+            )
+    Z = S.SIMULATION  # noqa: N806
+    nl = c.field(sm, "negative_limit", sp, Z["negative_limit"])
+    pl = c.field(sm, "positive_limit", sp, Z["positive_limit"])
+    if nl is not None and pl is not None and not nl < pl:
+        c.error(
+            sm.line_of("positive_limit"),
+            join(sp, "positive_limit"),
+            f"got {pl:g}",
+            f"> negative_limit {nl:g}",
+        )
+    hs = _numbers(c, sm, "home_switch", sp, Z["home_switch"].item, count=2)  # type: ignore[attr-defined]
+    home = None
+    if hs is not None and len(hs) == 2:
+        if hs[0] < hs[1]:
+            home = (hs[0], hs[1])
+        else:
+            c.error(sm.line_of("home_switch"), join(sp, "home_switch"), "needs lo < hi", "[lo, hi]")
+    switches = ("negative_limit", "positive_limit", "home_switch", "index_pitch")
+    if drive.kind == "ideal":
+        for key in switches:
+            if key in sm:
+                c.error(
+                    sm.key_lines[key], join(sp, key), "not used by an ideal drive", "probe1, probe2"
+                )
+    return SimulationSpec(
+        probes,
+        nl,
+        pl,
+        home,
+        c.field(sm, "index_pitch", sp, Z["index_pitch"]),
+        c.field(sm, "index_offset", sp, Z["index_offset"]) or 0.0,
+    )
+
+
+def _numbers(
+    c: Checker, m: YamlMap, key: str, path: str, item: Number, count: int | None = None
+) -> list[float] | None:
+    """A list of numbers (each checked against ``item``); [] when absent, None when bad."""
+    if key not in m or m[key] is None:
+        return []
+    x = m[key]
+    p = join(path, key)
+    what = f"a list of {count} numbers" if count else "a list of numbers"
+    if not isinstance(x, list) or (count is not None and len(x) != count):
+        c.error(m.line_of(key), p, f"got {_tname(x) if not isinstance(x, list) else len(x)}", what)
+        return None
+    out: list[float] = []
+    for i, v in enumerate(x):
+        ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+        f = float(v) if ok else math.nan
+        inf = item.inf_ok and math.isinf(f)
+        lo = item.ge if item.ge is not None else -math.inf
+        hi = item.le if item.le is not None else math.inf
+        if not (inf or (math.isfinite(f) and lo <= f <= hi)):
+            c.error(m.line_of(key), f"{p}[{i}]", f"got {v!r}", what)
+            return None
+        out.append(f)
+    return out
 
 
 def _parse_drive(
@@ -1498,6 +1691,43 @@ def _open_can(bus: BusSpec, channel: str, where: str) -> Any:
         ) from exc
 
 
+def _wire_virtual_drive(vdrive: Any, ax: AxisSpec) -> None:
+    """The simulation wiring of ``ax`` on its virtual CiA 402 drive, in increments (the
+    drive's ``counts_per_unit`` and ``offset_counts``)."""
+    from motionplc.fieldbus.cia402 import HomingSwitches
+    from motionplc.fieldbus.plant import ProbeSensor
+
+    sim = ax.simulation
+    assert sim is not None
+    cpu = ax.drive.counts_per_unit
+    off = float(ax.drive.options.get("offset_counts", 0))
+
+    def counts(x: float | None) -> float | None:
+        return None if x is None else x * cpu + off
+
+    for n, s in sim.probes.items():
+        marks = tuple(m * cpu + off for m in s.marks)
+        first = counts(s.first)
+        pitch = None if s.pitch is None else s.pitch * abs(cpu)
+        vdrive.set_probe_sensor(
+            n, ProbeSensor(marks=marks, width=s.width * abs(cpu), first=first, pitch=pitch)
+        )
+    if sim.has_switches:
+        hs = None
+        if sim.home_switch is not None:
+            a, b = (x * cpu + off for x in sim.home_switch)
+            hs = (min(a, b), max(a, b))
+        vdrive.set_switches(
+            HomingSwitches(
+                negative_limit=counts(sim.negative_limit),
+                positive_limit=counts(sim.positive_limit),
+                home_switch=hs,
+                index_pitch=None if sim.index_pitch is None else sim.index_pitch * abs(cpu),
+                index_offset=sim.index_offset * cpu + off,
+            )
+        )
+
+
 def _make_drive(
     machine: Machine,
     ax: AxisSpec,
@@ -1507,10 +1737,11 @@ def _make_drive(
     d = ax.drive
     cfg = machine.config
     period = cfg.runtime.task(ax.task).period
+    sim = ax.simulation
     if d.kind == "ideal":
         from motionplc.fieldbus.ideal import IdealDrive
 
-        return IdealDrive(ax.name)
+        return IdealDrive(ax.name, probes=dict(sim.probes) if sim is not None else None)
     assert d.bus is not None
     bus = cfg.bus(d.bus)
     if d.kind == "canopen":
@@ -1539,6 +1770,9 @@ def _make_drive(
                     _open_can(bus, channel, cfg.path),
                     [VirtualCia402Drive(n) for n in nodes],
                 )
+                for a in cfg.axes:
+                    if a.drive.bus == d.bus and a.simulation is not None:
+                        _wire_virtual_drive(rack[a.drive.node_id], a)
                 machine._closers.append(rack.close)
                 machine.peers[d.bus] = rack
             master = CanopenMaster(
@@ -1553,6 +1787,16 @@ def _make_drive(
             machine._closers.append(master.close)
             masters[d.bus] = master
         assert d.node_id is not None
+        options = dict(d.options)
+        h = ax.homing
+        if h.method == "drive":
+            from motionplc.fieldbus.cia402 import HomingSpec as DriveHoming
+
+            assert h.drive_method is not None and h.speed_switch is not None
+            assert h.speed_zero is not None and h.acceleration is not None
+            options["homing"] = DriveHoming(
+                h.drive_method, h.speed_switch, h.speed_zero, h.acceleration, h.offset, h.timeout
+            )
         return CanopenDrive(
             ax.name,
             masters[d.bus],
@@ -1560,7 +1804,7 @@ def _make_drive(
                 node_id=d.node_id,
                 counts_per_unit=d.counts_per_unit,
                 cycle_time=period,
-                **d.options,
+                **options,
             ),
         )
     from motionplc.fieldbus.modbus_drive import ModbusDrive, ModbusDriveConfig

@@ -271,3 +271,27 @@ def test_cia402_device_probe_latches_plant_motion() -> None:
     assert dev.probe_status() == 0
     with pytest.raises(ValueError, match="trigger source"):
         dev.write_probe_function(0x0005)
+
+
+def test_probe_sensor_from_yaml(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """``axes.<name>.simulation.probe1`` wires the ideal drive's probe input."""
+    from motionplc.config import build, load_config
+
+    f = tmp_path / "machine.yaml"
+    f.write_text(
+        "runtime: {tick: 0.001, clock: simulated, tasks: {main: {period: 0.001}}}\n"
+        "axes:\n  x:\n    limits: {v_max: 1.0, a_max: 10.0, j_max: 100.0}\n"
+        "    simulation:\n      probe1: {first: 0.25, pitch: 0.5, width: 0.01}\n"
+    )
+    machine = build(load_config(f), check_invariants=True)
+    try:
+        x = machine.axes["x"]
+        tp = MC_TouchProbe(axis=x, trigger_input={"probe": 1, "edge": "falling"})
+        fbs = [MC_Power(axis=x, enable=True), tp, MC_MoveVelocity(axis=x, velocity=0.5)]
+        machine.attach(lambda ctx: [fb() for fb in fbs])
+        machine.runtime.run(cycles=3)
+        tp.execute = fbs[2].execute = True
+        assert machine.runtime.run_until(lambda: tp.done or tp.error, max_seconds=2.0)
+        assert tp.done and tp.recorded_position == pytest.approx(0.26, abs=1e-6)
+    finally:
+        machine.close()

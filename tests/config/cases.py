@@ -164,7 +164,7 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
     (
         "homing method not allowed",
         _cfg("  x:\n    limits: {v_max: 1.0, a_max: 2.0}\n    homing: {method: index}\n"),
-        ["{f}:7: axes.x.homing.method: got string 'index' (allowed: set_position, switch)"],
+        ["{f}:7: axes.x.homing.method: got string 'index' (allowed: set_position, switch, drive)"],
     ),
     (
         "axis bound to an undefined bus",

@@ -187,3 +187,34 @@ def test_homing_spec_validation() -> None:
         HomingSpec(17, 1.0, 0.1, math.inf)
     with pytest.raises(ValueError, match="home_switch"):
         HomingSwitches(home_switch=(1.0, 0.0))
+
+
+def test_drive_homing_from_yaml(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The configuration path: ``homing: {method: drive, ...}`` and the virtual drive's
+    ``simulation`` switches (SI, scaled to increments by the drive's counts_per_unit)."""
+    from motionplc.config import build, load_config
+
+    f = tmp_path / "machine.yaml"
+    f.write_text(
+        "runtime: {tick: 0.002, clock: simulated, tasks: {main: {period: 0.002}}}\n"
+        "buses:\n  can0: {type: can, interface: virtual, channel: homing}\n"
+        "axes:\n  x:\n    limits: {v_max: 1.0, a_max: 10.0, j_max: 1000.0}\n"
+        "    homing: {method: drive, drive_method: 24, speed_switch: 0.5, speed_zero: 0.02,\n"
+        "             acceleration: 5.0, offset: -0.01, timeout: 5.0}\n"
+        "    drive: {bus: can0, node_id: 3, counts_per_unit: 2.0e6}\n"
+        "    simulation: {negative_limit: -0.2, positive_limit: 0.2, home_switch: [0.05, 0.08]}\n"
+    )
+    machine = build(load_config(f), check_invariants=True)
+    try:
+        x = machine.axes["x"]
+        fbs = [MC_Power(axis=x, enable=True), MC_Home(axis=x)]
+        machine.attach(lambda ctx: [fb() for fb in fbs])
+        machine.runtime.run(cycles=10)
+        fbs[1].execute = True
+        assert machine.runtime.run_until(lambda: fbs[1].done or fbs[1].error, max_seconds=8.0)
+        assert fbs[1].done, fbs[1].error_text
+        device = machine.peers["can0"][3].device
+        assert device.physical_position() / 2.0e6 == pytest.approx(0.05, abs=1e-6)
+        assert x.position == pytest.approx(-0.01, abs=1e-6) and x.homed
+    finally:
+        machine.close()
