@@ -42,6 +42,10 @@ master's |v|, |a| or |j| exceed what was checked): a violation ends the coupling
 SLAVE_LIMITS_EXCEEDED and the slave makes a controlled stop with its own limits (or the next
 buffered command takes over), starting from its last set state that was within the limits.
 
+A master that is switched off (Disabled: its set values jump to the actual ones) ends the
+coupling with Error INVALID_MASTER and a controlled stop of the slave; a master in ErrorStop
+brakes along its ramp and the slave follows it.
+
 GearOut / CamOut: the slave keeps its velocity (ContinuousMotion): its acceleration is brought to
 0 with the slave's jerk limit (a velocity job to ``v + a|a| / (2 j_max)``), no jump; the FB is
 Done at once and the coupling FB shows CommandAborted.
@@ -221,6 +225,7 @@ class SyncJob(AxisJob):
         "peaks",
         "locked_at",
         "_eop_now",
+        "d_lim",
     )
 
     def __init__(self, cmd: SyncCommand, handle: Handle, slave: Axis) -> None:
@@ -245,7 +250,8 @@ class SyncJob(AxisJob):
         self.ph_end = 0.0
         self.ph_target = 0.0
         self.ph_handle: PhaseHandle | None = None
-        self.ph_req: tuple[PhaseHandle, float, bool, Limits] | None = None
+        self.ph_req: tuple[PhaseHandle, float, bool, tuple[float, ...]] | None = None
+        self.d_lim = (0.0, 0.0)  # |a|, |j| limits of the catch-up ramp
         self.table: Any = None
         self.periodic = False
         self.lift = 0.0
@@ -350,11 +356,11 @@ class SyncJob(AxisJob):
             out = self._step(tau, False) or self.last
             self.last, self.last_tau = out, tau
             return out
-        if self.ph_req is not None:
-            self._start_phasing(tau)
         out = self._step(tau)
         if out is None:  # the coupling failed in this step: its successor runs
             return self._successor(tau)
+        if self.ph_req is not None:  # a new phase shift, from this step on
+            self._start_phasing(tau)
         # phasing progress
         ph_h = self.ph_handle
         if ph_h is not None:
@@ -386,6 +392,12 @@ class SyncJob(AxisJob):
         slave; else it only runs on as the previous motion of a waiting coupling)."""
         h = self.handle
         assert isinstance(h, SyncHandle)
+        if self.master.state is S.DISABLED:
+            # the master lost its power (its set values jumped to the actual ones): the
+            # coupling ends, the slave stops under control from its last set state
+            if own:
+                self._fail(ErrorID.INVALID_MASTER, f"master {self.master.name!r} was disabled")
+            return None
         if self.stage == _WAIT:
             m = self.seen(tau)
             if not self._start_reached(m):
@@ -490,6 +502,7 @@ class SyncJob(AxisJob):
                     self.d = Profile(d0, ())
                 else:
                     self.d = guarded(plan_velocity, d0, 0.0, lim)
+                self.d_lim = (max(lim.a_max, -lim.a_min), lim.j_max)  # type: ignore[operator]
             else:
                 if d0.p == 0.0 and d0.v == 0.0 and d0.a == 0.0:
                     self.d = Profile(d0, ())
@@ -502,6 +515,7 @@ class SyncJob(AxisJob):
                             f"(the slave is {d0.p:+.6g} off the law)",
                         )
                     self.d = guarded(plan, d0, State(0.0, 0.0, 0.0), lim)
+                    self.d_lim = (max(lim.a_max, -lim.a_min), lim.j_max)  # type: ignore[operator]
         except PlanningError as exc:
             return ErrorID.PLANNING_FAILED, f"planner: {exc}"
         return None
@@ -600,10 +614,11 @@ class SyncJob(AxisJob):
         req = self.ph_req
         assert req is not None
         self.ph_req = None
-        handle, shift, relative, lim = req
+        handle, shift, relative, inputs = req
         if handle.terminal:
             return
-        t0 = self.last_tau
+        lim = _phase_limits(self, *inputs)
+        t0 = tau
         st = self._phase_state(t0)
         target = (self.ph_target + shift) if relative else shift
         old = self.ph_handle
@@ -871,7 +886,7 @@ def request_phasing(
     old = job.ph_req
     if old is not None:
         old[0]._finish(Status.ABORTED)
-    job.ph_req = (h, shift, relative, _phase_limits(job, velocity, acc, dec, jerk))
+    job.ph_req = (h, shift, relative, (velocity, acc, dec, jerk))
     return h
 
 
@@ -880,15 +895,23 @@ def _phase_limits(job: SyncJob, velocity: float, acc: float, dec: float, jerk: f
     the master's own limits, for gearing also at most the slave's limits / |ratio| (the slave
     moves ratio x the shift on top of the law)."""
     mc, sc = job.master.cfg, job.slave.cfg
-    r = abs(job.ratio) if job.kind != "cam" else 0.0
+    if job.kind == "cam":  # the largest slope the slave sees the master through
+        r = abs(job.ssc * job.msc) * float(getattr(job.table, "peak_slope", 0.0))
+    else:
+        r = abs(job.ratio)
+    ramping = job.stage != _LOCKED
+    mv = abs(_master_state(job)[1])
 
-    def cap(x: float, m_lim: float, s_lim: float) -> float:
-        base = m_lim if r == 0.0 else min(m_lim, s_lim / r)
+    def cap(x: float, m_lim: float, s_lim: float, law: float, ramp: float) -> float:
+        # what the slave's limit leaves beside the law (at the master's limit) and the ramp
+        room = (s_lim - r * law - (ramp if ramping else 0.0)) / r if r > 0.0 else m_lim
+        base = min(m_lim, room) if room > 0.05 * m_lim else 0.05 * m_lim
         return min(x, base) if x > 0.0 else base
 
-    v = cap(velocity, min(mc.v_max, mc.v_neg), min(sc.v_max, sc.v_neg))
-    a = cap(max(acc, dec), min(mc.a_max, mc.a_neg), min(sc.a_max, sc.a_neg))
-    j = cap(jerk, mc.j_max, sc.j_max)
+    mvl, mal = min(mc.v_max, mc.v_neg), min(mc.a_max, mc.a_neg)
+    v = cap(velocity, mvl, min(sc.v_max, sc.v_neg), mv, 0.0)
+    a = cap(max(acc, dec), mal, min(sc.a_max, sc.a_neg), mal, job.d_lim[0])
+    j = cap(jerk, mc.j_max, sc.j_max, mc.j_max, job.d_lim[1])
     return Limits(v, a, j, v_min=-v, a_min=-a)
 
 
