@@ -890,9 +890,12 @@ class Axis:
                 self.v = self.a = self.j = 0.0
             else:
                 self._advance(job, dt, ftau)
-            if sup is not None and self.sup is not None:
-                self.sup.apply(self, dt)
-            if sw and (job is not None or sup is not None):
+            if sup is not None:  # superimposed motion: its contribution, then the guard
+                if self.sup is not None:
+                    self.sup.apply(self, dt)
+                if sw:
+                    self._sw_guard(p0, v0, a0, dt)
+            elif sw and job is not None:
                 self._sw_guard(p0, v0, a0, dt)
             state = self.state
             if state is S.STOPPING and mq.active is None:
