@@ -43,9 +43,9 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
-from numpy.polynomial import polynomial as npoly
 
 from motionplc.errors import PlanningError
+from motionplc.planning.roots import quadratic_roots
 
 #: Every motion law a segment may use.
 LAWS: tuple[str, ...] = (
@@ -345,29 +345,40 @@ def _eval_section(sec: _Section, x: float) -> tuple[float, float, float, float]:
     return y, dy, d2y, d3y
 
 
-def _section_max(sec: _Section, k1: float, k2: float, k3: float) -> float:
-    """max |k1 y' + k2 y'' + k3 y'''| over the section."""
-    lo, hi = _section_range(sec, k1, k2, k3)
-    return max(-lo, hi)
-
-
 def _section_range(sec: _Section, k1: float, k2: float, k3: float) -> tuple[float, float]:
     """(min, max) of k1 y' + k2 y'' + k3 y''' over the section: the ends and every root of
     the derivative inside (polynomial roots, or closed form for the sine pieces)."""
     length = sec.xe - sec.xs
     cand = [0.0, length]
     if sec.b == 0.0:
-        # f' = k1 P'' + k2 P''' + k3 P'''' (a polynomial)
-        p = np.array(sec.c[::-1], dtype=float)
-        d2 = npoly.polyder(p, 2) if len(p) > 2 else np.zeros(1)
-        d3 = npoly.polyder(p, 3) if len(p) > 3 else np.zeros(1)
-        d4 = npoly.polyder(p, 4) if len(p) > 4 else np.zeros(1)
-        fp = npoly.polyadd(npoly.polyadd(k1 * d2, k2 * d3), k3 * d4)
-        fp = np.trim_zeros(np.asarray(fp, dtype=float), "b")
-        if len(fp) > 1:
-            for r in npoly.polyroots(fp):
-                if abs(r.imag) <= 1e-9 * max(1.0, length) and 0.0 < r.real < length:
-                    cand.append(float(r.real))
+        # f' = k1 P'' + k2 P''' + k3 P'''' (a polynomial; coefficients highest power first)
+        d3 = sec.d3
+        n3 = len(d3)
+        d4 = tuple(c * (n3 - 1 - i) for i, c in enumerate(d3[:-1])) or (0.0,)
+        fp = [0.0] * len(sec.d2)
+        for coeffs, k in ((sec.d2, k1), (d3, k2), (d4, k3)):
+            if k:
+                off = len(fp) - len(coeffs)
+                for i, c in enumerate(coeffs):
+                    fp[off + i] += k * c
+        # drop leading terms that are negligible on [0, length] (a tiny master acceleration
+        # or jerk): they would only add roots far outside, or overflow the companion matrix
+        mags = [abs(c) * length ** (len(fp) - 1 - i) for i, c in enumerate(fp)]
+        big = max(mags)
+        while len(fp) > 1 and mags[0] <= 1e-14 * big:
+            del fp[0]
+            del mags[0]
+        if len(fp) == 2:
+            roots = [-fp[1] / fp[0]]
+        elif len(fp) == 3:
+            roots = quadratic_roots(fp[0], fp[1], fp[2])
+        elif len(fp) > 3:
+            # a candidate that is no extremum only adds a sample of f: keep near-real roots
+            tol = 1e-6 * max(1.0, length)
+            roots = [float(r.real) for r in np.roots(fp) if abs(r.imag) <= tol]
+        else:
+            roots = []
+        cand.extend(t for t in roots if 0.0 < t < length)
     else:
         # P of degree <= 2: f' = 2 p2 k1 + (k3 B W^4 - k1 B W^2) sin(th) - k2 B W^3 cos(th)
         p2 = sec.c[-3] if len(sec.c) >= 3 else 0.0
@@ -458,6 +469,7 @@ class CamTable:
     _secs: tuple[_Section, ...] = field(init=False, compare=False, repr=False)
     _starts: tuple[float, ...] = field(init=False, compare=False, repr=False)
     _arr: tuple[np.ndarray, ...] = field(init=False, compare=False, repr=False)
+    _ranges: tuple[tuple[float, float], ...] = field(init=False, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         pts = tuple(self.points) if not isinstance(self.points, tuple) else self.points
@@ -593,9 +605,15 @@ class CamTable:
                 np.array([s.ph for s in secs]),
             ),
         )
-        set_(self, "peak_slope", max(_section_max(s, 1.0, 0.0, 0.0) for s in secs))
-        set_(self, "peak_curvature", max(_section_max(s, 0.0, 1.0, 0.0) for s in secs))
-        set_(self, "peak_jerk", max(_section_max(s, 0.0, 0.0, 1.0) for s in secs))
+        # exact (min, max) of y', y'', y''' over the table
+        ranges = []
+        for k in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
+            rs = [_section_range(s, *k) for s in secs]
+            ranges.append((min(r[0] for r in rs), max(r[1] for r in rs)))
+        set_(self, "_ranges", tuple(ranges))
+        set_(self, "peak_slope", max(-ranges[0][0], ranges[0][1]))
+        set_(self, "peak_curvature", max(-ranges[1][0], ranges[1][1]))
+        set_(self, "peak_jerk", max(-ranges[2][0], ranges[2][1]))
 
     # ---- construction helpers ----------------------------------------------------------
 
@@ -827,17 +845,22 @@ class CamTable:
             _finite(master_j, "master_j"),
         )
         secs = self._secs
-        rv = [_section_range(s, vm, 0.0, 0.0) for s in secs]
-        ra = [_section_range(s, am, vm * vm, 0.0) for s in secs]
-        rj = [_section_range(s, jm, 3.0 * vm * am, vm**3) for s in secs]
-        b = [
-            min(r[0] for r in rv),
-            max(r[1] for r in rv),
-            min(r[0] for r in ra),
-            max(r[1] for r in ra),
-            min(r[0] for r in rj),
-            max(r[1] for r in rj),
-        ]
+        (s1lo, s1hi), (s2lo, s2hi), (s3lo, s3hi) = self._ranges
+
+        def scaled(lo: float, hi: float, k: float) -> tuple[float, float]:
+            return (k * lo, k * hi) if k >= 0.0 else (k * hi, k * lo)
+
+        b = [*scaled(s1lo, s1hi, vm), 0.0, 0.0, 0.0, 0.0]
+        if am == 0.0:  # the exact ranges of y'' and y''' scaled: no roots to find
+            b[2], b[3] = scaled(s2lo, s2hi, vm * vm)
+        else:
+            ra = [_section_range(s, am, vm * vm, 0.0) for s in secs]
+            b[2], b[3] = min(r[0] for r in ra), max(r[1] for r in ra)
+        if am == 0.0 and jm == 0.0:
+            b[4], b[5] = scaled(s3lo, s3hi, vm**3)
+        else:
+            rj = [_section_range(s, jm, 3.0 * vm * am, vm**3) for s in secs]
+            b[4], b[5] = min(r[0] for r in rj), max(r[1] for r in rj)
         if vm != 0.0:
             gaps = self.periodic_gaps() if periodic else None
             if self.curvature_jumps or (
@@ -865,8 +888,34 @@ class CamTable:
         b = self.slave_bounds(master_v, master_a, master_j, periodic)
         return SlavePeaks(max(-b.v_min, b.v_max), max(-b.a_min, b.a_max), max(-b.j_min, b.j_max))
 
+    def slave_peaks_bound(
+        self, master_v: float, master_a: float = 0.0, master_j: float = 0.0
+    ) -> SlavePeaks:
+        """A cheap upper bound of :meth:`slave_peaks` (a few multiplications, for checks made
+        every cycle): |v| <= Y1 |vm|, |a| <= Y2 vm^2 + Y1 |am|,
+        |j| <= Y3 |vm|^3 + 3 Y2 |vm| |am| + Y1 |jm| with Y1, Y2, Y3 the exact peaks of |y'|,
+        |y''|, |y'''|. Equal to :meth:`slave_peaks` when ``master_a`` = ``master_j`` = 0;
+        never below it; non-decreasing in |vm|, |am|, |jm| (so a bound checked for a master
+        envelope holds for every motion inside it, whatever the signs). Curvature jumps give
+        j = inf as in :meth:`slave_peaks`."""
+        vm = abs(_finite(master_v, "master_v"))
+        am = abs(_finite(master_a, "master_a"))
+        jm = abs(_finite(master_j, "master_j"))
+        y1, y2, y3 = self.peak_slope, self.peak_curvature, self.peak_jerk
+        j = y3 * vm**3 + 3.0 * y2 * vm * am + y1 * jm
+        if self.curvature_jumps and vm != 0.0:
+            j = math.inf
+        return SlavePeaks(y1 * vm, y2 * vm * vm + y1 * am, j)
+
+
+#: |master velocity|, |acceleration|, |jerk| accepted by the peak functions
+MASTER_MAX = 1e15
+
 
 def _finite(value: Any, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise ValueError(f"{name}: must be a finite number, got {value!r}")
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+    if not ok or not -MASTER_MAX <= value <= MASTER_MAX:
+        raise ValueError(
+            f"{name}: must be a finite number in [{-MASTER_MAX:g}, {MASTER_MAX:g}], got {value!r}"
+        )
     return float(value)

@@ -292,6 +292,30 @@ def test_slave_peaks_against_sampling() -> None:
         t.slave_bounds(1.0, math.inf)
 
 
+@given(
+    st.floats(-5, 5),
+    st.floats(-50, 50),
+    st.floats(-500, 500),
+    st.floats(0.0, 1.0),
+)
+@hsettings(60)
+def test_peaks_bound_is_a_monotone_upper_bound(vm: float, am: float, jm: float, f: float) -> None:
+    t = CamTable.from_points(
+        [(0, 0), (1, 0), (2, 1), (3, 2), (3.5, 2.5), (4, 2.5), (2 * PI, 0)],
+        laws=["linear", "poly5", "linear", "poly7", "modified_sine", "cycloid"],
+    )
+    exact, bound = t.slave_peaks(vm, am, jm), t.slave_peaks_bound(vm, am, jm)
+    for e, b in zip(exact, bound, strict=True):
+        assert e <= b * (1 + 1e-12) + 1e-12
+    assert t.slave_peaks_bound(vm) == t.slave_peaks(vm)
+    inner = t.slave_peaks_bound(f * vm, -f * am, -f * jm)  # inside the envelope, signs flipped
+    assert all(i <= b for i, b in zip(inner, bound, strict=True))
+    assert all(
+        e <= b * (1 + 1e-12) + 1e-12
+        for e, b in zip(t.slave_peaks(f * vm, -f * am, -f * jm), bound, strict=True)
+    )
+
+
 def test_periodic_steps_in_bounds() -> None:
     # slope 0 at the start, 1 at the end: used periodically the slave's velocity steps
     t = CamTable.from_points([(0, 0), (1, 0.5), (2, 1.5)], laws=["poly5", "linear"])
@@ -432,3 +456,34 @@ def test_random_tables_are_c2_where_the_laws_allow(tp: tuple[CamTable, list[CamP
     s = t.sample(np.linspace(t.master_start, t.master_end, 4001))
     assert float(np.max(np.abs(s.dy))) <= t.peak_slope * (1 + 1e-12) + 1e-15
     assert float(np.max(np.abs(s.d2y))) <= t.peak_curvature * (1 + 1e-12) + 1e-15
+
+
+@given(tables(), st.floats(-3, 3), st.floats(-30, 30), st.floats(-300, 300))
+@hsettings(60)
+def test_random_slave_bounds_are_exact(
+    tp: tuple[CamTable, list[CamPoint]], vm: float, am: float, jm: float
+) -> None:
+    """The signed extremes contain a dense sample (plus both sides of every section
+    boundary) and are reached by it to 2e-3 of their span (the grid's resolution on the
+    sharpest random segments; the fixed table above: 1e-6)."""
+    t, _ = tp
+    edges = np.array(t._starts[1:])
+    xs = np.concatenate(
+        [np.linspace(t.master_start, t.master_end, 20_001), edges, np.nextafter(edges, -np.inf)]
+    )
+    s = t.sample(xs)
+    bd = t.slave_bounds(vm, am, jm)
+    combos = (
+        (bd.v_min, bd.v_max, s.dy * vm),
+        (bd.a_min, bd.a_max, s.d2y * vm * vm + s.dy * am),
+        (bd.j_min, bd.j_max, s.d3y * vm**3 + 3 * s.d2y * vm * am + s.dy * jm),
+    )
+    for k, (lo, hi, arr) in enumerate(combos):
+        if k == 2 and t.curvature_jumps and vm != 0.0:
+            assert lo == -math.inf and hi == math.inf
+            continue
+        span = hi - lo
+        assert float(np.min(arr)) >= lo - 1e-9 * span - 1e-12
+        assert float(np.max(arr)) <= hi + 1e-9 * span + 1e-12
+        assert float(np.min(arr)) <= lo + 2e-3 * span + 1e-12
+        assert float(np.max(arr)) >= hi - 2e-3 * span - 1e-12
