@@ -58,7 +58,8 @@ mean the same parameter, so CODESYS' negative numbers work as they are):
 * Modbus (holding register): ``number = T * 0x1000000 + 0x10000 + address``, e.g.
   ``0x10300`` = register 0x0300.
 * ``T`` (optional) gives the type: 1, 2, 4 = unsigned 8/16/32 bit, 0x41, 0x42, 0x44 = signed
-  (0x40 + the size). With T = 0 the type comes from the drive's description (the EDS of a CAN
+  (0x40 + the size), 0x24 = IEEE 754 single (REAL32 / f32; a motionplc extension of the
+  CODESYS lengths). With T = 0 the type comes from the drive's description (the EDS of a CAN
   drive, the register map of a Modbus drive); without one a CAN read takes the size the drive
   answers with (unsigned, as CODESYS does) and a write first uploads the object to learn its
   size (a negative value is written as two's complement); a Modbus register not in the map
@@ -97,8 +98,10 @@ __all__ = [
 
 _INF = math.inf
 DRIVE_NUMBER_MIN = 0x10000  # |numbers| from here on address drive parameters
-_TYPE_CODES = {1: (1, False), 2: (2, False), 4: (4, False), 0x41: (1, True), 0x42: (2, True)}
-_TYPE_CODES[0x44] = (4, True)
+# T -> (size, signed, real)
+_TYPE_CODES = {1: (1, False, False), 2: (2, False, False), 4: (4, False, False)}
+_TYPE_CODES.update({0x41: (1, True, False), 0x42: (2, True, False), 0x44: (4, True, False)})
+_TYPE_CODES[0x24] = (4, True, True)
 
 
 @dataclass(frozen=True, slots=True)
@@ -136,7 +139,11 @@ PARAMETERS: dict[int, ParameterInfo] = {
 
 
 # --------------------------------------------------------------------------- drive numbers
-def _type_code(size: int, signed: bool) -> int:
+def _type_code(size: int, signed: bool, real: bool = False) -> int:
+    if real:
+        if size not in (0, 4):
+            raise ValueError(f"a real (float32) parameter has size 4, got {size!r}")
+        return 0x24
     if size == 0:
         if signed:
             raise ValueError("signed needs a size (1, 2 or 4)")
@@ -146,24 +153,28 @@ def _type_code(size: int, signed: bool) -> int:
     return size | (0x40 if signed else 0)
 
 
-def coe_parameter_number(index: int, subindex: int = 0, size: int = 0, signed: bool = False) -> int:
+def coe_parameter_number(
+    index: int, subindex: int = 0, size: int = 0, signed: bool = False, real: bool = False
+) -> int:
     """The parameter number of CANopen object ``index:subindex`` (index 0x1000-0xFFFF,
     subindex 0-255), with its type when given (see the module notes)."""
     if not (isinstance(index, int) and 0x1000 <= index <= 0xFFFF):
         raise ValueError(f"index must be an integer in 0x1000..0xFFFF, got {index!r}")
     if not (isinstance(subindex, int) and 0 <= subindex <= 0xFF):
         raise ValueError(f"subindex must be an integer in 0..255, got {subindex!r}")
-    return _type_code(size, signed) * 0x1000000 + index * 0x100 + subindex
+    return _type_code(size, signed, real) * 0x1000000 + index * 0x100 + subindex
 
 
-def modbus_parameter_number(address: int, size: int = 0, signed: bool = False) -> int:
+def modbus_parameter_number(
+    address: int, size: int = 0, signed: bool = False, real: bool = False
+) -> int:
     """The parameter number of Modbus holding register ``address`` (0-0xFFFF, a PDU
     address), with its type when given (size 2 or 4; see the module notes)."""
     if not (isinstance(address, int) and 0 <= address <= 0xFFFF):
         raise ValueError(f"address must be an integer in 0..0xFFFF, got {address!r}")
     if size == 1:
         raise ValueError("Modbus registers have no 1-byte type (size 2 or 4)")
-    return _type_code(size, signed) * 0x1000000 + 0x10000 + address
+    return _type_code(size, signed, real) * 0x1000000 + 0x10000 + address
 
 
 def decode_drive_number(number: int) -> DriveAddress | None:
@@ -176,12 +187,12 @@ def decode_drive_number(number: int) -> DriveAddress | None:
     code, rest = divmod(n, 0x1000000)
     if code not in _TYPE_CODES and code != 0:
         return None
-    size, signed = _TYPE_CODES.get(code, (0, False))
+    size, signed, real = _TYPE_CODES.get(code, (0, False, False))
     if rest >= 0x100000:
-        return DriveAddress("coe", rest >> 8, rest & 0xFF, size, signed)
+        return DriveAddress("coe", rest >> 8, rest & 0xFF, size, signed, real)
     if rest >= 0x20000 or size == 1:
         return None
-    return DriveAddress("modbus", rest - 0x10000, 0, size, signed)
+    return DriveAddress("modbus", rest - 0x10000, 0, size, signed, real)
 
 
 # --------------------------------------------------------------------------- axis state

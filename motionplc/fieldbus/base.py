@@ -182,14 +182,16 @@ class Drive(ABC):
 class DriveAddress:
     """Where a drive parameter lives: ``bus`` "coe" (CANopen object ``index``:``subindex``)
     or "modbus" (holding register ``index``); ``size`` in bytes (1, 2, 4; 0: from the
-    drive's description, the EDS or the register map) and ``signed``. Built from a parameter
-    number by :func:`motionplc.blocks.axis_params.decode_drive_number`."""
+    drive's description, the EDS or the register map), ``signed`` and ``real`` (an IEEE 754
+    single: REAL32 / f32, size 4). Built from a parameter number by
+    :func:`motionplc.blocks.axis_params.decode_drive_number`."""
 
     bus: str
     index: int
     subindex: int = 0
     size: int = 0
     signed: bool = False
+    real: bool = False
 
     def describe(self) -> str:
         """``0x6065:00`` or ``register 0x0300``."""

@@ -1574,7 +1574,7 @@ class CanopenDrive(Drive):
         """(size, signed, real) of a parameter: from its number, else from the EDS; None
         without either (a read then takes the size of the answer, unsigned)."""
         if address.size:
-            return address.size, address.signed, False
+            return address.size, address.signed, address.real
         od = self.od
         if od is None:
             return None

@@ -883,6 +883,8 @@ class ModbusDrive(Drive):
             None,
         )
         order = self.map.word_order if reg is None else self.map.order_of(reg)
+        if address.real:
+            return "f32", order
         if address.size:
             return ("i" if address.signed else "u") + str(8 * address.size), order
         return ("u16" if reg is None else reg.type), order

@@ -523,14 +523,21 @@ def test_modbus_against_the_independent_servo() -> None:
             rig.until(lambda: bad.done or bad.error)
             assert bad.error and bad.error_id is ErrorID.DRIVE_PARAMETER_FAILED
             assert "0x04" in bad.error_text
-            # an f32 parameter typed by the number is refused: f32 must come from the map;
-            # as u32 raw registers it reads the bits
-            vmax = rig.add(
+            # an f32 register outside the map, typed by the number (T = 0x24): its value;
+            # the same registers read as u32 give the bits, checked with struct
+            real = modbus_parameter_number(0x3008, real=True)
+            vmax = rig.add(MC_ReadParameter(enable=True, parameter_number=real))
+            bits = rig.add(
                 MC_ReadParameter(enable=True, parameter_number=modbus_parameter_number(0x3008, 4))
             )
-            rig.until(lambda: vmax.valid or vmax.error)
-            lo, hi = vmax.value % 65536, int(vmax.value) >> 16
-            assert struct.unpack(">f", struct.pack(">HH", int(hi), int(lo)))[0] == 1_000_000.0
+            rig.until(lambda: (vmax.valid or vmax.error) and (bits.valid or bits.error))
+            assert vmax.value == 1_000_000.0 == servo.parameters["max_velocity"]
+            raw = int(bits.value)  # low word first in this servo: as a u32 of its word order
+            assert struct.unpack("<f", struct.pack("<I", raw))[0] == 1_000_000.0
+            wv = rig.add(MC_WriteParameter(parameter_number=real, value=250000.5))
+            wv.execute = True
+            rig.until(lambda: wv.done or wv.error)
+            assert wv.done and servo.parameters["max_velocity"] == 250000.5
             assert rig.x.comm_ok
         finally:
             rig.close()
