@@ -387,6 +387,11 @@ def test_drive_number_scheme() -> None:
     m = decode_drive_number(modbus_parameter_number(0x0208, size=2, signed=True))
     assert m is not None and (m.bus, m.index, m.size, m.signed) == ("modbus", 0x0208, 2, True)
     assert modbus_parameter_number(0x0300) == 0x10300
+    r = decode_drive_number(modbus_parameter_number(0x3008, real=True))
+    assert r is not None and (r.index, r.size, r.real) == (0x3008, 4, True)
+    assert coe_parameter_number(0x6085, real=True) == 0x24608500
+    with pytest.raises(ValueError, match="size 4"):
+        coe_parameter_number(0x6085, size=2, real=True)
     for bad in (0, 17, 999, 0xFFFF, 0x20000, 0x3606500, 0x1010300, True, 1.5):
         assert decode_drive_number(bad) is None  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="index"):
