@@ -391,9 +391,9 @@ def _section_range(sec: _Section, k1: float, k2: float, k3: float) -> tuple[floa
             delta = math.atan2(cc, ss)  # ss sin th + cc cos th = r sin(th + delta)
             base = math.asin(max(-1.0, min(1.0, -kk / r)))
             th0, th1 = sec.ph, w * length + sec.ph
-            lo = math.floor((min(th0, th1) + delta - math.pi) / _TWO_PI) - 1
-            hi = math.ceil((max(th0, th1) + delta + math.pi) / _TWO_PI) + 1
-            for n in range(lo, hi + 1):
+            n_lo = math.floor((min(th0, th1) + delta - math.pi) / _TWO_PI) - 1
+            n_hi = math.ceil((max(th0, th1) + delta + math.pi) / _TWO_PI) + 1
+            for n in range(n_lo, n_hi + 1):
                 for psi in (base + n * _TWO_PI, math.pi - base + n * _TWO_PI):
                     t = (psi - delta - sec.ph) / w
                     if 0.0 < t < length:
@@ -566,8 +566,8 @@ class CamTable:
                     (v0 * length, a0 * length**2, j0 * length**3),
                     (v1 * length, a1 * length**2, j1 * length**3),
                 )
-                low = [y0 + cu[0]] + [cu[k] / length**k for k in range(1, len(cu))]
-                secs.append(_section(x0, x1, low, 0.0, 0.0, 0.0))
+                coeffs = [y0 + cu[0]] + [cu[k] / length**k for k in range(1, len(cu))]
+                secs.append(_section(x0, x1, coeffs, 0.0, 0.0, 0.0))
 
         set_ = object.__setattr__
         set_(self, "points", pts)
@@ -607,8 +607,8 @@ class CamTable:
         )
         # exact (min, max) of y', y'', y''' over the table
         ranges = []
-        for k in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
-            rs = [_section_range(s, *k) for s in secs]
+        for k1, k2, k3 in ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)):
+            rs = [_section_range(s, k1, k2, k3) for s in secs]
             ranges.append((min(r[0] for r in rs), max(r[1] for r in rs)))
         set_(self, "_ranges", tuple(ranges))
         set_(self, "peak_slope", max(-ranges[0][0], ranges[0][1]))
