@@ -218,3 +218,56 @@ def test_drive_homing_from_yaml(tmp_path) -> None:  # type: ignore[no-untyped-de
         assert x.position == pytest.approx(-0.01, abs=1e-6) and x.homed
     finally:
         machine.close()
+
+
+class _ServoPeer:
+    """The independent servo of tests/interop stepped in lockstep with the master."""
+
+    def __init__(self, servo: object) -> None:
+        self.servo = servo
+
+    def step(self, t: float) -> int:
+        return self.servo.process_pending()  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize(("method", "home"), [(17, -150_000.0), (18, 150_000.0), (37, 30_000.0)])
+def test_drive_homing_against_the_independent_servo(method: int, home: float) -> None:
+    """Homing by the drive through our master against a drive we did not write (its homing
+    mode written from CiA 402 alone): the shaft ends at the switch's border (or where it
+    stood), the axis position is the home offset."""
+    from tests.interop.canopen_servo import CanopenServo, ServoQuirks
+
+    channel = f"t-{uuid.uuid4()}"
+    servo_bus = can.Bus(interface="virtual", channel=channel)
+    servo = CanopenServo(
+        servo_bus,
+        N,
+        quirks=ServoQuirks(has_homing=True),
+        limit_switches=(-150_000.0, 150_000.0),
+        position=30_000.0,
+    )
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=_ServoPeer(servo))
+    try:
+        spec = HomingSpec(method, 0.4, 0.02, 4.0, offset=OFFSET, timeout=5.0)
+        cfg = CanopenDriveConfig(
+            node_id=N, counts_per_unit=CPU, cycle_time=CYCLE, homing=spec, heartbeat_period=0
+        )
+        drive = CanopenDrive("x", master, cfg)
+        rt = Runtime(cycle=CYCLE, check_invariants=True)
+        x = rt.add_axis("x", v_max=1.0, a_max=10.0, j_max=1000.0, drive=drive)
+        home_fb = MC_Home(axis=x)
+        fbs = [MC_Power(axis=x, enable=True), home_fb]
+        rt.add_task("main", lambda ctx: [fb() for fb in fbs])
+        rt.run(cycles=10)
+        assert x.drive_enabled
+        home_fb.execute = True
+        assert rt.run_until(lambda: home_fb.done or home_fb.error, max_seconds=8.0)
+        assert home_fb.done, home_fb.error_text
+        assert servo.shaft == pytest.approx(home, abs=2.0)
+        assert x.position == pytest.approx(OFFSET, abs=2.0 / CPU) and x.homed
+        assert servo.mode_display == 8
+        rt.run(cycles=20)
+        assert x.state is AxisState.STANDSTILL
+    finally:
+        master.close()
+        servo_bus.shutdown()

@@ -188,3 +188,59 @@ def test_window_abort_and_falling_edge_over_can(can_axis) -> None:  # type: igno
     rig.rt.run(cycles=10)
     assert ab.done and tp2.command_aborted and not tp2.busy
     assert rig.vdrive.device.probe_function & 0x3F00 == 0  # probe 2 switched off on the drive
+
+
+class _ServoPeer:
+    """The independent servo of tests/interop stepped in lockstep with the master."""
+
+    def __init__(self, servo: object) -> None:
+        self.servo = servo
+
+    def step(self, t: float) -> int:
+        return self.servo.process_pending()  # type: ignore[attr-defined]
+
+
+def test_touch_probe_against_the_independent_servo(channel: str) -> None:
+    """MC_TouchProbe through our master against a drive we did not write (its 0x60B8..0x60BB
+    written from CiA 402 alone; it latches the exact crossing of its servo ticks)."""
+    from tests.interop.canopen_servo import CanopenServo, ServoQuirks
+
+    servo_bus = can.Bus(interface="virtual", channel=channel)
+    servo = CanopenServo(
+        servo_bus,
+        N,
+        quirks=ServoQuirks(has_touch_probe=True),
+        probe_marks=(150_000.0, 250_000.0),
+        probe_width=2_000.0,
+    )
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=_ServoPeer(servo))
+    try:
+        drive = CanopenDrive(
+            "x", master, CanopenDriveConfig(node_id=N, counts_per_unit=CPU, heartbeat_period=0)
+        )
+        rt = Runtime(cycle=0.001, check_invariants=True)
+        x = rt.add_axis("x", v_max=1.0, a_max=10.0, j_max=200.0, drive=drive)
+        tp = MC_TouchProbe(axis=x, window_only=True, first_position=0.2, last_position=0.3)
+        tp2 = MC_TouchProbe(axis=x, trigger_input=TriggerRef(1, "falling"))
+        fbs = [MC_Power(axis=x, enable=True), tp, MC_MoveAbsolute(axis=x, position=0.4)]
+        fbs[2].velocity = 0.5
+        rt.add_task("main", lambda ctx: [fb() for fb in fbs])
+        rt.run(cycles=20)
+        assert x.drive_enabled
+        tp.execute = fbs[2].execute = True
+        assert rt.run_until(lambda: tp.done or tp.error, max_seconds=3.0)
+        assert tp.done, tp.error_text
+        # the first mark was outside the window: skipped, the probe re-armed for the second
+        assert tp.recorded_position == pytest.approx(0.25, abs=1.5e-6)
+        # the falling edge on the way back
+        fbs.append(tp2)
+        tp2.execute = True
+        fbs.append(MC_MoveAbsolute(axis=x, position=0.0, velocity=0.5, execute=True))
+        assert rt.run_until(lambda: tp2.done or tp2.error, max_seconds=3.0)
+        assert tp2.done, tp2.error_text
+        assert tp2.recorded_position == pytest.approx(0.25, abs=1.5e-6)  # leaving it downwards
+        writes = [e for e in servo.sdo_log if e.index == 0x60B8 and e.op == "download"]
+        assert writes and all(e.abort_code is None for e in writes)
+    finally:
+        master.close()
+        servo_bus.shutdown()

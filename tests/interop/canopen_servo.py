@@ -60,7 +60,27 @@ Profile area (restored by reset node and ``reboot``)::
                 the constructor's cycle_s (1, -3 for 1 ms), or (0, -3) if not representable
     0x60F4      following error actual value I32 [ro] (demand - actual, position units)
     0x60FF      target velocity I32 [rww] (CSV, position units / s)
-    0x6502      supported drive modes U32 [ro] 0x180 (CSP, CSV; absent with has_6502=False)
+    0x6502      supported drive modes U32 [ro] 0x180 (CSP, CSV; absent with has_6502=False),
+                0x1A0 with quirk has_homing (HM too)
+
+With quirk ``has_homing`` (homing mode, 0x6060 = 6)::
+
+    0x607C      home offset I32 [rw], factory 0 (position units)
+    0x6098      homing method I8 [rw], factory 37; allowed 17, 18, 35, 37
+    0x6099      homing speeds ARRAY: 1 search for switch, 2 search for zero U32 [rw] (position
+                units / s, > 0), factory 10000 / 1000
+    0x609A      homing acceleration U32 [rw] (position units / s^2, > 0), factory 100000
+
+With quirk ``has_touch_probe`` (touch probe 1; all PDO-mappable)::
+
+    0x60B8      touch probe function U16 [rww]: bit 0 enable probe 1, bit 1 continuous (0 =
+                first event), bits 2-3 trigger source (only 00 = probe 1 input; else abort
+                0x06090030), bit 4 / 5 sample the positive / negative edge; bits 8..15 (probe 2)
+                must be 0 (abort 0x06090030)
+    0x60B9      touch probe status U16 [ro]: bit 0 probe 1 enabled, bit 1 positive edge value
+                stored, bit 2 negative edge value stored
+    0x60BA      touch probe 1 positive edge I32 [ro] (position units)
+    0x60BB      touch probe 1 negative edge I32 [ro] (position units)
 
 Scaling: internal increments = position units x (0x608F:1/0x608F:2) x (0x6091:1/0x6091:2) /
 (0x6092:1/0x6092:2); factory 131072/1, 1/1, 131072/1 (one increment per position unit).
@@ -138,13 +158,36 @@ Behaviour
   Entering OPERATION ENABLED sets the demand to the actual position; the next SYNC takes
   0x607A, so a master sends the actual position as target before enabling. |demand - actual|
   above 0x6065 for longer than 0x6066 faults with 0x8611.
-* Modes: 0x6060 accepts 0, 8, 9. After a write the old mode stays active and displayed
-  (0x6061, TPDOs) for ``mode_display_delay`` SDO reads of 0x6061 or SYNCs, counted together.
+* Touch probe 1 (quirk ``has_touch_probe``): the probe 1 input is high while the shaft is on a
+  mark, ``probe_marks[i] <= x <= probe_marks[i] + probe_width`` (internal increments, the
+  shaft's place: homing does not move them). It is sampled against the motion of every servo
+  tick; an edge stores the position where the shaft crossed the mark's border (the exact
+  crossing of the tick's linear motion, in position units) in 0x60BA (rising) / 0x60BB
+  (falling) and sets 0x60B9 bit 1 / 2, if sampling of that edge is enabled and (first-event
+  mode) nothing is stored yet. Setting bit 0 (0 -> 1), or bit 4 / 5 (0 -> 1) while bit 0 is
+  set, arms that edge again (its stored bit clears); bit 0 = 0 switches the probe off (0x60B9
+  = 0).
+* Homing mode (quirk ``has_homing``; 0x6060 = 6): in OPERATION ENABLED a rising edge of
+  controlword bit 4 starts the method of 0x6098, bit 4 = 0 interrupts it (the motor stops at
+  0x609A). Methods (CiA 402): 17 = negative limit switch (search negative at 0x6099:1 until
+  the switch is active, then positive at 0x6099:2; the home position is where the switch
+  becomes inactive), 18 = the same with the positive limit switch, mirrored; 35 and 37 = the
+  current position is the home position. At the home position the motor stops (ramps at
+  0x609A, then returns to it at 0x6099:2) and the position values are set so that the home
+  position is 0x607C. Limit switches: ``limit_switches`` (negative, positive) in internal
+  increments, active at and beyond that place (None = not fitted: homing on it fails).
+  Statusword in homing mode: bit 13 homing error (a method without its switch, 0x6098 not
+  set up), bit 12 homing attained, bit 10 target reached (attained, or not running:
+  interrupted / not started; with an error once the motor stands).
+* Modes: 0x6060 accepts 0, 8, 9 (and 6 with quirk ``has_homing``). After a write the old mode
+  stays active and displayed (0x6061, TPDOs) for ``mode_display_delay`` SDO reads of 0x6061 or
+  SYNCs, counted together.
 
 Public API: ``CanopenServo(bus, node_id, *, quirks, vendor_id, product_code, revision, serial,
-cycle_s, plant, position, device_name)``; ``start(poll_s)``, ``stop()``, ``process_pending()``;
+cycle_s, plant, position, device_name, probe_marks, probe_width, limit_switches)``;
+``start(poll_s)``, ``stop()``, ``process_pending()``;
 ``write_eds(path)``; fault injection ``reboot()``, ``inject_fault(code)``, ``warn(code)``,
-``clear_warning()``, ``stop_heartbeat(stopped)``; views ``nmt_state`` (``NmtState``),
+``clear_warning()``, ``stop_heartbeat(stopped)``; views ``nmt_state`` (``NmtState``), ``shaft``,
 ``cia402_state`` (``Cia402State``), ``statusword``, ``position`` / ``velocity`` (position units,
 unrounded), ``mode_display``, ``error_code``, ``time_s``, ``sync_count``, ``mapping(kind, n)``,
 ``pdo_config(kind, n)`` (``PdoConfig``), ``od_value(index, sub)``, ``sdo_log``
@@ -346,6 +389,8 @@ class ServoQuirks:
             one step (False: to SWITCHED ON only, the next 0x0F enables).
         fault_reaction_syncs: SYNCs spent in FAULT REACTION ACTIVE when a fault hits a powered
             drive (0..1000; 0 = straight to FAULT).
+        has_touch_probe: touch probe 1 (0x60B8..0x60BB, see the module notes).
+        has_homing: homing mode 6 (0x607C, 0x6098, 0x6099, 0x609A, see the module notes).
     """
 
     mode_display_delay: int = 0
@@ -357,6 +402,8 @@ class ServoQuirks:
     rpdo_bit30: bool = False
     enable_from_ready: bool = True
     fault_reaction_syncs: int = 1
+    has_touch_probe: bool = False
+    has_homing: bool = False
 
     def __post_init__(self) -> None:
         for name in ("mode_display_delay", "fault_reaction_syncs"):
@@ -584,6 +631,9 @@ class CanopenServo:
         plant: PlantParams | None = None,
         position: float = 0.0,
         device_name: str = "CS-402 servo drive",
+        probe_marks: tuple[float, ...] = (),
+        probe_width: float = 100.0,
+        limit_switches: tuple[float | None, float | None] = (None, None),
     ) -> None:
         if not isinstance(node_id, int) or not 1 <= node_id <= 127:
             raise ValueError(f"node_id must be an int in [1, 127], got {node_id!r}")
@@ -648,6 +698,17 @@ class CanopenServo:
         self._malformed = 0
         self._pdo_rejects = 0
         self._sync_count = 0
+        if not probe_width > 0.0:
+            raise ValueError(f"probe_width must be > 0, got {probe_width!r}")
+        self._probe_marks = tuple(sorted(float(m) for m in probe_marks))
+        self._probe_width = float(probe_width)
+        self._limits = limit_switches
+        # homing: position values = (x + shift) in position units; the procedure's state
+        self._shift = 0.0
+        self._hm_phase = ""  # "" idle | search | zero | stop | back | error | attained
+        self._hm_home = 0.0  # home position found [inc]
+        self._hm_interrupted = False
+        self._hm_side = -1
         self._x = self._pu_to_inc(position)
         self._power_on()
 
@@ -795,7 +856,21 @@ class CanopenServo:
         self._var(0x60F4, "Following error actual value", I32, "ro", 0, pdo=True)
         self._var(0x60FF, "Target velocity", I32, "rww", 0, pdo=True)
         if q.has_6502:
-            self._var(0x6502, "Supported drive modes", U32, "ro", _SUPPORTED_MODES, pdo=True)
+            modes = _SUPPORTED_MODES | (0x20 if q.has_homing else 0)
+            self._var(0x6502, "Supported drive modes", U32, "ro", modes, pdo=True)
+        if q.has_homing:
+            self._var(0x607C, "Home offset", I32, "rw", 0)
+            self._var(0x6098, "Homing method", I8, "rw", 37)
+            speeds = {0: _Entry("Highest sub-index supported", U8, "const", 2)}
+            speeds[1] = _Entry("Speed during search for switch", U32, "rw", 10000, low=1)
+            speeds[2] = _Entry("Speed during search for zero", U32, "rw", 1000, low=1)
+            self._add(0x6099, "Homing speeds", _ARRAY, speeds)
+            self._var(0x609A, "Homing acceleration", U32, "rw", 100000, low=1)
+        if q.has_touch_probe:
+            self._var(0x60B8, "Touch probe function", U16, "rww", 0, pdo=True)
+            self._var(0x60B9, "Touch probe status", U16, "ro", 0, pdo=True)
+            self._var(0x60BA, "Touch probe pos1 pos value", I32, "ro", 0, pdo=True)
+            self._var(0x60BB, "Touch probe pos1 neg value", I32, "ro", 0, pdo=True)
 
     def _mapping_record(self, index: int, name: str, entries: list[int]) -> None:
         subs = {0: _Entry("Number of mapped objects", UNSIGNED8, "rw", len(entries))}
@@ -840,10 +915,10 @@ class CanopenServo:
         return -1.0 if self._raw(0x607E) & 0x40 else 1.0
 
     def _pu_to_inc(self, pu: float) -> float:
-        return self._pos_sign() * pu * self._factor()
+        return self._pos_sign() * pu * self._factor() - self._shift
 
     def _inc_to_pu(self, inc: float) -> float:
-        return self._pos_sign() * inc / self._factor()
+        return self._pos_sign() * (inc + self._shift) / self._factor()
 
     def _cycle_us(self) -> int:
         if self._quirks.has_1006 and self._raw(0x1006):
@@ -869,6 +944,14 @@ class CanopenServo:
             window = self._raw(0x6067)
             if abs(self._raw(0x607A) - self._clamp_i32(self._inc_to_pu(self._x))) <= window:
                 sw |= 0x0400
+        if self._state is _S.OPERATION_ENABLED and self._mode_active == 6:
+            phase = self._hm_phase
+            if phase == "attained":
+                sw |= 0x1400
+            elif phase == "error":
+                sw |= 0x2000 | (0x0400 if self._v == 0.0 else 0)
+            elif phase == "" or self._hm_interrupted:
+                sw |= 0x0400
         if self._fe_exceeded and self._state in (
             _S.OPERATION_ENABLED,
             _S.QUICK_STOP_ACTIVE,
@@ -889,6 +972,8 @@ class CanopenServo:
             return self._clamp_i32(self._inc_to_pu(self._demand) - self._inc_to_pu(self._x))
         if index == 0x6061:
             return self._mode_active
+        if index == 0x60B9:
+            return self._probe_status()
         if index == 0x603F:
             return self._error_code
         if index == 0x1001:
@@ -1031,7 +1116,7 @@ class CanopenServo:
         self._apply_controlword(value)
 
     def _w_mode(self, index: int, sub: int, value: int) -> None:
-        if value not in _MODES_ALLOWED:
+        if value not in _MODES_ALLOWED and not (value == 6 and self._quirks.has_homing):
             raise _AbortError(ABORT_RANGE)
         entry = self._od[index].entries[sub]
         requested, entry.value = entry.value, value
@@ -1043,6 +1128,28 @@ class CanopenServo:
             self._activate_mode(value)
         else:
             self._mode_delay = self._quirks.mode_display_delay
+
+    def _w_homing_method(self, index: int, sub: int, value: int) -> None:
+        if value not in (17, 18, 35, 37):
+            raise _AbortError(ABORT_RANGE)
+        self._od[index].entries[sub].value = value
+
+    def _w_probe_function(self, index: int, sub: int, value: int) -> None:
+        if value & 0xFF00 or (value & 0x01 and value & 0x0C):
+            raise _AbortError(ABORT_RANGE)  # probe 2, or a trigger source other than input 1
+        entry = self._od[index].entries[sub]
+        old, entry.value = entry.value, value
+        status = self._od[0x60B9].entries[0]
+        if not value & 0x01:
+            status.value = 0
+            return
+        stored = status.value & 0x06
+        switched_on = not old & 0x01
+        if value & 0x10 and (switched_on or not old & 0x10):
+            stored &= ~0x02
+        if value & 0x20 and (switched_on or not old & 0x20):
+            stored &= ~0x04
+        status.value = 0x01 | stored
 
     def _w_quick_stop_option(self, index: int, sub: int, value: int) -> None:
         if value not in _QUICK_STOP_OPTIONS:
@@ -1077,11 +1184,20 @@ class CanopenServo:
         0x608F: _w_scaling,
         0x6091: _w_scaling,
         0x6092: _w_scaling,
+        0x6098: _w_homing_method,
+        0x60B8: _w_probe_function,
     }
 
     # ------------------------------------------------------------------ CiA 402
     def _apply_controlword(self, cw: int) -> None:
         rising = bool(cw & 0x80) and not self._cw_prev & 0x80
+        if self._quirks.has_homing and self._mode_active == 6:
+            start = bool(cw & 0x10) and not self._cw_prev & 0x10
+            if start and self._state is _S.OPERATION_ENABLED and cw & 0x0F == 0x0F:
+                self._homing_start()
+            elif not cw & 0x10 and self._hm_phase in ("search", "zero", "stop", "back"):
+                self._hm_interrupted = True
+                self._hm_phase = "stop"
         self._cw_prev = cw
         state = self._state
         if state is _S.FAULT:
@@ -1124,6 +1240,8 @@ class CanopenServo:
         self._mode_delay = 0
         if mode != self._mode_active:
             self._mode_active = mode
+            self._hm_phase = ""
+            self._hm_interrupted = False
             self._d0 = self._d1 = self._demand = self._x
 
     def _mode_tick(self) -> None:
@@ -1166,6 +1284,9 @@ class CanopenServo:
         window = self._raw(0x6065)
         timeout_us = self._raw(0x6066) * 1000
         mode = self._mode_active
+        if state is _S.OPERATION_ENABLED and mode == 6:
+            self._homing_advance(dt_us)
+            return
         if state is _S.OPERATION_ENABLED and mode in (8, 9):
             csp = mode == 8
             if csp:
@@ -1183,7 +1304,9 @@ class CanopenServo:
                     v_cmd = v_target
                 self._v += (v_cmd - self._v) * alpha
                 self._v = max(-p.v_max, min(p.v_max, self._v))
+                x0 = self._x
                 self._x += self._v * h
+                self._probe_sample(x0, self._x)
                 if not csp:
                     continue
                 exceeded = window != 0xFFFFFFFF and abs(d - self._x) / factor > window
@@ -1204,9 +1327,126 @@ class CanopenServo:
             for _ in range(m):
                 step = dec * h
                 self._v = 0.0 if abs(self._v) <= step else self._v - math.copysign(step, self._v)
+                x0 = self._x
                 self._x += self._v * h
+                self._probe_sample(x0, self._x)
             if state is not _S.OPERATION_ENABLED or self._v == 0.0:
                 self._d0 = self._d1 = self._demand = self._x
+
+    # ------------------------------------------------------------------ touch probe
+    def _probe_high(self, x: float) -> bool:
+        w = self._probe_width
+        return any(m <= x <= m + w for m in self._probe_marks)
+
+    def _probe_status(self) -> int:
+        if not self._quirks.has_touch_probe:
+            return 0
+        return self._raw(0x60B9)
+
+    def _probe_sample(self, x0: float, x1: float) -> None:
+        """One servo tick moved the shaft from x0 to x1 (linearly): store probe 1 edges."""
+        if not self._quirks.has_touch_probe or x0 == x1:
+            return
+        function = self._raw(0x60B8)
+        if not function & 0x01:
+            return
+        status = self._od[0x60B9].entries[0]
+        lo, hi = min(x0, x1), max(x0, x1)
+        borders = sorted(
+            b
+            for m in self._probe_marks
+            for b in (m, m + self._probe_width)
+            if lo < b <= hi or (lo <= b < hi and x1 < x0)
+        )
+        if x1 < x0:
+            borders.reverse()
+        level = self._probe_high(x0)
+        for b in borders:
+            after = self._probe_high(b + (1e-6 if x1 > x0 else -1e-6))
+            if after == level:
+                continue
+            level = after
+            bit, index, sample = (0x02, 0x60BA, 0x10) if after else (0x04, 0x60BB, 0x20)
+            if not function & sample:
+                continue
+            if status.value & bit and not function & 0x02:
+                continue  # first event mode: the first value stays
+            self._od[index].entries[0].value = self._clamp_i32(self._inc_to_pu(b))
+            status.value |= bit
+
+    # ------------------------------------------------------------------ homing
+    def _limit_active(self, side: int, x: float) -> bool:
+        place = self._limits[0 if side < 0 else 1]
+        if place is None:
+            return False
+        return x <= place if side < 0 else x >= place
+
+    def _homing_start(self) -> None:
+        self._hm_interrupted = False
+        method = self._raw(0x6098)
+        if method in (35, 37):
+            self._hm_home = self._x
+            self._homing_attained()
+            return
+        side = -1 if method == 17 else 1
+        if self._limits[0 if side < 0 else 1] is None:
+            self._hm_phase = "error"
+            return
+        self._hm_side = side
+        self._hm_phase = "zero" if self._limit_active(side, self._x) else "search"
+
+    def _homing_attained(self) -> None:
+        """The motor rests at the home position: it becomes 0x607C."""
+        self._v = 0.0
+        self._x = self._hm_home
+        offset_inc = self._pos_sign() * self._raw(0x607C) * self._factor()
+        self._shift = offset_inc - self._x
+        self._d0 = self._d1 = self._demand = self._x
+        self._hm_phase = "attained"
+
+    def _homing_advance(self, dt_us: int) -> None:
+        """One communication cycle of the homing procedure (velocity profile at 0x609A)."""
+        m = self._plant.substeps
+        h = dt_us * 1e-6 / m
+        factor = self._factor()
+        acc = self._raw(0x609A) * factor
+        fast = self._raw(0x6099, 1) * factor
+        slow = self._raw(0x6099, 2) * factor
+        for _ in range(m):
+            phase = self._hm_phase
+            if phase == "search":
+                v_goal = self._hm_side * fast
+            elif phase == "zero":
+                v_goal = -self._hm_side * slow
+            elif phase == "back":
+                dist = self._hm_home - self._x
+                v_goal = math.copysign(min(slow, math.sqrt(2.0 * acc * abs(dist))), dist)
+            else:
+                v_goal = 0.0
+            dv = acc * h
+            self._v = (
+                v_goal
+                if abs(v_goal - self._v) <= dv
+                else self._v + math.copysign(dv, v_goal - self._v)
+            )
+            x0 = self._x
+            self._x += self._v * h
+            self._probe_sample(x0, self._x)
+            if phase == "search" and self._limit_active(self._hm_side, self._x):
+                self._hm_phase = "zero"
+            elif phase == "zero" and not self._limit_active(self._hm_side, self._x):
+                place = self._limits[0 if self._hm_side < 0 else 1]
+                assert place is not None
+                self._hm_home = place  # the switch's border: where it became inactive
+                self._hm_phase = "stop"
+            elif phase == "stop" and self._v == 0.0:
+                self._hm_phase = "" if self._hm_interrupted else "back"
+            elif phase == "back" and (
+                abs(self._hm_home - self._x) <= 1e-9 * (1.0 + abs(self._x))
+                or (self._hm_home - x0) * (self._hm_home - self._x) <= 0.0
+            ):
+                self._homing_attained()
+        self._d0 = self._d1 = self._demand = self._x
 
     # ------------------------------------------------------------------ frames out
     def _send(self, can_id: int, data: bytes, *, remote: bool = False) -> None:
@@ -1783,6 +2023,13 @@ class CanopenServo:
         """Actual position in position units (unrounded)."""
         with self._lock:
             return self._inc_to_pu(self._x)
+
+    @property
+    def shaft(self) -> float:
+        """The shaft's place in internal increments (where the marks and limit switches are;
+        homing does not change it)."""
+        with self._lock:
+            return self._x
 
     @property
     def velocity(self) -> float:
