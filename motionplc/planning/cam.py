@@ -37,6 +37,7 @@ degree <= 7 (``B = 0``) or of degree <= 2 (the sinusoidal pieces of the trigonom
 from __future__ import annotations
 
 import math
+import numbers
 from bisect import bisect_right
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -407,7 +408,7 @@ def _section_range(sec: _Section, k1: float, k2: float, k3: float) -> tuple[floa
 
 
 def _num(value: Any, index: int, name: str, bound: float) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise CamTableError(
             f"points[{index}].{name}: must be a number in [{-bound:g}, {bound:g}], got {value!r}",
             index,
@@ -570,7 +571,12 @@ class CamTable:
                 secs.append(_section(x0, x1, coeffs, 0.0, 0.0, 0.0))
 
         set_ = object.__setattr__
-        set_(self, "points", pts)
+        # the validated values (floats), so that equal tables compare and hash equal
+        set_(
+            self,
+            "points",
+            tuple(CamPoint(xs[i], ys[i], slopes[i], curvs[i], p.law) for i, p in enumerate(pts)),
+        )
         set_(self, "laws", tuple(laws))
         set_(self, "periodic", bool(self.periodic))
         set_(self, "master_start", xs[0])
@@ -745,8 +751,13 @@ class CamTable:
                         p.get("law"),
                     )
                 )
-            elif isinstance(p, Sequence) and not isinstance(p, str) and 2 <= len(p) <= 4:
-                pts.append(CamPoint(*p))  # type: ignore[arg-type]
+            elif (
+                isinstance(p, (Sequence, np.ndarray))
+                and not isinstance(p, str)
+                and np.ndim(p) == 1
+                and 2 <= len(p) <= 4
+            ):
+                pts.append(CamPoint(*p))
             else:
                 raise CamTableError(
                     f"points[{i}]: must be [master, slave], [master, slave, slope], "

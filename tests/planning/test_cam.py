@@ -388,6 +388,14 @@ def test_malformed_tables(
     assert isinstance(ei.value, ValueError) and isinstance(ei.value, PlanningError)
 
 
+def test_numpy_points() -> None:
+    arr = np.array([[0.0, 0.0], [1.0, 2.0], [2.0, 2.0]], dtype=np.float32)
+    t = CamTable.from_points(arr, law="cycloid")
+    assert t == CamTable.from_points([(0, 0), (1, 2), (2, 2)], law="cycloid")
+    with pytest.raises(CamTableError, match=r"points\[1\]\.slave: must be a number"):
+        CamTable.from_points([(0, 0), (1, np.bool_(True))])
+
+
 def test_direct_constructor_checks_points() -> None:
     with pytest.raises(CamTableError, match=r"points\[1\]: must be a CamPoint"):
         CamTable((CamPoint(0, 0), (1, 1)))  # type: ignore[arg-type]
