@@ -1,7 +1,8 @@
 """CamTable: the VDI 2143 motion laws against their published characteristic values and
-closed forms, the Hermite laws against numpy.polynomial, derivatives against finite
-differences, C2 continuity at every interior point over random tables (hypothesis), the
-boundary-condition rules, the peaks against dense sampling, and every malformed table.
+closed forms, the Hermite laws against numpy.polynomial and scipy's BPoly, derivatives
+against finite differences, C2 continuity at every interior point over random tables
+(hypothesis), the boundary-condition rules, the peaks against dense sampling, and every
+malformed table.
 
 Published characteristic values (dimensionless peaks Cv = max s', Ca = max |s''|,
 Cj = max |s'''| of the normalised law s(u), u, s in [0, 1]):
@@ -204,6 +205,35 @@ def test_hermite_laws_against_numpy_polynomial(law: str) -> None:
             for k in range(4):
                 want = peer.deriv(k)(tt) if k else peer(tt)
                 assert got[k] == pytest.approx(want, abs=1e-10 * 10**k)
+
+
+@given(
+    st.lists(
+        st.tuples(st.floats(0.05, 2.0), st.floats(-3, 3), st.floats(-2, 2), st.floats(-10, 10)),
+        min_size=2,
+        max_size=8,
+    ),
+    st.sampled_from(FLEXIBLE_LAWS),
+)
+@hsettings(40)
+def test_hermite_tables_against_scipy_bpoly(rows: list[tuple], law: str) -> None:
+    """scipy's BPoly.from_derivatives (Bernstein-basis Hermite interpolation) is an
+    independent implementation of the same piecewise polynomial: position, slope, curvature
+    (and zero jerk for poly7) given at every point."""
+    interpolate = pytest.importorskip("scipy.interpolate")
+    xs = np.cumsum([0.0] + [r[0] for r in rows[1:]])
+    pts = [CamPoint(float(x), r[1], r[2], r[3]) for x, r in zip(xs, rows, strict=True)]
+    t = CamTable(tuple(pts), (law,))
+    extra = [0.0] if law == "poly7" else []
+    peer = interpolate.BPoly.from_derivatives(
+        xs, [[p.slave, p.slope, p.curvature, *extra] for p in pts]
+    )
+    grid = np.linspace(xs[0], xs[-1], 2001)
+    s = t.sample(grid)
+    for k, got in enumerate((s.y, s.dy, s.d2y, s.d3y)):
+        want = peer(grid, nu=k)
+        scale = 1.0 + float(np.max(np.abs(want)))
+        assert float(np.max(np.abs(got - want))) <= 1e-9 * scale
 
 
 def test_linear_neighbours_give_their_slope_to_poly5() -> None:
