@@ -41,6 +41,7 @@ import numbers
 from bisect import bisect_right
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -184,37 +185,41 @@ def _norm_law(raw: Sequence[tuple[float, float, float, float, float]]) -> tuple[
 
 
 _PI = math.pi
-_TRIG_LAWS: dict[str, tuple[_NormSection, ...]] = {
-    # s'' = 2 pi sin(2 pi u): Cv 2, Ca 2 pi, Cj 4 pi^2
-    "cycloid": _norm_law([(0.0, 0.0, 1.0, _TWO_PI, 0.0)]),
-    # s = (1 - cos pi u) / 2: Cv pi/2, Ca pi^2/2 (at the ends: a jump from rest)
-    "harmonic": _norm_law([(0.0, 0.0, 1.0, _PI, _PI / 2.0)]),
-    # modified sine: quarter sine waves of period 1/2 at the ends, a sine of period 3/2 between
-    "modified_sine": _norm_law(
-        [
-            (0.0, 0.0, 1.0, 4.0 * _PI, 0.0),
-            (0.125, 0.0, 1.0, 4.0 * _PI / 3.0, _PI / 3.0),
-            (0.875, 0.0, 1.0, 4.0 * _PI, 0.0),
-        ]
-    ),
-    # modified trapezoid: sine ramps (period 1/2) and constant acceleration plateaus
-    "modified_trapezoid": _norm_law(
-        [
-            (0.0, 0.0, 1.0, 4.0 * _PI, 0.0),
-            (0.125, 1.0, 0.0, 0.0, 0.0),
-            (0.375, 0.0, 1.0, 4.0 * _PI, -_PI),
-            (0.625, -1.0, 0.0, 0.0, 0.0),
-            (0.875, 0.0, 1.0, 4.0 * _PI, 0.0),
-        ]
-    ),
-}
+_TRIG_LAWS: Mapping[str, tuple[_NormSection, ...]] = MappingProxyType(
+    {
+        # s'' = 2 pi sin(2 pi u): Cv 2, Ca 2 pi, Cj 4 pi^2
+        "cycloid": _norm_law([(0.0, 0.0, 1.0, _TWO_PI, 0.0)]),
+        # s = (1 - cos pi u) / 2: Cv pi/2, Ca pi^2/2 (at the ends: a jump from rest)
+        "harmonic": _norm_law([(0.0, 0.0, 1.0, _PI, _PI / 2.0)]),
+        # modified sine: quarter sine waves of period 1/2 at the ends, a sine of period 3/2 between
+        "modified_sine": _norm_law(
+            [
+                (0.0, 0.0, 1.0, 4.0 * _PI, 0.0),
+                (0.125, 0.0, 1.0, 4.0 * _PI / 3.0, _PI / 3.0),
+                (0.875, 0.0, 1.0, 4.0 * _PI, 0.0),
+            ]
+        ),
+        # modified trapezoid: sine ramps (period 1/2) and constant acceleration plateaus
+        "modified_trapezoid": _norm_law(
+            [
+                (0.0, 0.0, 1.0, 4.0 * _PI, 0.0),
+                (0.125, 1.0, 0.0, 0.0, 0.0),
+                (0.375, 0.0, 1.0, 4.0 * _PI, -_PI),
+                (0.625, -1.0, 0.0, 0.0, 0.0),
+                (0.875, 0.0, 1.0, 4.0 * _PI, 0.0),
+            ]
+        ),
+    }
+)
 del _PI
 
 # Rest-to-rest polynomials (coefficients of u^0 .. u^n), exact integers.
-_POLY_REST: dict[str, tuple[float, ...]] = {
-    "poly5": (0.0, 0.0, 0.0, 10.0, -15.0, 6.0),
-    "poly7": (0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0),
-}
+_POLY_REST: Mapping[str, tuple[float, ...]] = MappingProxyType(
+    {
+        "poly5": (0.0, 0.0, 0.0, 10.0, -15.0, 6.0),
+        "poly7": (0.0, 0.0, 0.0, 0.0, 35.0, -84.0, 70.0, -20.0),
+    }
+)
 
 
 def _norm_ends(law: str) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
@@ -241,7 +246,7 @@ def _norm_ends(law: str) -> tuple[tuple[float, float, float], tuple[float, float
     return (0.0, snap(start[1]), start[2]), (0.0, snap(end[1]), end[2])
 
 
-_TRIG_ENDS = {law: _norm_ends(law) for law in _TRIG_LAWS}
+_TRIG_ENDS = MappingProxyType({law: _norm_ends(law) for law in _TRIG_LAWS})
 
 
 # --------------------------------------------------------------------------------------------
