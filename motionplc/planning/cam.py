@@ -24,10 +24,17 @@ segment) is refused with a :class:`CamTableError` naming the point, the field an
 Curvature jumps that the laws force (``harmonic`` next to a rest) are allowed and reported
 (:attr:`CamTable.curvature_jumps`, :meth:`CamTable.periodic_gaps`).
 
-Evaluation: :meth:`CamTable.at` (plain floats, a few microseconds; the cycle calls it),
-:meth:`CamTable.sample` (vectorised), :meth:`CamTable.slave_peaks` (the exact maxima of the
-slave's |v|, |a|, |j| over the table for a master moving at a given velocity, acceleration and
-jerk).
+With ``periodic=True`` the first and last point are resolved as one point, so that the table
+repeats C2 where the laws allow (a lift ``slave_end - slave_start`` is allowed: the slave
+advances by it every period).
+
+Evaluation: :meth:`CamTable.at` (plain floats, about 1 microsecond; the cycle calls it),
+:meth:`CamTable.sample` (vectorised), :meth:`CamTable.slave_bounds` /
+:meth:`CamTable.slave_peaks` (the exact signed extremes / maxima of the slave's velocity,
+acceleration and jerk over the table for a master moving at a given velocity, acceleration and
+jerk: every section's ends and the roots of the derivative), :meth:`CamTable.slave_peaks_bound`
+(a cheap monotone upper bound of the peaks for per-cycle supervision) and
+:meth:`CamTable.periodic_gaps` (what a periodic use sees at the seam).
 
 Internally every segment is split into sections on which
 ``y(t) = P(t) + B sin(W t + phi)``, ``t = x - x_section_start``, with ``P`` a polynomial of
