@@ -23,8 +23,11 @@ plus a jerk-limited *catch-up* term:
   is exactly ``law(m_seen)`` (GearIn: ``c + r * m`` with ``c`` the end of ``d``) with zero
   position error to rounding.
 * ``phase``: MC_PhasingAbsolute / MC_PhasingRelative shift the master position the slave sees
-  along a jerk-limited profile (their Velocity, Acceleration, Deceleration, Jerk); the slave
-  stays synchronised. The phase belongs to the coupling: a new coupling starts with phase 0.
+  along a jerk-limited profile (their Velocity, Acceleration, Deceleration, Jerk; 0: the
+  master's limits, at most what the slave's limits leave beside the law at the master's
+  limits), from the step after the request, or once locked when requested during the catch-up;
+  the slave stays synchronised. The phase belongs to the coupling: a new coupling starts with
+  phase 0.
 
 Master values: ``Source.SET_VALUE`` (and COMMANDED_VALUE, treated alike) uses the master's set
 values of this cycle: the runtime steps a master before its slaves in the same task
@@ -359,7 +362,9 @@ class SyncJob(AxisJob):
         out = self._step(tau)
         if out is None:  # the coupling failed in this step: its successor runs
             return self._successor(tau)
-        if self.ph_req is not None:  # a new phase shift, from this step on
+        if self.ph_req is not None and self.stage == _LOCKED:
+            # a new phase shift, from this step on (requested during the catch-up: once locked,
+            # so that both fit into the slave's limits)
             self._start_phasing(tau)
         # phasing progress
         ph_h = self.ph_handle

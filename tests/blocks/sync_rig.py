@@ -51,7 +51,16 @@ class Rig:
 
     def _record(self, rt: Runtime, cycle: int) -> None:
         m, s = self.m, self.s
-        self.rows.append((m.p, m.v, m.a, s.p, s.v, s.a, float(s.state)))
+        act = s.active
+        # the coupling locked in this cycle's kernel step (FB outputs show it one scan later)
+        locked = (
+            act is not None
+            and act.sync
+            and getattr(act, "stage", 0) == 2
+            and not act.handle.terminal
+            and act.kind in ("gear", "gearpos", "cam")
+        )
+        self.rows.append((m.p, m.v, m.a, s.p, s.v, s.a, float(s.state), float(locked)))
         self.flags.append({k: getattr(fb, out) for k, (fb, out) in self.watch.items()})
 
     def add(self, *fbs: Any) -> Any:
@@ -66,8 +75,12 @@ class Rig:
         return self
 
     def trace(self) -> np.ndarray:
-        """Columns: m.p, m.v, m.a, s.p, s.v, s.a, s.state (one row per cycle)."""
+        """Columns: m.p, m.v, m.a, s.p, s.v, s.a, s.state, locked (one row per cycle)."""
         return np.array(self.rows)
+
+    def locked(self) -> np.ndarray:
+        """Per cycle: the slave's coupling was locked (InGear / InSync) after the kernel step."""
+        return self.trace()[:, 7] > 0.0
 
     def flag(self, name: str) -> np.ndarray:
         return np.array([f.get(name, False) for f in self.flags], dtype=bool)

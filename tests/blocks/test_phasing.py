@@ -32,7 +32,7 @@ def test_phasing_absolute_shifts_the_master_the_slave_sees() -> None:
     ph = rig.add(
         MC_PhasingAbsolute(master=rig.m, slave=rig.s, phase_shift=0.2, velocity=0.5, execute=True)
     )
-    rig.run(2)
+    rig.run(3)
     assert ph.busy and ph.active and rig.s.state is S.SYNCHRONIZED_MOTION
     assert 0.0 < ph.absolute_phase_shift < 0.2
     rig.run(2000)
