@@ -437,6 +437,54 @@ def _num(value: Any, index: int, name: str, bound: float) -> float:
     return v
 
 
+def _spline_slopes(
+    xs: list[float], ys: list[float], bcs: list[tuple[float, float, float]], free: list[bool]
+) -> None:
+    """Give every run of free points the slope and curvature of the C2 cubic spline through
+    the points, clamped to the slopes of the points that bound the run (in place)."""
+    n = len(xs)
+    i = 1
+    while i < n - 1:
+        if not free[i]:
+            i += 1
+            continue
+        a = i - 1
+        b = i
+        while free[b]:
+            b += 1
+        # unknown slopes m[a+1 .. b-1]; h_k m_{k-1} + 2 (h_{k-1} + h_k) m_k + h_{k-1} m_{k+1}
+        # = 3 (h_k d_{k-1} + h_{k-1} d_k), the Thomas algorithm (diagonally dominant)
+        ks = range(a + 1, b)
+        h = [xs[k + 1] - xs[k] for k in range(a, b)]
+        d = [(ys[k + 1] - ys[k]) / (xs[k + 1] - xs[k]) for k in range(a, b)]
+        diag, upper, rhs = [], [], []
+        for j, k in enumerate(ks):
+            hl, hr = h[j], h[j + 1]
+            lo_c, di, up = hr, 2.0 * (hl + hr), hl
+            r = 3.0 * (hr * d[j] + hl * d[j + 1])
+            if k == a + 1:
+                r -= lo_c * bcs[a][0]
+            if k == b - 1:
+                r -= up * bcs[b][0]
+            if j:
+                w = lo_c / diag[-1]
+                di -= w * upper[-1]
+                r -= w * rhs[-1]
+            diag.append(di)
+            upper.append(up)
+            rhs.append(r)
+        m = [0.0] * len(diag)
+        m[-1] = rhs[-1] / diag[-1]  # its upper term (the known m_b) is in rhs
+        for j in range(len(diag) - 2, -1, -1):
+            m[j] = (rhs[j] - upper[j] * m[j + 1]) / diag[j]
+        slopes = [bcs[a][0], *m, bcs[b][0]]
+        for j, k in enumerate(ks, start=1):
+            hk, dk = h[j], d[j]
+            curv = (6.0 * dk - 4.0 * slopes[j] - 2.0 * slopes[j + 1]) / hk
+            bcs[k] = (slopes[j], curv, 0.0)
+        i = b
+
+
 def _close(a: float, b: float) -> bool:
     return math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
 
@@ -455,7 +503,11 @@ class CamTable:
     long), ``laws`` (one per segment, from :data:`LAWS`; a point's own ``law`` wins over the
     entry here), ``periodic`` (resolve the first and last point's slope and curvature together,
     as one point, so that the table repeats C2 where the laws allow; the lift
-    ``slave_end - slave_start`` may be non-zero), ``name`` (for messages).
+    ``slave_end - slave_start`` may be non-zero), ``name`` (for messages), ``smooth``
+    (interior points without an explicit slope or curvature between two poly5 / poly7 segments
+    are not at rest but get the slope and curvature of the C2 cubic spline through the points,
+    clamped to the slopes of the nearest other points: on segments between two such points the
+    poly5 is that cubic; for point lists measured or taken from a drawing).
     Construction validates everything and raises :class:`CamTableError` (a ``ValueError``)
     naming the point index, the field and the allowed range.
 
@@ -468,6 +520,7 @@ class CamTable:
     laws: tuple[str, ...] = ()
     periodic: bool = False
     name: str = ""
+    smooth: bool = False
     # derived
     master_start: float = field(init=False, compare=False)
     master_end: float = field(init=False, compare=False)
@@ -552,6 +605,16 @@ class CamTable:
                 bcs[i] = bc
             if jump is not None and grp[0] != 0:
                 jumps.append((grp[0], jump))
+        if self.smooth:
+            free = [
+                0 < i < n - 1
+                and slopes[i] is None
+                and curvs[i] is None
+                and laws[i - 1] in FLEXIBLE_LAWS
+                and laws[i] in FLEXIBLE_LAWS
+                for i in range(n)
+            ]
+            _spline_slopes(xs, ys, bcs, free)
 
         secs: list[_Section] = []
         for s in range(n - 1):
@@ -733,11 +796,13 @@ class CamTable:
         laws: Sequence[str] | None = None,
         periodic: bool = False,
         name: str = "",
+        smooth: bool = False,
     ) -> CamTable:
         """A table from points given as :class:`CamPoint`, ``(master, slave[, slope[,
         curvature]])`` sequences or mappings with the keys ``master``, ``slave`` and optionally
         ``slope``, ``curvature``, ``law``; ``law`` is the default law of every segment,
-        ``laws`` (one per segment) overrides it, a point's own law overrides both."""
+        ``laws`` (one per segment) overrides it, a point's own law overrides both;
+        ``periodic`` and ``smooth`` as for :class:`CamTable`."""
         pts: list[CamPoint] = []
         for i, p in enumerate(points):
             if isinstance(p, CamPoint):
@@ -781,7 +846,7 @@ class CamTable:
             given: tuple[str, ...] = tuple(laws)
         else:
             given = (law,)
-        return cls(tuple(pts), given, periodic, name)
+        return cls(tuple(pts), given, periodic, name, smooth)
 
     # ---- evaluation --------------------------------------------------------------------
 

@@ -236,6 +236,60 @@ def test_hermite_tables_against_scipy_bpoly(rows: list[tuple], law: str) -> None
         assert float(np.max(np.abs(got - want))) <= 1e-9 * scale
 
 
+@given(
+    st.lists(st.tuples(st.floats(0.05, 2.0), st.floats(-3, 3)), min_size=3, max_size=12),
+    st.floats(-2, 2),
+    st.floats(-2, 2),
+)
+@hsettings(40)
+def test_smooth_points_follow_the_clamped_cubic_spline(
+    rows: list[tuple[float, float]], m0: float, m1: float
+) -> None:
+    """``smooth``: the free interior points get the slope and curvature of the clamped cubic
+    spline through the points (scipy's CubicSpline as the peer); between two free points the
+    table is that cubic; the table is C2 everywhere."""
+    interpolate = pytest.importorskip("scipy.interpolate")
+    xs = np.cumsum([0.0] + [r[0] for r in rows[1:]])
+    ys = [r[1] for r in rows]
+    pts = [CamPoint(float(xs[0]), ys[0], m0)]
+    pts += [CamPoint(float(x), y) for x, y in zip(xs[1:-1], ys[1:-1], strict=True)]
+    pts += [CamPoint(float(xs[-1]), ys[-1], m1)]
+    t = CamTable(tuple(pts), ("poly5",), smooth=True)
+    peer = interpolate.CubicSpline(xs, ys, bc_type=((1, m0), (1, m1)))
+    scale = 1.0 + float(np.max(np.abs(peer(xs, 1)))) + float(np.max(np.abs(peer(xs, 2))))
+    for i in range(1, len(xs) - 1):
+        slope, curv = t.boundary[i]
+        assert slope == pytest.approx(float(peer(xs[i], 1)), abs=1e-9 * scale)
+        assert curv == pytest.approx(float(peer(xs[i], 2)), abs=1e-8 * scale)
+    if len(xs) >= 4:  # segments between free points: the cubic itself
+        grid = np.linspace(xs[1], xs[-2], 501)
+        s = t.sample(grid)
+        assert float(np.max(np.abs(s.y - peer(grid)))) <= 1e-9 * (1 + scale)
+    assert t.c2
+    for x in xs[1:-1]:
+        a, b = t.at(float(x)), t.at(math.nextafter(float(x), -math.inf))
+        assert a[2] == pytest.approx(b[2], abs=1e-8 * scale)
+
+
+def test_smooth_keeps_constrained_points() -> None:
+    """Explicit slopes, rigid neighbours and the ends follow the usual rules; only free runs
+    are splined (each clamped to its own ends)."""
+    t = CamTable.from_points(
+        [(0, 0), (1, 1), (2, 1.5, 0.0), (3, 1.0), (4, 0.0), (5, 0.0), (6, 0.5), (7, 0.2)],
+        laws=["poly5", "poly5", "poly5", "poly5", "cycloid", "poly5", "poly5"],
+        smooth=True,
+    )
+    assert t.boundary[0] == (0.0, 0.0) and t.boundary[-1] == (0.0, 0.0)
+    assert t.boundary[2] == (0.0, 0.0)  # explicit slope 0, curvature at rest
+    assert t.boundary[4] == (0.0, 0.0) and t.boundary[5] == (0.0, 0.0)  # cycloid's ends
+    assert t.boundary[1][0] > 0 and t.boundary[3][0] < 0 and t.boundary[6][0] != 0
+    rest = CamTable.from_points(
+        [(0, 0), (1, 1), (2, 1.5, 0.0), (3, 1.0), (4, 0.0), (5, 0.0), (6, 0.5), (7, 0.2)],
+        laws=["poly5", "poly5", "poly5", "poly5", "cycloid", "poly5", "poly5"],
+    )
+    assert rest.boundary[1] == (0.0, 0.0) and rest != t
+
+
 def test_linear_neighbours_give_their_slope_to_poly5() -> None:
     """A constant-velocity section entered and left through poly5: C2, slope taken over."""
     t = CamTable.from_points(
