@@ -512,7 +512,7 @@ def tables(draw: st.DrawFn) -> tuple[CamTable, list[CamPoint]]:
         slope = draw(st.one_of(st.none(), st.floats(-3, 3))) if free else None
         curv = draw(st.one_of(st.none(), st.floats(-20, 20))) if free else None
         pts.append(CamPoint(xs[i], ys[i], slope, curv))
-    return CamTable(tuple(pts), tuple(laws)), pts
+    return CamTable(tuple(pts), tuple(laws), smooth=draw(st.booleans())), pts
 
 
 @given(tables())
