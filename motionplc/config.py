@@ -520,6 +520,7 @@ class SimulationSpec:
     home_switch: tuple[float, float] | None = None
     index_pitch: float | None = None
     index_offset: float = 0.0
+    torque: Any = None  # an ideal drive's fieldbus.base.TorqueModel (MC_ReadActualTorque)
 
     @property
     def has_switches(self) -> bool:
@@ -1100,7 +1101,35 @@ def _parse_simulation(
         home,
         c.field(sm, "index_pitch", sp, Z["index_pitch"]),
         c.field(sm, "index_offset", sp, Z["index_offset"]) or 0.0,
+        _parse_torque_model(c, sm, sp, drive),
     )
+
+
+def _parse_torque_model(c: Checker, sm: YamlMap, sp: str, drive: DriveSpec) -> Any:
+    """``simulation.torque``: the TorqueModel of an ideal drive (None: not given)."""
+    if sm.get("torque") is None:
+        return None
+    from motionplc.fieldbus.base import TorqueModel
+
+    tp = join(sp, "torque")
+    if drive.kind != "ideal":
+        c.error(
+            sm.key_lines["torque"],
+            tp,
+            "only for an ideal drive (a virtual CiA 402 drive reports its plant's torque)",
+            "an ideal drive",
+        )
+        return None
+    T = S.TORQUE_MODEL  # noqa: N806
+    tm = c.mapping(sm["torque"], sm.line_of("torque"), tp, T.table())
+    if tm is None:
+        return None
+    inertia = c.field(tm, "inertia", tp, T["inertia"])
+    coulomb = c.field(tm, "coulomb", tp, T["coulomb"])
+    viscous = c.field(tm, "viscous", tp, T["viscous"])
+    if inertia is None:
+        return None
+    return TorqueModel(inertia, coulomb or 0.0, viscous or 0.0)
 
 
 def _numbers(
@@ -1173,6 +1202,9 @@ def _parse_drive(
             c.error(m.line, join(dp, "node_id"), "missing", f"an integer in {rng}")
         node = c.field(m, "node_id", dp, S.CANOPEN_DRIVE["node_id"])
         options = check_canopen_drive(c, m, dp, base_dir)
+        rated = c.field(m, "rated_torque", dp, S.CANOPEN_DRIVE["rated_torque"])
+        if rated is not None:
+            options["rated_torque"] = rated
         return DriveSpec("canopen", bus_name, node_id=node, counts_per_unit=cpu, options=options)
     if "node_id" in m:
         c.error(m.key_lines["node_id"], join(dp, "node_id"), "not used on Modbus", "unit_id")
@@ -1187,6 +1219,10 @@ def _parse_drive(
             f"the simulated drives of bus {bus_name!r} speak the {DEFAULT_MAP} map only",
             f"{DEFAULT_MAP}, or drives: external on buses.{bus_name}",
         )
+    for key in ("rated_torque", "torque_register"):
+        value = c.field(m, key, dp, S.MODBUS_DRIVE[key])
+        if value is not None:
+            options[key] = value
     unit = options.pop("device_id", None)
     order = options.pop("word_order", None)
     return DriveSpec(
@@ -1741,7 +1777,10 @@ def _make_drive(
     if d.kind == "ideal":
         from motionplc.fieldbus.ideal import IdealDrive
 
-        return IdealDrive(ax.name, probes=dict(sim.probes) if sim is not None else None)
+        ideal = IdealDrive(ax.name, probes=dict(sim.probes) if sim is not None else None)
+        if sim is not None and sim.torque is not None:
+            ideal.torque_model = sim.torque
+        return ideal
     assert d.bus is not None
     bus = cfg.bus(d.bus)
     if d.kind == "canopen":

@@ -604,6 +604,17 @@ CANOPEN_DRIVE = Obj(
             "following_error_timeout",
             Number(ge=0.0, le=65.535, unit="s", description="Following error time-out (0x6066)."),
         ),
+        Key(
+            "rated_torque",
+            Number(
+                gt=0.0,
+                le=1e9,
+                unit="N m or N",
+                default_text="read from 0x6076 (mN m) at the first torque read",
+                description="The drive's rated torque, the unit of its torque actual value "
+                "(MC_ReadActualTorque).",
+            ),
+        ),
     ),
 )
 MODBUS_DRIVE = Obj(
@@ -690,6 +701,27 @@ MODBUS_DRIVE = Obj(
                 default=1,
                 description="Requests of a cycle on the wire at once (1: each after the "
                 "previous answer).",
+            ),
+        ),
+        Key(
+            "torque_register",
+            Integer(
+                lo=0,
+                hi=0xFFFF,
+                default_text="0x0208 with the motionplc-v1 map, else none",
+                description="Holding register of the torque actual value (i16, per mille of "
+                "`rated_torque`) for MC_ReadActualTorque.",
+            ),
+        ),
+        Key(
+            "rated_torque",
+            Number(
+                gt=0.0,
+                le=1e9,
+                unit="N m or N",
+                default_text="none: MC_ReadActualTorque refuses",
+                description="The drive's rated torque, the unit of its torque actual value "
+                "(MC_ReadActualTorque).",
             ),
         ),
     ),
@@ -923,6 +955,34 @@ PROBE_SENSOR = Obj(
         ),
     ),
 )
+TORQUE_MODEL = Obj(
+    title="torque model",
+    description="The torque an in-process ideal drive reports (MC_ReadActualTorque): inertia "
+    "x actual acceleration + Coulomb friction x sign(v) + viscous friction x v.",
+    keys=(
+        Key(
+            "inertia",
+            Number(ge=0.0, le=1e12, unit="kg m² or kg", description="Moved inertia (mass)."),
+            True,
+        ),
+        Key(
+            "coulomb",
+            Number(
+                ge=0.0, le=1e12, default_text="0", unit="N m or N", description="Coulomb friction."
+            ),
+        ),
+        Key(
+            "viscous",
+            Number(
+                ge=0.0,
+                le=1e12,
+                default_text="0",
+                unit="N m s/rad or N s/m",
+                description="Viscous friction coefficient.",
+            ),
+        ),
+    ),
+)
 SIMULATION = Obj(
     title="simulation",
     description="Wiring of an in-process drive (ideal, or a simulated bus's virtual CiA 402 "
@@ -931,6 +991,7 @@ SIMULATION = Obj(
     keys=(
         Key("probe1", PROBE_SENSOR),
         Key("probe2", PROBE_SENSOR),
+        Key("torque", TORQUE_MODEL),
         Key(
             "negative_limit",
             Number(

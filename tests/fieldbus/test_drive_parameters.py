@@ -610,3 +610,65 @@ def test_modbus_realtime_never_waits_for_a_parameter() -> None:
             assert drive.timeouts == 0
         finally:
             drive.close()
+
+
+# ------------------------------------------------------------------------------ YAML
+def test_torque_configuration_from_yaml(tmp_path: Path) -> None:
+    """``simulation.torque`` (ideal drive), ``rated_torque`` (CAN: instead of reading 0x6076;
+    Modbus) and ``torque_register`` reach the drives; misplaced keys are located errors."""
+    from motionplc.config import build, load_config
+    from motionplc.errors import ConfigError
+
+    f = tmp_path / "machine.yaml"
+    head = (
+        "runtime: {tick: 0.001, clock: simulated, tasks: {main: {period: 0.001}}}\n"
+        "buses:\n  can0: {type: can, interface: virtual, channel: tq, drives: simulated}\n"
+        "  mb0: {type: modbus, host: 127.0.0.1, port: 0, timeout: 0.2, drives: simulated}\n"
+        "axes:\n"
+    )
+    lim = "    limits: {v_max: 1.0, a_max: 10.0}\n"
+    f.write_text(
+        head
+        + "  i:\n"
+        + lim
+        + "    simulation: {torque: {inertia: 0.5, coulomb: 0.1, viscous: 0.2}}\n"
+        + "  c:\n"
+        + lim
+        + "    drive: {bus: can0, node_id: 2, rated_torque: 3.0}\n"
+        + "  m:\n"
+        + lim
+        + "    drive: {bus: mb0, unit_id: 1, rated_torque: 2.0, torque_register: 0x0208}\n"
+    )
+    machine = build(load_config(f))
+    try:
+        i, c, m = (machine.axes[n] for n in "icm")
+        assert i.drive.torque_model == TorqueModel(0.5, 0.1, 0.2)
+        assert c.drive.config.rated_torque == 3.0
+        assert (m.drive.config.rated_torque, m.drive.config.torque_register) == (2.0, 0x208)
+        fbs = [MC_Power(axis=a, enable=True) for a in (i, c, m)]
+        tqs = [MC_ReadActualTorque(axis=a, enable=True) for a in (i, c, m)]
+        mvs = [MC_MoveVelocity(axis=a, velocity=0.5, acceleration=8.0) for a in (i, c, m)]
+        machine.attach(lambda ctx: [fb() for fb in (*fbs, *tqs, *mvs)])
+        machine.runtime.run(cycles=10)
+        for mv in mvs:
+            mv.execute = True
+        machine.runtime.run(cycles=30)
+        assert all(t.valid and not t.error for t in tqs), [t.error_text for t in tqs]
+        assert tqs[0].torque == pytest.approx(0.5 * i.img_act_a + 0.1 + 0.2 * i.img_act_v)
+        assert tqs[1].torque > 0.0 and round(tqs[1].torque / 0.003, 9) % 1 == 0  # 3 N m units
+        assert tqs[2].torque > 0.0 and round(tqs[2].torque / 0.002, 9) % 1 == 0  # 2 N m units
+    finally:
+        machine.close()
+    bad = tmp_path / "bad.yaml"
+    bad.write_text(
+        head
+        + "  c:\n"
+        + lim
+        + "    drive: {bus: can0, node_id: 2, rated_torque: 0, torque_register: 8}\n"
+        + "    simulation: {torque: {coulomb: 1.0}}\n"
+    )
+    with pytest.raises(ConfigError) as err:
+        load_config(bad)
+    text = str(err.value)
+    assert "axes.c.drive.rated_torque" in text and "axes.c.drive.torque_register" in text
+    assert "axes.c.simulation.torque" in text and "only for an ideal drive" in text
