@@ -22,8 +22,11 @@ Rules pinned here:
   counted from its target), so the steps are exact. ``done`` at the end of the step (held while
   the button is held).
 * Both buttons: a rising edge of one while the other is held gives Error INVALID_JOG_MODE, and a
-  jog motion of this FB brakes (MC_Halt); the error stays until both are released. (If this FB
-  is not busy then, the second press is ignored: Error may only rise on a busy FB.)
+  jog motion of this FB brakes (MC_Halt); the error stays until both are released.
+* Switching directions without a gap (one button released and the other pressed in the same
+  scan) starts the new jog while this FB is busy; once it shows Done / Error / CommandAborted,
+  a press counts only after both buttons were released (Busy rises only with Execute, i.e.
+  ``jog_forward OR jog_backward``, rising). The same holds for the both-buttons error.
 * Outputs as an Execute FB whose Execute is ``jog_forward OR jog_backward`` (``execute`` mirrors
   it): busy while moving (also while braking after the release), active while the jog's command
   controls the axis, done / error / command_aborted held while a button is held, else for one
@@ -212,7 +215,7 @@ class MC_Jog(InputChecks, MotionFB):
                 )
                 self.error_text = "jog_forward and jog_backward both TRUE"
                 self._seen = False
-        elif rise_f or rise_b:
+        elif (rise_f or rise_b) and (busy or rising):
             self._handle = self._start_checked()
             self._seen = False
         elif self._running and not (fwd if self._dir > 0.0 else bwd):

@@ -342,3 +342,23 @@ def test_bad_jog_velocities_are_located_errors(
 def test_axis_config_refuses_a_jog_velocity_above_the_limit() -> None:
     with pytest.raises(ValueError, match="jog_velocity_fast must be at most the speed limit 1"):
         AxisConfig("x", v_max=2.0, a_max=1.0, v_min=-1.0, jog_velocity_fast=1.5)
+
+
+def test_switching_direction_without_a_gap() -> None:
+    b = _bench(sw_limit_pos=5.0, sw_limit_neg=-0.3)
+    jog = b.add(MC_Jog(mode=JogMode.STANDARD_FAST))
+    jog.jog_forward = True
+    b.run(500)
+    jog.jog_forward, jog.jog_backward = False, True  # same scan: reverses while busy
+    b.run(1)
+    assert jog.busy and not jog.error
+    b.run(3000)
+    assert jog.done and b.x.p == -0.3  # stopped at the negative software limit
+    jog.jog_forward, jog.jog_backward = True, False  # not busy: needs a release first
+    b.run(5)
+    assert not jog.busy and b.x.state is S.STANDSTILL
+    jog.jog_forward = False
+    b.run(1)
+    jog.jog_forward = True
+    b.run(1)
+    assert jog.busy and b.x.state is S.DISCRETE_MOTION  # a move to the positive limit
