@@ -84,7 +84,7 @@ def _comm(axis: Axis) -> None:
 
 
 class _Reader(EnableFB):
-    """An Enable FB whose value may come from a transfer: ``_update`` returns True when the
+    """An Enable FB whose value may come from a transfer: ``_read`` returns True when the
     value is valid, False while the first transfer is still running (Busy, not Valid)."""
 
     def __init__(self, name: str | None = None, **inputs: Any) -> None:
@@ -107,7 +107,7 @@ class _Reader(EnableFB):
         try:
             if axis is None:
                 raise InputError(ErrorID.INVALID_AXIS, "axis input is not connected")
-            ready = self._update(axis)
+            ready = self._read(axis)
         except InputError as exc:
             self.busy = True
             self.valid = False
@@ -122,6 +122,13 @@ class _Reader(EnableFB):
         self.error = False
         self.error_id = ErrorID.OK
         self.error_text = ""
+
+    def _read(self, axis: Axis) -> bool:
+        """Compute the value (subclasses); True: valid, False: not yet (Busy)."""
+        raise NotImplementedError
+
+    def _update(self, axis: Axis) -> None:
+        self._read(axis)  # not used: _scan calls _read (kept for EnableFB's interface)
 
     def _transferred(self, key: Any, start: Any) -> float | None:
         """Keep a transfer running for ``key`` (a new one when the key changes or the last
@@ -167,7 +174,7 @@ class MC_ReadParameter(_Reader, InputChecks):
     def _convert(self, x: float) -> Any:
         return float(x)
 
-    def _update(self, axis: Axis) -> bool:
+    def _read(self, axis: Axis) -> bool:
         info = self._in_parameter_number(axis)
         number = self.parameter_number
         if isinstance(info, ParameterInfo):
@@ -339,7 +346,7 @@ class MC_ReadActualTorque(_Reader):
         self.torque = 0.0
         super().__init__(name, **inputs)
 
-    def _update(self, axis: Axis) -> bool:
+    def _read(self, axis: Axis) -> bool:
         _comm(axis)
         drive = axis.drive
         model = drive.torque_model

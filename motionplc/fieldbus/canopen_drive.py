@@ -1584,9 +1584,9 @@ class CanopenDrive(Drive):
                 f"{self.name}: node {self.config.node_id} has no object {where} (EDS)",
                 number_error=True,
             )
-        obj = od[address.index]
+        obj: Any = od[address.index]
         var = obj[address.subindex] if hasattr(obj, "subindices") else obj
-        data_type = var.data_type
+        data_type: int = var.data_type
         if data_type == _REAL32:
             return 4, True, True
         kind = _OD_NUMBERS.get(data_type)
