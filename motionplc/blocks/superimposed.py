@@ -697,6 +697,10 @@ class MC_MoveSuperimposed(_SuperimposedFB):
     buffered commands leave it alone; a second MC_MoveSuperimposed aborts only the first.
     ContinuousUpdate (latched at Execute): a changed distance / dynamics re-plans the running
     superimposed profile from its current state (the distance still counts from its start).
+    Errors: the end position beyond a software limit (TARGET_OUTSIDE_SW_LIMITS, at Execute); an
+    underlying motion that never leaves headroom in the direction of the correction (e.g. a
+    velocity move at the axis' speed limit): PLANNING_FAILED, ``error_text`` says why.
+    No Active output (it runs beside the FB that controls the axis).
     """
 
     INPUTS = (

@@ -453,3 +453,23 @@ def test_on_a_geared_slave(monkeypatch: pytest.MonkeyPatch) -> None:
     assert ms.done and g.in_gear and b.x.state is S.SYNCHRONIZED_MOTION
     assert b.x.p - m.p == pytest.approx(lag + 0.1, abs=1e-9)
     _held(b)
+
+
+def test_no_headroom_is_an_error_that_says_why() -> None:
+    b = _bench()
+    mv = b.add(MC_MoveVelocity(velocity=LIM["v_max"]))  # at the axis' speed limit
+    ms = b.add(MC_MoveSuperimposed(distance=0.2))
+    mv.execute = True
+    b.run(1500)
+    ms.execute = True
+    b.run(2)
+    assert ms.error and ms.error_id is ErrorID.PLANNING_FAILED
+    assert "no headroom" in ms.error_text
+    assert mv.in_velocity and b.x.state is S.CONTINUOUS_MOTION and b.x.sup is None
+    ms.execute = False
+    b.run(1)
+    ms.distance = -0.2  # backwards there is headroom
+    ms.execute = True
+    b.run(3000)
+    assert ms.done and mv.in_velocity
+    _held(b)
