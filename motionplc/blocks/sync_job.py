@@ -33,9 +33,12 @@ Master values: ``Source.SET_VALUE`` (and COMMANDED_VALUE, treated alike) uses th
 values of this cycle: the runtime steps a master before its slaves in the same task
 (:func:`order_axes` re-sorts the task's axes when a coupling is submitted; a cycle of couplings
 is refused with INVALID_MASTER). A master in another task contributes its latest values (those
-of its task's last cycle). ``Source.ACTUAL_VALUE`` uses the master's actual position and
-velocity read this cycle (acceleration: the backward difference, jerk 0). MC_SetPosition on the
-master does not move the slave (the master's coordinate shift is taken out).
+of its task's last cycle): exact if that task runs before the slave's in the same ticks, a
+constant lag of one cycle if it runs after it; a master task slower than the slave's gives the
+slave a staircase (keep coupled axes in one task, or the master's task at least as fast).
+``Source.ACTUAL_VALUE`` uses the master's actual position and velocity read this cycle
+(acceleration: the backward difference, jerk 0). MC_SetPosition on the master does not move the
+slave (the master's coordinate shift is taken out).
 
 Limits: at engagement the law at the master's current velocity and acceleration must fit the
 slave's velocity and acceleration limits (cams: the table's exact peaks, ``slave_peaks``, also

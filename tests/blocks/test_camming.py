@@ -211,3 +211,27 @@ def test_invalid_inputs(pin: str, value: object, eid: ErrorID) -> None:
     rig.run(1)
     assert cam.error and cam.error_id is eid and pin in cam.error_text
     assert pin in cam.input_problems(rig.s)
+
+
+def test_cam_in_waits_for_the_master_start_distance() -> None:
+    tab = CamTable.from_points([(0.0, 0.0), (1.0, 0.3)], law="poly5")
+    rig = _rig()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=1.0, execute=True))
+    cam = rig.add(
+        MC_CamIn(
+            master=rig.m,
+            slave=rig.s,
+            cam_table_id=CamTableID(tab, periodic=False, master_absolute=False),
+            master_sync_position=2.0,
+            master_start_distance=0.5,
+            execute=True,
+        )
+    )
+    rig.watch = {"in_sync": (cam, "in_sync")}
+    rig.run(1000)
+    assert cam.busy and not cam.in_sync and rig.s.p == 0.0  # the master is not at 1.5 yet
+    rig.run(3000)
+    assert cam.in_sync and rig.s.p == pytest.approx(0.3, abs=1e-12)  # past the table's end
+    tr = rig.trace()
+    moving = np.flatnonzero(tr[:, 4] != 0.0)
+    assert tr[moving[0], 0] >= 1.5 - 2e-3  # the slave started with the master at the start point

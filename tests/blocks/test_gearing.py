@@ -337,3 +337,26 @@ def test_master_in_another_task() -> None:
     c = s.p - m.p
     rt.run(cycles=100)
     assert s.p - m.p == pytest.approx(c, abs=1e-12)
+
+
+def test_buffered_gear_in_behind_gear_in_and_aborting_move() -> None:
+    rig = Rig().powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=0.5, execute=True))
+    g1 = rig.add(MC_GearIn(master=rig.m, slave=rig.s, ratio_numerator=1, execute=True))
+    g2 = rig.add(
+        MC_GearIn(
+            master=rig.m,
+            slave=rig.s,
+            ratio_numerator=2,
+            buffer_mode=BufferMode.BUFFERED,
+            execute=True,
+        )
+    )
+    rig.run(3000)
+    assert g1.command_aborted and g2.in_gear and rig.s.v == pytest.approx(1.0, abs=1e-12)
+    ma = rig.add(MC_MoveAbsolute(axis=rig.s, position=0.0, velocity=1.0, execute=True))
+    rig.run(2)
+    assert g2.command_aborted and ma.busy and rig.s.state is S.DISCRETE_MOTION
+    rig.run(5000)
+    assert ma.done and rig.s.p == 0.0
+    assert max(jumps(rig)) <= 1.0 + 1e-6
