@@ -57,7 +57,7 @@ class AxisConfig:
     v_min: float | None = None  # most negative velocity (< 0); None: -v_max (symmetric)
     a_min: float | None = None  # most negative acceleration (< 0); None: -a_max (symmetric)
     # MC_Jog's STANDARD_SLOW / STANDARD_FAST speeds (None: 10 % / 50 % of each direction's
-    # speed limit); at most the lower of the two speed limits
+    # speed limit)
     jog_velocity_slow: float | None = None
     jog_velocity_fast: float | None = None
 
@@ -148,12 +148,9 @@ class AxisConfig:
         for name in ("jog_velocity_slow", "jog_velocity_fast"):
             x = getattr(self, name)
             if x is not None:
+                # (within the speed limits: checked by the YAML loader and by MC_Jog at each
+                # press, as MC_WriteParameter may lower the limits later)
                 pos(name, x)
-                if x > min(self.v_max, self.v_neg):
-                    raise ValueError(
-                        f"axis {self.name!r}: {name} must be at most the speed limit "
-                        f"{min(self.v_max, self.v_neg):g}, got {x!r}"
-                    )
         if not isinstance(self.queue_depth, int) or self.queue_depth < 0:
             raise ValueError(
                 f"axis {self.name!r}: queue_depth must be an int >= 0, got {self.queue_depth!r}"

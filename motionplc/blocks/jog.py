@@ -52,8 +52,8 @@ _FRACTION = {JogMode.STANDARD_SLOW: 0.1, JogMode.STANDARD_FAST: 0.5}
 
 def jog_velocity(cfg: Any, mode: JogMode, s: float) -> float:
     """The jog speed of a STANDARD mode in direction ``s``: the axis' configured jog velocity
-    (``AxisConfig.jog_velocity_slow`` / ``jog_velocity_fast``, validated to be at most the
-    lower speed limit) or 10 % / 50 % of the direction's speed limit."""
+    (``AxisConfig.jog_velocity_slow`` / ``jog_velocity_fast``; MC_Jog refuses it if it is above
+    the direction's speed limit) or 10 % / 50 % of the direction's speed limit."""
     key = "jog_velocity_slow" if mode is JogMode.STANDARD_SLOW else "jog_velocity_fast"
     v = getattr(cfg, key, None)
     if v is not None:
@@ -140,6 +140,13 @@ class MC_Jog(InputChecks, MotionFB):
         side = cfg.v_max if s > 0.0 else cfg.v_neg
         if mode in _FRACTION:
             v = jog_velocity(cfg, mode, s)
+            if v > side:
+                key = "jog_velocity_slow" if mode is JogMode.STANDARD_SLOW else "jog_velocity_fast"
+                raise InputError(
+                    ErrorID.INVALID_VELOCITY,
+                    f"the axis' {key} {v:g} is above its speed limit {side:g} of the jog "
+                    "direction (lowered by MC_WriteParameter?)",
+                )
         elif v > side:
             raise InputError(
                 ErrorID.INVALID_VELOCITY,

@@ -339,9 +339,22 @@ def test_bad_jog_velocities_are_located_errors(
     assert f"m.yaml:8: {where}" in text and allowed in text, text
 
 
-def test_axis_config_refuses_a_jog_velocity_above_the_limit() -> None:
-    with pytest.raises(ValueError, match="jog_velocity_fast must be at most the speed limit 1"):
-        AxisConfig("x", v_max=2.0, a_max=1.0, v_min=-1.0, jog_velocity_fast=1.5)
+def test_a_jog_velocity_above_the_limit_is_refused_at_the_press() -> None:
+    """AxisConfig takes any positive jog velocity (MC_WriteParameter may lower the limits after
+    the YAML check); MC_Jog refuses one above the speed limit of the jog direction."""
+    with pytest.raises(ValueError, match="jog_velocity_slow must be in"):
+        AxisConfig("x", v_max=2.0, a_max=1.0, jog_velocity_slow=0.0)
+    b = _bench(v_min=-1.0, jog_velocity_fast=1.5)
+    jog = b.add(MC_Jog(mode=JogMode.STANDARD_FAST))
+    jog.jog_forward = True
+    b.run(1000)
+    assert jog.busy and b.x.v == pytest.approx(1.5)
+    jog.jog_forward = False
+    b.run(1000)
+    jog.jog_backward = True
+    b.run(1)
+    assert jog.error and jog.error_id is ErrorID.INVALID_VELOCITY
+    assert "jog_velocity_fast 1.5" in jog.error_text and b.x.state is S.STANDSTILL
 
 
 def test_switching_direction_without_a_gap() -> None:
