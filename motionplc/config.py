@@ -30,9 +30,9 @@ of paths / corner blends may use; 0.01..0.99, defaults 0.7 / 0.95).
 ``cams:`` declares cam tables by name (:class:`~motionplc.planning.CamTable`, in
 ``Config.cams`` and ``Machine.cams``): ``points`` (``[master, slave[, slope[, curvature]]]`` or
 mappings that may name the ``law`` of the segment starting there) or ``file`` (a CSV file of the
-same columns plus the law, relative to the configuration file), a default ``law`` (``poly5``)
-and ``periodic``; a malformed table is reported at the offending point's line (in the CSV file
-for ``file``).
+same columns plus the law, relative to the configuration file), a default ``law`` (``poly5``),
+``periodic`` and ``smooth``; a malformed table is reported at the offending point's line (in
+the CSV file for ``file``).
 
 :func:`load_config` reads a file with ``yaml.SafeLoader`` (plus a resolver for floats such as
 ``1e-6``, which YAML 1.1 reads as strings) while recording the line of every node, checks
@@ -1496,6 +1496,7 @@ def _parse_cam(c: Checker, cm: YamlMap, name: str, body: Any) -> CamSpec | None:
         return None
     law = c.field(m, "law", path, S.CAM["law"], "poly5")
     periodic = c.field(m, "periodic", path, S.CAM["periodic"], False)
+    smooth = c.field(m, "smooth", path, S.CAM["smooth"], False)
     given = [k for k in ("points", "file") if m.get(k) is not None]
     if len(given) != 1:
         c.error(
@@ -1527,7 +1528,7 @@ def _parse_cam(c: Checker, cm: YamlMap, name: str, body: Any) -> CamSpec | None:
         lines = [pts.line_of(i) for i in range(len(pts))]
         whole = m.line_of("points")
     try:
-        table = CamTable.from_points(points, law=law, periodic=periodic, name=name)
+        table = CamTable.from_points(points, law=law, periodic=periodic, name=name, smooth=smooth)
     except CamTableError as exc:
         where, _, problem = str(exc).partition(": ")
         line = whole

@@ -1299,6 +1299,16 @@ CAM = Obj(
                 "without a step (a lift `slave_end - slave_start` is allowed).",
             ),
         ),
+        Key(
+            "smooth",
+            Bool(
+                default_text="`false`",
+                description="Interior points without a slope or curvature between two "
+                "poly5/poly7 segments get those of the C2 cubic spline through the points "
+                "(clamped to the nearest other points) instead of stopping there: for point "
+                "lists measured or taken from a drawing.",
+            ),
+        ),
     ),
     checks=("exactly one of `points` and `file`",),
 )

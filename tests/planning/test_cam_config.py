@@ -99,6 +99,21 @@ cams:
     assert np.array_equal(got.sample(xs).y, want.sample(xs).y)
 
 
+def test_smooth_and_periodic_keys(tmp_path: Path) -> None:
+    _, cfg = _load(
+        tmp_path,
+        "cams:\n  s:\n    smooth: true\n    periodic: true\n"
+        "    points: [[0, 0], [1, 1], [2, 0.5], [3, 1.5]]\n",
+    )
+    t = cfg.cam("s")
+    assert t == CamTable.from_points(
+        [(0, 0), (1, 1), (2, 0.5), (3, 1.5)], smooth=True, periodic=True, name="s"
+    )
+    assert t.boundary[1][0] != 0.0 and t.lift == 1.5
+    errs = _errors(tmp_path, "cams:\n  s:\n    smooth: yes please\n    points: [[0, 0], [1, 1]]\n")
+    assert errs[0].endswith("cams.s.smooth: got string 'yes please' (allowed: true, false)")
+
+
 def test_csv_file(tmp_path: Path) -> None:
     csv = "# comment\nmaster,slave,slope,curvature,law\n0,0\n\n1,0.5,,,linear\n2,1.0 # end\n"
     _, cfg = _load(tmp_path, "cams:\n  k:\n    file: k.csv\n    law: poly7\n", {"k.csv": csv})
