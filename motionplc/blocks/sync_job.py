@@ -56,6 +56,10 @@ GearOut / CamOut: the slave keeps its velocity (ContinuousMotion): its accelerat
 0 with the slave's jerk limit (a velocity job to ``v + a|a| / (2 j_max)``), no jump; the FB is
 Done at once and the coupling FB shows CommandAborted.
 
+MC_SetOverride on the slave does not scale a coupling (the slave follows its master; override
+the master); MC_Power's EnablePositive / EnableNegative are not checked against the coupled
+slave's direction (the software limits are: the slave brakes at a limit like any motion).
+
 Buffering (spec Table 4): a buffered GearIn / GearInPos / CamIn starts when the previous command
 is Done; a buffered command behind a GearIn starts at InGear, behind GearInPos at InSync, behind a
 CamIn at its EndOfProfile (the coupling FB then shows CommandAborted). Blending modes behind or
