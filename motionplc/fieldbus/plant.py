@@ -25,7 +25,14 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["PlantParams", "PlantState", "ProbeInput", "ProbeSensor", "plant_step"]
+__all__ = [
+    "PlantParams",
+    "PlantState",
+    "ProbeInput",
+    "ProbeSensor",
+    "plant_step",
+    "plant_step_traced",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,23 +94,14 @@ def plant_step(
     powered: bool,
     velocity_offset: float = 0.0,
     stalled: bool = False,
-    positions: list[float] | None = None,
 ) -> PlantState:
     """Advance the plant by one cycle ``dt`` with the demand ramping linearly.
 
     ``powered`` is False when the power stage is off (motor coasts). ``stalled`` blocks the
-    mechanics (a jammed axis): the motor does not move whatever the command. ``positions``
-    (a list): the position after each internal tick is appended to it (the motion within the
-    cycle, for a touch probe); the result is the same bit for bit.
+    mechanics (a jammed axis): the motor does not move whatever the command.
     """
     if stalled:
-        if positions is not None:
-            positions.extend([state.position] * params.substeps)
         return PlantState(state.position, 0.0, 0.0)
-    if positions is not None and powered:
-        return _powered_traced(
-            params, state, demand_from, demand_to, dt, velocity_offset, positions
-        )
     n = params.substeps
     h = dt / n
     p, v, a = state.position, state.velocity, 0.0
@@ -148,8 +146,43 @@ def plant_step(
         a = (v_new - v) / h
         v = v_new
         p += v * h
-        if positions is not None:
-            positions.append(p)
+    return PlantState(p, v, a)
+
+
+def plant_step_traced(
+    params: PlantParams,
+    state: PlantState,
+    demand_from: float,
+    demand_to: float,
+    dt: float,
+    positions: list[float],
+    *,
+    powered: bool,
+    velocity_offset: float = 0.0,
+    stalled: bool = False,
+) -> PlantState:
+    """:func:`plant_step`, bit for bit, also appending the position after each internal tick
+    to ``positions`` (the motion within the cycle, for a touch probe or a homing search).
+    Kept apart so that the step every drive runs in every cycle has no extra test."""
+    if stalled:
+        positions.extend([state.position] * params.substeps)
+        return PlantState(state.position, 0.0, 0.0)
+    if powered:
+        return _powered_traced(
+            params, state, demand_from, demand_to, dt, velocity_offset, positions
+        )
+    n = params.substeps
+    h = dt / n
+    p, v, a = state.position, state.velocity, 0.0
+    for _ in range(n):
+        drag = v / params.tau_coast + params.friction(v)
+        v_new = v - drag * h
+        if v_new * v <= 0.0:  # friction stops the motor, never reverses it
+            v_new = 0.0
+        a = (v_new - v) / h
+        v = v_new
+        p += v * h
+        positions.append(p)
     return PlantState(p, v, a)
 
 

@@ -14,6 +14,7 @@ when a controlword arrives (SDO or register write: at once; RPDO: at the SYNC) a
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.cia402 import (
@@ -34,7 +35,13 @@ from motionplc.fieldbus.cia402 import (
     device_transition,
     statusword_bits,
 )
-from motionplc.fieldbus.plant import PlantParams, PlantState, ProbeInput, plant_step
+from motionplc.fieldbus.plant import (
+    PlantParams,
+    PlantState,
+    ProbeInput,
+    plant_step,
+    plant_step_traced,
+)
 from motionplc.fieldbus.scaling import saturate_i32
 
 __all__ = ["ERROR_CODES", "Cia402Device", "DeviceSnapshot", "error_register_for"]
@@ -61,6 +68,7 @@ POWERED_STATES = (
 )
 
 SUPPORTED_MODES = (OperationMode.CYCLIC_SYNCHRONOUS_POSITION, OperationMode.HOMING)
+_HOMING_MODE = int(OperationMode.HOMING)  # a plain int: compared in every cycle
 
 
 def error_register_for(code: int) -> int:
@@ -114,12 +122,65 @@ _new = object.__new__
 )
 
 
+class _Homing:
+    """The homing side of a device (one attribute of it: a device with many instance
+    attributes loses CPython's fast attribute access, which the cycle relies on)."""
+
+    __slots__ = (
+        "acceleration",
+        "error",
+        "method",
+        "offset",
+        "proc",
+        "shift",
+        "speeds",
+        "status",
+        "switches",
+    )
+
+    def __init__(self) -> None:
+        self.switches = HomingSwitches()
+        self.shift = 0.0
+        self.method = 0
+        self.speeds = [100_000, 10_000]
+        self.acceleration = 1_000_000
+        self.offset = 0
+        self.proc: HomingProcedure | None = None
+        self.status = "idle"
+        self.error = ""
+
+
+def _homing_attr(name: str, doc: str) -> Any:
+    def get(self: Cia402Device) -> Any:
+        return getattr(self.hm, name)
+
+    def put(self: Cia402Device, value: Any) -> None:
+        setattr(self.hm, name, value)
+
+    return property(get, put, doc=doc)
+
+
 class Cia402Device:
     """One virtual servo axis: CiA 402 state machine + CSP follower + plant.
 
     Parameters mirror the CiA 402 objects; transports keep them in sync with their object
     dictionary or register map. All positions are drive increments.
     """
+
+    switches = _homing_attr("switches", "The virtual switches and index pulse (physical).")
+    coord_shift = _homing_attr("shift", "0x6064 = physical position + coord_shift [inc].")
+    homing_method = _homing_attr("method", "0x6098.")
+    homing_speeds = _homing_attr("speeds", "0x6099:01 / :02 [inc/s].")
+    homing_acceleration = _homing_attr("acceleration", "0x609A [inc/s²].")
+    home_offset = _homing_attr("offset", "0x607C [inc].")
+    homing = _homing_attr("proc", "The homing procedure running (None: none).")
+    homing_status = _homing_attr("status", "idle | running | attained | error.")
+    homing_error = _homing_attr("error", "Why homing failed.")
+
+    @property
+    def _probing(self) -> bool:
+        """A touch probe is enabled (0x60B8 bit 0 or 8)."""
+        return bool(self.probe_function & 0x0101)
 
     def __init__(self, plant: PlantParams | None = None) -> None:
         self.plant = plant if plant is not None else PlantParams()
@@ -141,6 +202,7 @@ class Cia402Device:
         # homing mode: the virtual switches and index pulse (wiring, physical coordinates),
         # and the shift of the position values from them set by homing (0x6064 = physical +
         # coord_shift); both kept over a reset (the encoder keeps counting)
+        self.hm = _Homing()
         self.switches = HomingSwitches()
         self.coord_shift = 0.0
         self.reset()
@@ -172,7 +234,7 @@ class Cia402Device:
         self.homing: HomingProcedure | None = None
         self.homing_status = "idle"  # idle | running | attained | error
         self.homing_error = ""
-        self._probing = False  # a probe is enabled: the cycle records the motion within it
+        self._special = False  # a probe enabled or homing mode (cycle: _cycle_special)
         for unit in self.probes.values():
             unit.disarm()
 
@@ -200,7 +262,7 @@ class Cia402Device:
             sw |= SW_FOLLOWING_ERROR
         if self.persistent_fault and self.state is not Cia402State.FAULT:
             sw |= SW_WARNING
-        if self.mode_display == OperationMode.HOMING:
+        if self.mode_display == _HOMING_MODE:
             st = self.homing_status
             if st == "attained":
                 sw |= SW_HOMING_ATTAINED | SW_TARGET_REACHED
@@ -244,14 +306,20 @@ class Cia402Device:
             self.homing_status = "idle"  # entering it: not started
         self.mode = mode
         self.mode_display = mode  # switches at once
+        self._update_special()
         return True
+
+    def _update_special(self) -> None:
+        self._special = (
+            self._probing or self.homing is not None or self.mode_display == _HOMING_MODE
+        )
 
     def apply_controlword(self, controlword: int) -> int | None:
         """Decode and apply a controlword; returns the transition number taken (or None)."""
         command = decode_command(controlword, self.controlword)
         previous = self.controlword
         self.controlword = controlword
-        if self.mode_display == OperationMode.HOMING:
+        if self.mode_display == _HOMING_MODE:
             self._homing_control(controlword, previous)
         new, number = device_transition(self.state, command, self.quick_stop_option)
         if number == 15 and self.persistent_fault:
@@ -319,6 +387,7 @@ class Cia402Device:
             )
             self.homing_status = "running"
             self.homing_error = ""
+            self._update_special()
         elif not controlword & CW_HOMING_START and self.homing is not None:
             self.homing.interrupt()  # brakes to rest, then ends
             self.homing_status = "idle"
@@ -353,10 +422,12 @@ class Cia402Device:
             self.demand_velocity = 0.0
             self.homing = None
             self.homing_status = "attained"
+            self._update_special()
         elif proc.phase is None and (proc.error or proc.interrupted):
             self.homing = None
             self.homing_status = "idle" if proc.interrupted else "error"
             self.homing_error = proc.error
+            self._update_special()
 
     def physical_position(self) -> float:
         """The motor position in the switches' (physical) coordinates."""
@@ -393,7 +464,7 @@ class Cia402Device:
                 unit.pos_stored = False
             if fall:
                 unit.neg_stored = False
-        self._probing = any(u.enabled for u in self.probes.values())
+        self._update_special()
 
     def probe_status(self) -> int:
         """0x60B9 touch probe status: per probe bit 0 enabled, bit 1 positive edge stored,
@@ -428,6 +499,61 @@ class Cia402Device:
 
     def cycle(self, dt: float) -> None:
         """One SYNC / Modbus cycle of length ``dt`` [s] with the latched setpoint."""
+        if self._special:
+            self._cycle_special(dt)  # a probe enabled or homing mode: the motion sampled
+            return
+        if self.persistent_fault and self.state is not Cia402State.FAULT:
+            self.raise_fault(self.persistent_fault)
+        demand_from = self.demand
+        powered = self.powered
+        v_offset = 0.0
+        stopped = False
+        if self.following:
+            demand_to = float(self.target)
+            if self.position_limits is not None:
+                lo, hi = self.position_limits
+                demand_to = min(max(demand_to, float(lo)), float(hi))
+            self.demand_velocity = (demand_to - demand_from) / dt
+            v_offset = float(self.velocity_offset)
+        elif self.state is Cia402State.OPERATION_ENABLED:
+            demand_to = demand_from  # enabled in an unsupported/no mode: hold position
+            self.demand_velocity = 0.0
+        elif self.state in (Cia402State.QUICK_STOP_ACTIVE, Cia402State.FAULT_REACTION_ACTIVE):
+            demand_to, stopped = self._stop_ramp(dt)
+        else:
+            demand_to = demand_from
+        self.actual = plant_step(
+            self.plant,
+            self.actual,
+            demand_from,
+            demand_to,
+            dt,
+            powered=powered,
+            velocity_offset=v_offset,
+            stalled=self.stalled,
+        )
+        self.demand = demand_to if powered else self.actual.position
+        if not powered:
+            self.demand_velocity = 0.0
+        self._monitor_following_error(dt)
+        if stopped and self.state in POWERED_STATES:
+            # standstill reached: the power stage holds the axis, residual creep is zeroed
+            self.actual = PlantState(self.actual.position, 0.0, 0.0)
+        if stopped and self.state is Cia402State.FAULT_REACTION_ACTIVE:
+            self.state = Cia402State.FAULT  # 14
+            self.last_transition = 14
+        elif (
+            stopped
+            and self.state is Cia402State.QUICK_STOP_ACTIVE
+            and not 5 <= self.quick_stop_option <= 8
+        ):
+            self.state = Cia402State.SWITCH_ON_DISABLED  # 12 after the stop (options 0..4)
+            self.last_transition = 12
+
+    def _cycle_special(self, dt: float) -> None:
+        """:meth:`cycle` with a probe enabled or in homing mode: the same steps, and the
+        motion within the cycle sampled for the probes / the homing procedure (kept apart so
+        that the common cycle has one test more only)."""
         if self.persistent_fault and self.state is not Cia402State.FAULT:
             self.raise_fault(self.persistent_fault)
         demand_from = self.demand
@@ -439,6 +565,7 @@ class Cia402Device:
             self.homing = None  # fault, quick stop, disable: the procedure ends
             self.homing_status = "error"
             self.homing_error = f"interrupted in {self.state.value}"
+            self._update_special()
         if self.following:
             demand_to = float(self.target)
             if self.position_limits is not None:
@@ -446,10 +573,7 @@ class Cia402Device:
                 demand_to = min(max(demand_to, float(lo)), float(hi))
             self.demand_velocity = (demand_to - demand_from) / dt
             v_offset = float(self.velocity_offset)
-        elif (
-            self.state is Cia402State.OPERATION_ENABLED
-            and self.mode_display == OperationMode.HOMING
-        ):
+        elif self.state is Cia402State.OPERATION_ENABLED and self.mode_display == _HOMING_MODE:
             demand_to, homing_samples = self._homing_step(dt)
         elif self.state is Cia402State.OPERATION_ENABLED:
             demand_to = demand_from  # enabled in an unsupported/no mode: hold position
@@ -460,16 +584,16 @@ class Cia402Device:
             demand_to = demand_from
         if self._probing or homing_samples is not None:
             samples = homing_samples if homing_samples is not None else [self.actual.position]
-            self.actual = plant_step(
+            self.actual = plant_step_traced(
                 self.plant,
                 self.actual,
                 demand_from,
                 demand_to,
                 dt,
+                samples,
                 powered=powered,
                 velocity_offset=v_offset,
                 stalled=self.stalled,
-                positions=samples,
             )
             if self._probing:
                 shift = self.coord_shift
