@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import math
 import struct
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from motionplc._fastinit import slot_setters
@@ -199,6 +200,9 @@ class Axis:
         # 16), never changed; ``cfg`` is the applied one (MC_WriteParameter, apply_config)
         self.cfg_system = config
         self.parameters: Any = None  # MC_Read/WriteParameter state (motionplc.blocks.params)
+        # the software-limit supervision's configuration: the applied limits with the system
+        # dynamics (what the axis can physically brake with; the same object until a write)
+        self._safe_cfg = config
         self.drive = drive
         # the in-process fast path (see motionplc.fieldbus.ideal): exactly an IdealDrive
         self._ideal: IdealDrive | None = drive if type(drive) is IdealDrive else None
@@ -293,6 +297,17 @@ class Axis:
         self._sw_neg = config.sw_limit_neg
         self._sw_check = config.modulo is None and (
             config.sw_limit_pos is not None or config.sw_limit_neg is not None
+        )
+        # a running move planned before a lower *Appl write brakes at a limit with the
+        # system dynamics it was planned with (never judged by, or stopped with, less)
+        sys_cfg = self.cfg_system
+        self._safe_cfg = (
+            sys_cfg
+            if (sys_cfg.sw_limit_pos, sys_cfg.sw_limit_neg)
+            == (config.sw_limit_pos, config.sw_limit_neg)
+            else replace(
+                sys_cfg, sw_limit_pos=config.sw_limit_pos, sw_limit_neg=config.sw_limit_neg
+            )
         )
 
     # -- the command queue (public attributes kept for FBs, runtime, tests) -------------------
@@ -959,7 +974,7 @@ class Axis:
         job = self.mq.active
         if job is not None and job.kind == "swstop":
             return
-        hit = crossed_limit(self.cfg, p0, self.p, self.v, self.a)
+        hit = crossed_limit(self._safe_cfg, p0, self.p, self.v, self.a)
         if hit is not None:
             self._limit_stop(hit[0], hit[1], p0, v0, a0, dt)
 
@@ -968,8 +983,9 @@ class Axis:
     ) -> None:
         """The step went too far towards ``limit``: back to the previous set state and brake
         from there to rest at the limit (:func:`~.sw_limits.limit_stop_profile`), else stop as
-        fast as possible; ErrorStop SW_LIMIT, the running command ends with Error SW_LIMIT."""
-        cfg = self.cfg
+        fast as possible; ErrorStop SW_LIMIT, the running command ends with Error SW_LIMIT.
+        The brake uses the system dynamics (``cfg_system``) with the applied limits."""
+        cfg = self._safe_cfg
         reason = f"software limit {limit:.9g} reached (set position {p0:.9g}, velocity {v0:.6g})"
         prof = limit_stop_profile(cfg, s, limit, p0, v0, a0)
         act = self.mq.active

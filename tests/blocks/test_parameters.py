@@ -532,3 +532,44 @@ ParameterMachine.TestCase.settings = settings(
     max_examples=15, stateful_step_count=10, deadline=None
 )
 test_parameter_machine = ParameterMachine.TestCase
+
+
+@pytest.mark.parametrize(("number", "value"), [(17, 1.0), (15, 0.2), (13, 0.2), (9, 0.1)])
+def test_lower_appl_dynamics_during_a_move_to_the_limit(number: int, value: float) -> None:
+    """A move planned with the system dynamics to the software limit itself keeps its plan
+    after a lower *Appl write: the supervision judges (and would brake) with the dynamics
+    the axis has, not the lower applied ones, so there is no false SW_LIMIT and no
+    overshoot."""
+    rt = Runtime(cycle=0.001)  # the invariants check the applied limits: not here
+    x = rt.add_axis("x", v_max=2.0, a_max=4.0, j_max=40.0, sw_limit_pos=1.0)
+    power = MC_Power(axis=x, enable=True)
+    ma = MC_MoveAbsolute(axis=x, position=1.0, velocity=2.0)
+    wr = MC_WriteParameter(axis=x, parameter_number=number, value=value)
+    rt.add_task("main", lambda ctx: (power(), ma(), wr()))
+    rt.run(cycles=2)
+    ma.execute = True
+    rt.run(cycles=500)
+    wr.execute = True
+    rt.run(cycles=1)
+    assert wr.done
+    assert rt.run_until(lambda: ma.done or ma.error, max_seconds=5.0)
+    assert ma.done and x.p == 1.0 and x.axis_error is ErrorID.OK
+    assert np.max(rt.trace.column("x.position")) <= 1.0 + 1e-9
+
+
+def test_a_new_limit_ahead_of_a_running_move_stops_it_there() -> None:
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=2.0, a_max=4.0, j_max=40.0, sw_limit_pos=3.0)
+    power = MC_Power(axis=x, enable=True)
+    ma = MC_MoveAbsolute(axis=x, position=2.5, velocity=1.0)
+    wr = MC_WriteParameter(axis=x, parameter_number=2, value=1.5)
+    rt.add_task("main", lambda ctx: (power(), ma(), wr()))
+    rt.run(cycles=2)
+    ma.execute = True
+    rt.run(cycles=400)
+    assert x.p < 1.0
+    wr.execute = True
+    rt.run(cycles=3000)
+    assert wr.done and ma.error and ma.error_id is ErrorID.SW_LIMIT
+    assert abs(x.p - 1.5) <= 1e-9 and x.v == 0.0
+    assert np.max(rt.trace.column("x.position")) <= 1.5 + 1e-9
