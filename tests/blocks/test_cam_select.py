@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from motionplc.blocks import MC_MoveVelocity, MC_Power
 from motionplc.blocks.axis_config import AxisConfig
@@ -210,6 +212,42 @@ def test_cam_limit_violation_scalings() -> None:
     assert cam_limit_violation(h, cfg, 0.1) == ""
     jcfg = AxisConfig("s", v_max=3.0, a_max=100.0, j_max=1e6)
     assert "(a step at a curvature or slope jump)" in cam_limit_violation(h, jcfg, 0.1)
+
+
+@given(
+    st.lists(st.tuples(st.floats(0.2, 2.0), st.floats(-1, 1)), min_size=2, max_size=6),
+    st.sampled_from(["poly5", "poly7", "modified_sine", "cycloid", "modified_trapezoid"]),
+    st.floats(-3, 3),
+    st.floats(-10, 10),
+    st.floats(0.5, 5),
+    st.floats(0.5, 5),
+    st.floats(2, 50),
+    st.floats(20, 2000),
+)
+@settings(max_examples=60, deadline=None, derandomize=True)
+def test_limit_verdict_against_sampling(
+    rows: list, law: str, vm: float, am: float, vp: float, vn: float, a: float, j: float
+) -> None:
+    """cam_limit_violation says "fits" exactly when the sampled slave motion (a dense grid)
+    stays within the asymmetric limits (cases within 1e-3 of a limit are not judged)."""
+    xs = np.cumsum([0.0] + [r[0] for r in rows[1:]])
+    t = CamTable.from_points([(x, r[1]) for x, r in zip(xs, rows, strict=True)], law=law)
+    cfg = AxisConfig("s", v_max=vp, a_max=a, j_max=j, v_min=-vn)
+    edges = np.array(t._starts[1:])  # both sides of every section boundary: jerk peaks
+    grid = np.concatenate([np.linspace(xs[0], xs[-1], 40_001), edges, np.nextafter(edges, -1)])
+    s = t.sample(grid)
+    v = s.dy * vm
+    acc = s.d2y * vm * vm + s.dy * am
+    jerk = s.d3y * vm**3 + 3 * s.d2y * vm * am
+    ratios = [
+        max(float(np.max(v)) / vp, float(-np.min(v)) / vn),
+        float(np.max(np.abs(acc))) / a,
+        float(np.max(np.abs(jerk))) / j,
+    ]
+    worst = max(ratios)
+    assume(abs(worst - 1.0) > 1e-3)
+    why = cam_limit_violation(t, cfg, vm, am)
+    assert (why == "") == (worst < 1.0), (why, ratios)
 
 
 def test_input_checks_before_the_run() -> None:
