@@ -32,7 +32,10 @@ Rules pinned here:
   built with stays the *System values (``Axis.cfg_system``). What is planned or checked from
   then on uses the new values: a running move keeps its plan (as vendors do); the software
   limits and the following-error monitoring act from the next cycle; the FB input ranges of
-  the motion FBs (Velocity, Acceleration, Deceleration, Jerk) follow the *Appl values.
+  the motion FBs (Velocity, Acceleration, Deceleration, Jerk) follow the *Appl values. The
+  software-limit supervision judges and brakes with the system dynamics (what the axis can
+  do), so a move planned before a lower *Appl write still ends at a limit as planned; the
+  ErrorStop ramp and MC_Stop / MC_Halt without their own inputs use the applied values.
 * A limit switched off (PN 4/5/6 FALSE) keeps its value: reading PN 2/3/7 gives it, writing it
   stores it, and switching the check on again uses it. Switching a check on with no value ever
   set is refused (INVALID_PARAMETER_VALUE naming the PN to write first).
