@@ -61,7 +61,13 @@ EXPECTED = {
 
 
 class HomingRig:
-    def __init__(self, method: int, switches: HomingSwitches | None, start: float = 0.0):
+    def __init__(
+        self,
+        method: int,
+        switches: HomingSwitches | None,
+        start: float = 0.0,
+        timeout: float = 5.0,
+    ):
         channel = f"t-{uuid.uuid4()}"
         self.vdrive = VirtualCia402Drive(N)
         self.vdrive.device.actual = PlantState(start * CPU, 0.0, 0.0)
@@ -69,7 +75,7 @@ class HomingRig:
             self.vdrive.set_switches(switches)
         self.rack = VirtualCanBus(can.Bus(interface="virtual", channel=channel), [self.vdrive])
         self.master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=self.rack)
-        spec = HomingSpec(method, 0.5, 0.02, 5.0, offset=OFFSET, timeout=5.0)
+        spec = HomingSpec(method, 0.5, 0.02, 5.0, offset=OFFSET, timeout=timeout)
         cfg = CanopenDriveConfig(node_id=N, counts_per_unit=CPU, cycle_time=CYCLE, homing=spec)
         self.drive = CanopenDrive("x", self.master, cfg)
         self.rt = Runtime(cycle=CYCLE, check_invariants=True)
@@ -157,6 +163,23 @@ def test_missing_switch_gives_homing_failed(method: int, switches: HomingSwitche
         assert not rig.x.homed
         rig.rt.run(cycles=20)
         assert rig.vdrive.device.mode_display == 8  # back in CSP for the stop ramp
+    finally:
+        rig.close()
+
+
+def test_homing_not_attained_in_time_fails() -> None:
+    # a home switch far away, no limit switch: the drive searches until the time-out
+    rig = HomingRig(19, HomingSwitches(home_switch=(10.0 * CPU, INF)), timeout=0.3)
+    try:
+        home = rig.add(MC_Home(execute=True))
+        t0 = rig.rt.time
+        assert rig.rt.run_until(lambda: home.done or home.error, max_seconds=2.0)
+        assert home.error and home.error_id is ErrorID.HOMING_FAILED
+        assert "not attained within 0.3 s" in home.error_text
+        assert 0.3 <= rig.rt.time - t0 < 0.3 + 0.05  # at the time-out (+ the SDO back to CSP)
+        assert rig.x.state is AxisState.ERROR_STOP
+        rig.rt.run(cycles=200)
+        assert rig.vdrive.device.mode_display == 8 and rig.x.v == 0.0
     finally:
         rig.close()
 
