@@ -21,6 +21,8 @@ from typing import Any
 
 import can
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from pymodbus.client import ModbusTcpClient
 
 from motionplc.blocks import (
@@ -672,3 +674,48 @@ def test_torque_configuration_from_yaml(tmp_path: Path) -> None:
     text = str(err.value)
     assert "axes.c.drive.rated_torque" in text and "axes.c.drive.torque_register" in text
     assert "axes.c.simulation.torque" in text and "only for an ideal drive" in text
+
+
+OBJECTS = {  # index, sub -> (struct code, lo, hi) from the EDS
+    (0x6065, 0): ("<I", 0, 2**32 - 1),
+    (0x6066, 0): ("<H", 0, 2**16 - 1),
+    (0x605E, 0): ("<h", -(2**15), 2**15 - 1),
+    (0x607D, 1): ("<i", -(2**31), 2**31 - 1),
+}
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    obj=st.sampled_from(sorted(OBJECTS)),
+    value=st.one_of(
+        st.integers(-(2**32), 2**33),
+        st.sampled_from([0, -1, 2**15 - 1, 2**15, 2**16, 2**31 - 1, 2**31, 2**32 - 1, 2**32]),
+    ),
+)
+def test_sdo_types_from_the_eds_round_trip(obj: tuple[int, int], value: int) -> None:
+    """Any integer written through an object's EDS type: in range it reaches the drive
+    exactly (canopen's SDO server reads it back) and reads back through our FB; out of range
+    it is refused before anything is sent, naming the range."""
+    code, lo, hi = OBJECTS[obj]
+    channel = f"dp-{uuid.uuid4()}"
+    vd = VirtualCia402Drive(N)
+    rack = VirtualCanBus(can.Bus(interface="virtual", channel=channel), [vd])
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel), peer=rack)
+    config = CanopenDriveConfig(node_id=N, eds=str(eds_path()), heartbeat_period=0.0)
+    rig = Rig(CanopenDrive("x", master, config), [master.close, rack.close])
+    try:
+        rig.run(2)
+        pn = coe_parameter_number(*obj)
+        wr = rig.add(MC_WriteParameter(parameter_number=pn, value=value, execute=True))
+        rig.until(lambda: wr.done or wr.error, limit=20)
+        if not lo <= value <= hi:
+            assert wr.error and wr.error_id is ErrorID.INVALID_PARAMETER_VALUE
+            assert f"[{lo}, {hi}]" in wr.error_text
+            return
+        assert wr.done, wr.error_text
+        assert struct.unpack(code, _upload(vd, *obj))[0] == value
+        rd = rig.add(MC_ReadParameter(enable=True, parameter_number=pn))
+        rig.until(lambda: rd.valid or rd.error, limit=20)
+        assert rd.valid and rd.value == value
+    finally:
+        rig.close()
