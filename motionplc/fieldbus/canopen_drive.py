@@ -1747,9 +1747,7 @@ class CanopenDrive(Drive):
         self.sdo_submit(index, sub, data, self._homing_step(hm, "mode"))
         return ""
 
-    def _homing_step(
-        self, hm: _HomingRun, then: str | None
-    ) -> Callable[[bytes | None, str], None]:
+    def _homing_step(self, hm: _HomingRun, then: str | None) -> Callable[[bytes | None, str], None]:
         def done(data: bytes | None, error: str) -> None:
             if self._hm is not hm or hm.phase in ("back", "over"):
                 return
@@ -1762,9 +1760,7 @@ class CanopenDrive(Drive):
 
         return done
 
-    def _homing_mode_check(
-        self, hm: _HomingRun, mode: int
-    ) -> Callable[[bytes | None, str], None]:
+    def _homing_mode_check(self, hm: _HomingRun, mode: int) -> Callable[[bytes | None, str], None]:
         limit = self.master.t + self.config.mode_timeout
 
         def check(data: bytes | None, error: str) -> None:
