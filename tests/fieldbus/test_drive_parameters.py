@@ -230,24 +230,30 @@ def test_the_cycle_runs_on_during_transfers(can_rig: Any) -> None:
     mx.execute = my.execute = True
     rig.run(200)
     rd = rig.add(MC_ReadParameter(enable=True, parameter_number=coe_parameter_number(0x6064)))
-    wr = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6067), value=50))
-    reads = 0
+    wr = rig.add(MC_WriteParameter(parameter_number=coe_parameter_number(0x6066)))
+    reads = writes = 0
     last = None
     cycles = 400
     tick0 = rig.rt.tick
     for k in range(cycles):
         px, py = rig.x.p, rig.y.p
         wr.execute = k % 20 < 10
+        wr.value = 10 + k // 20  # a new value each pulse
         rig.run(1)
         assert rig.x.p > px and rig.y.p > py  # both axes advanced in this cycle
+        assert not wr.error, wr.error_text
+        if wr.done and wr.execute and k % 20 == 9:
+            writes += 1
+            assert vd.device.following_error_timeout == pytest.approx((10 + k // 20) / 1000)
         if rd.valid and rd.value != last:
             reads += 1
             last = rd.value
     assert rig.rt.tick - tick0 == cycles
+    assert writes == cycles // 20  # every write confirmed within its 10 cycles of Execute
     # the position actual value read over SDO, while moving: close to the axis' own feedback
     assert abs(rd.value / 1e6 - rig.x.act_p) < 0.2 * 0.005
     assert reads >= cycles // 4  # a fresh value every second cycle or so
-    assert rig.x.comm_ok and not rd.error and not wr.error
+    assert rig.x.comm_ok and not rd.error
 
 
 def test_can_against_the_independent_servo(tmp_path: Path) -> None:
