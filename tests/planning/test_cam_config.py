@@ -66,6 +66,19 @@ def test_shipped_example_loads_and_builds() -> None:
     jsonschema.Draft202012Validator(json_schema("config")).validate(data)
 
 
+def test_shipped_program_runs_the_cams() -> None:
+    """configs/cams/rotary_cam_program.py: MC_CamTableSelect + MC_CamIn on both cams of the
+    example, slaves on their tables to 1e-9 for two drum turns."""
+    from motionplc.sequence import runner_for
+
+    with build(load_config(EXAMPLE)) as machine:
+        runner, task = runner_for(EXAMPLE.parent / "rotary_cam_program.py", machine)
+        machine.attach(runner, task)
+        machine.runtime.run_until(lambda: runner.over, max_seconds=10.0)
+        assert runner.failures == []
+        assert runner.finished
+
+
 def test_inline_points_in_every_form(tmp_path: Path) -> None:
     _, cfg = _load(
         tmp_path,
