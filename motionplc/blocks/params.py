@@ -263,9 +263,8 @@ class MC_WriteParameter(ExecuteFB, InputChecks):
         value = self._in_value(axis)
         mode = self._in_execution_mode(axis)
         h = Handle("parameter")
-        if isinstance(info, ParameterInfo) and info.number not in PARAMETERS:
-            raise InputError(ErrorID.INVALID_PARAMETER_NUMBER, "unknown parameter")
-        self._job = (h, axis, self.parameter_number, value, None)
+        number = info.number if isinstance(info, ParameterInfo) else self.parameter_number
+        self._job = (h, axis, number, value, None)
         if mode is ExecutionMode.IMMEDIATELY or axis.mq.idle():
             self._apply()
         return h
