@@ -88,6 +88,7 @@ __all__ = [
     "DRIVE_NUMBER_MIN",
     "PARAMETERS",
     "AxisParameters",
+    "ConfigTracker",
     "DriveAddress",
     "ParameterInfo",
     "check_number_kind",
@@ -405,3 +406,30 @@ def write_parameter(axis: Any, number: int, value: Any) -> None:
         st.sw_neg = float(x)
     elif number == 7:
         st.lag = float(x)
+
+
+class ConfigTracker:
+    """An axis' configuration through PLCopen parameter writes without a running axis (for
+    the checks of a sequence before the run): :meth:`write` validates a write exactly as
+    MC_WriteParameter does on a running axis (the same functions) and ``cfg`` is the applied
+    configuration after it; ``cfg_system`` stays the configuration it started with."""
+
+    __slots__ = ("cfg", "cfg_system", "name", "parameters")
+
+    def __init__(self, cfg: AxisConfig) -> None:
+        self.name = cfg.name
+        self.cfg_system = cfg
+        self.cfg = cfg
+        self.parameters: AxisParameters | None = None
+
+    def apply_config(self, config: AxisConfig) -> None:
+        """Take the configuration a write produced (called by :func:`write_parameter`)."""
+        self.cfg = config
+
+    def write(self, number: int, value: Any) -> None:
+        """Write PLCopen parameter ``number`` (1..17); raises InputError as the FB reports."""
+        if number not in PARAMETERS:
+            raise InputError(
+                ErrorID.INVALID_PARAMETER_NUMBER, f"parameter_number {number} is not 1..17"
+            )
+        write_parameter(self, number, value)

@@ -28,10 +28,12 @@ from motionplc.blocks import (
 from motionplc.blocks.axis_config import AxisConfig
 from motionplc.blocks.axis_params import (
     PARAMETERS,
+    ConfigTracker,
     coe_parameter_number,
     decode_drive_number,
     modbus_parameter_number,
 )
+from motionplc.blocks.base import InputError
 from motionplc.blocks.motion import StaticAxis
 from motionplc.fieldbus.base import DriveCommand, DriveFeedback
 from motionplc.fieldbus.ideal import IdealDrive
@@ -573,3 +575,27 @@ def test_a_new_limit_ahead_of_a_running_move_stops_it_there() -> None:
     assert wr.done and ma.error and ma.error_id is ErrorID.SW_LIMIT
     assert abs(x.p - 1.5) <= 1e-9 and x.v == 0.0
     assert np.max(rt.trace.column("x.position")) <= 1.5 + 1e-9
+
+
+def test_config_tracker_follows_writes_like_the_axis() -> None:
+    """The static tracker (for checks before the run) ends with the very configuration a
+    running axis has after the same writes, and refuses what the FB refuses."""
+    writes = [(4, False), (9, 0.5), (2, 0.7), (4, True), (13, 1.0), (7, 0.1), (6, True)]
+    b = _bench()
+    tracker = ConfigTracker(b.x.cfg)
+    for number, value in writes:
+        fb = _write(b, number, value)
+        assert fb.done, fb.error_text
+        tracker.write(number, value)
+        b.run(1)
+    assert tracker.cfg == b.x.cfg and tracker.cfg_system == b.x.cfg_system
+    assert tracker.cfg.sw_limit_pos == 0.7 and tracker.cfg.v_max == 0.5
+    with pytest.raises(InputError) as err:
+        tracker.write(9, 5.0)
+    assert err.value.error_id is ErrorID.INVALID_PARAMETER_VALUE
+    with pytest.raises(InputError) as err:
+        tracker.write(8, 1.0)
+    assert err.value.error_id is ErrorID.PARAMETER_READ_ONLY
+    with pytest.raises(InputError) as err:
+        tracker.write(0x606500, 1.0)
+    assert err.value.error_id is ErrorID.INVALID_PARAMETER_NUMBER
