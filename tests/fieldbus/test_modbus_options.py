@@ -46,6 +46,8 @@ def test_keys_and_the_config_they_give(tmp_path: Path) -> None:
         "watchdog",
         "velocity_feed_forward",
         "requests_in_flight",
+        "torque_register",  # MC_ReadActualTorque (handled by motionplc.config)
+        "rated_torque",
     }
     assert MODBUS_DRIVE_KEYS["unit_id"] and not MODBUS_DRIVE_KEYS["register_map"]
     _, out, errors = check(tmp_path, "bus: mb0\nunit_id: 3")
