@@ -750,6 +750,9 @@ class _Block:
         self.decl = decl
         self.fb = fb
         self.enable_fb = enable_fb
+        # an Execute FB (an edge per call); FBs without Execute or Enable (MC_Jog: buttons)
+        # take their inputs as they are
+        self.edge = not enable_fb and "execute" in type(fb).INPUTS
         self.pending: dict[str, Any] = {}
         self.low_first = False  # give execute a falling edge before the rising one
         self.armed = False  # the rising edge has been delivered since the last issue
@@ -851,7 +854,7 @@ def _issue(blk: _Block, inputs: dict[str, Any]) -> None:
     blk.armed = False
     blk.done = False
     blk.reported = False
-    if not blk.enable_fb:
+    if blk.edge:
         if blk.fb.execute:
             blk.low_first = True
         blk.pending["execute"] = True

@@ -190,6 +190,7 @@ class _Check:
         self.decls = {d.name: d for d in seq.blocks}
         self.order = {d.name: i for i, d in enumerate(seq.blocks)}
         self.cfgs = {a.name: _axis_config(config, a.name) for a in config.axes}
+        self.trackers: dict[str, Any] = {}  # PLCopen parameter writes per axis (ConfigTracker)
         self.groups = config.group_map
         self.effective: dict[str, dict[str, Any]] = {}  # latched inputs of each block
         self.reported: dict[str, set[tuple[str, str]]] = {}
@@ -341,6 +342,9 @@ class _Check:
         self.report_problems(
             call, fb, probs, given, lambda p, v, e: self.describe_axis(kind, cfg, fb, p, v, e)
         )
+        if kind in ("MC_WriteParameter", "MC_WriteBoolParameter") and not probs:
+            self.parameter_write(axis, cfg, fb)
+            return
         # where the axis goes (known positions) and the software limits of the target
         mode = getattr(fb, "buffer_mode", BufferMode.ABORTING)
         mode = mode if isinstance(mode, BufferMode) else BufferMode.ABORTING
@@ -381,6 +385,23 @@ class _Check:
             # it is not known statically
             ss.tail[axis] = None
             ss.discrete[axis] = False
+
+    def parameter_write(self, axis: str, cfg: AxisConfig, fb: Any) -> None:
+        """A literal write of a PLCopen parameter (1-17): the later calls of the sequence are
+        checked against the configuration it leaves (e.g. a software limit switched off, a
+        lower MaxVelocityAppl), as MC_WriteParameter applies it at run time."""
+        from motionplc.blocks.axis_params import PARAMETERS, ConfigTracker
+        from motionplc.blocks.base import InputError
+
+        n = fb.parameter_number
+        if isinstance(n, bool) or not isinstance(n, int) or n not in PARAMETERS:
+            return  # a drive parameter: nothing the checks know of
+        tracker = self.trackers.setdefault(axis, ConfigTracker(cfg))
+        try:
+            tracker.write(n, fb.value)
+        except InputError:
+            return  # refused at run time as well (the FB's own checks report the input)
+        self.cfgs[axis] = tracker.cfg
 
     def admin(
         self,

@@ -235,9 +235,45 @@ _PIN_TEXT = {
     "block's `cam_table_id` output when this call is issued.",
     "ratio_numerator": "Gear ratio numerator (INT, may be negative).",
     "ratio_denominator": "Gear ratio denominator (UINT, > 0).",
-    "parameter_number": "PLCopen parameter number (1-17) or a drive parameter number (>= 1000).",
+    "parameter_number": "PLCopen parameter number (1-17), or a drive parameter (>= 0x10000, "
+    "CODESYS SoftMotion's scheme): `index * 0x100 + subindex` of a CANopen object, `0x10000 + "
+    "register` of a Modbus holding register, plus an optional type code `T * 0x1000000`.",
     "trigger_input": "The probe input: its number (rising edge) or `{probe: N, edge: rising | "
     "falling}`.",
+    "window_only": "Only edges with the position inside [first_position, last_position] count.",
+    "first_position": "Start of the window [m or rad] (inclusive; modulo windows may wrap).",
+    "last_position": "End of the window [m or rad] (inclusive).",
+    "jog_forward": "Jog button: move in the positive direction while TRUE (inching: a step per "
+    "rising edge).",
+    "jog_backward": "Jog button: move in the negative direction while TRUE.",
+    "mode": "Jog mode (STANDARD_SLOW / STANDARD_FAST: the axis' jog velocities; CONTINUOUS: "
+    "`velocity`; INCHING / INCHING_MODULO: steps of `position`).",
+    "master_value_source": "The master's set or actual values.",
+    "master_offset": "Table coordinate x = master_scaling x master + master_offset [m or rad].",
+    "slave_offset": "Slave = slave_offset + slave_scaling x table value [m or rad].",
+    "master_scaling": "Scaling of the master position into table coordinates (non-zero).",
+    "slave_scaling": "Scaling of the table value (non-zero).",
+    "master_start_distance": "The coupling starts when the master is this far before "
+    "`master_sync_position` (in its direction of motion) [m or rad].",
+    "master_sync_position": "Master position of the synchronisation point [m or rad].",
+    "slave_sync_position": "Slave position at the synchronisation point [m or rad].",
+    "sync_mode": "How the slave catches the synchronisation point.",
+    "start_mode": "How the slave is brought onto the table.",
+    "periodic": "The table repeats over the master (else it runs once).",
+    "master_absolute": "The master's position is used as it is (else relative to the start).",
+    "slave_absolute": "The table's slave values are absolute (else relative to the start).",
+    "phase_shift": "Phase shift of the master as the slave sees it [m or rad].",
+    "velocity_diff": "Velocity the correction adds at most [m/s or rad/s]; 0 = as the headroom "
+    "allows.",
+    "value": "The value to write.",
+}
+# texts of a pin that means something else in one FB type
+_PIN_TEXT_OF = {
+    ("MC_Jog", "position"): "Inching step [m or rad] (INCHING: the distance per press; "
+    "INCHING_MODULO: the grid the axis moves to).",
+    ("MC_Jog", "velocity"): "Velocity of modes CONTINUOUS and INCHING [m/s or rad/s].",
+    ("MC_MoveSuperimposed", "distance"): "Distance added to the axis' motion [m or rad].",
+    ("MC_GearInPos", "velocity"): "Velocity of the catch-up [m/s or rad/s]; 0 = the slave's limit.",
 }
 
 _POINT = OneOf(
@@ -265,7 +301,9 @@ def fb_types() -> tuple[dict[str, type], dict[str, type]]:
 
 
 def _pin_node(cls: type, pin: str, default: Any, group: bool) -> Node:
-    text = _PIN_TEXT.get(pin, pin.replace("_", " ").capitalize() + ".")
+    text = _PIN_TEXT_OF.get((cls.__name__, pin)) or _PIN_TEXT.get(
+        pin, pin.replace("_", " ").capitalize() + "."
+    )
     if pin == "execute":
         return Choice(options=(False,), description=text)
     if group and pin in POINT_PINS:

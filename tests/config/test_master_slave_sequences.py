@@ -160,3 +160,44 @@ def _run_and_check(machine, runner) -> None:
     assert synced > 1000
     assert worst <= 1e-12
     assert pusher.state.name == "CONTINUOUS_MOTION"
+
+
+JOG = """\
+steps:
+  - call: [{block: pw, type: MC_Power, axis: pusher, enable: true}]
+    until: {done: [pw]}
+  - name: hold the button
+    call: [{block: j, type: MC_Jog, axis: pusher, jog_forward: true, mode: CONTINUOUS,
+            velocity: 0.1}]
+    until: {time: 0.5}
+  - name: release
+    call: [{block: j, jog_forward: false}]
+    until: {done: [j]}
+  - call: [{block: wp, type: MC_WriteParameter, axis: pusher, parameter_number: 9,
+            value: 0.05}]
+    until: {done: [wp]}
+  - call: [{block: m, type: MC_MoveRelative, axis: pusher, distance: 0.1, velocity: VEL}]
+    until: {done: [m]}
+"""
+
+
+def test_jog_buttons_and_parameter_writes_in_sequences(tmp_path: Path) -> None:
+    """MC_Jog takes its buttons as they are (no Execute edge): held for 0.5 s, released, Done
+    at rest; a literal MC_WriteParameter (9 MaxVelocityAppl) is applied to the checks of the
+    later calls before the run, as the FB applies it at run time."""
+    err = _error(tmp_path, JOG.replace("VEL", "0.1"))
+    assert "seq.yaml:14: steps[4].call[0].velocity: got 0.1, above the axis' v_max 0.05" in err
+    seq = _load(tmp_path, JOG.replace("VEL", "0.05"))
+    with build(load_config(CONFIG), check_invariants=True) as machine:
+        runner = SequenceRunner(seq, machine)
+        machine.attach(runner, seq.task)
+        pusher = machine.axes["pusher"]
+        vmax = 0.0
+        while not runner.over and machine.runtime.time < 10.0:
+            machine.runtime.run(cycles=1)
+            vmax = max(vmax, abs(pusher.v))
+        assert runner.finished and not runner.failed, runner.failures
+        jogged = 0.1 * 0.5  # the button held 0.5 s at 0.1 m/s (the ramps cancel: symmetric)
+        assert pusher.p == pytest.approx(jogged + 0.1, abs=2e-3)
+        assert vmax == pytest.approx(0.1)
+        assert pusher.cfg.v_max == 0.05  # the written MaxVelocityAppl
