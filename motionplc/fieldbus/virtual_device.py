@@ -478,9 +478,11 @@ class Cia402Device:
         return sw
 
     def probe_value(self, probe: int, rising: bool) -> int:
-        """0x60BA / 0x60BB (probe 1), 0x60BC / 0x60BD (probe 2): the stored edge position."""
+        """0x60BA / 0x60BB (probe 1), 0x60BC / 0x60BD (probe 2): the stored edge position, in
+        the coordinates of the position values (the sensors scan the physical motion: homing
+        shifts the values, not the marks)."""
         unit = self.probes[probe]
-        return saturate_i32(unit.pos_value if rising else unit.neg_value)
+        return saturate_i32((unit.pos_value if rising else unit.neg_value) + self.coord_shift)
 
     def _start_stop_ramp(self) -> None:
         """A stop ramp starts from the actual motion, not from the last setpoint."""

@@ -294,3 +294,24 @@ def test_drive_homing_against_the_independent_servo(method: int, home: float) ->
     finally:
         master.close()
         servo_bus.shutdown()
+
+
+def test_touch_probe_after_drive_homing_in_axis_coordinates() -> None:
+    """Homing shifts the drive's position values, not the marks: a mark at physical 0.3 m
+    is latched at 0.3 - home position + home offset (0x60BA in the new coordinates)."""
+    from motionplc.blocks import MC_MoveAbsolute, MC_TouchProbe
+    from motionplc.fieldbus.plant import ProbeSensor
+
+    rig = HomingRig(19, switches_for(19))  # home: the switch edge at physical 0.05 m
+    rig.vdrive.set_probe_sensor(1, ProbeSensor(marks=(0.3 * CPU,), width=1000.0))
+    try:
+        home = rig.add(MC_Home(execute=True))
+        assert rig.rt.run_until(lambda: home.done or home.error, max_seconds=8.0)
+        assert home.done, home.error_text
+        tp = rig.add(MC_TouchProbe(execute=True))
+        rig.add(MC_MoveAbsolute(position=0.5, velocity=0.5, execute=True))
+        assert rig.rt.run_until(lambda: tp.done or tp.error, max_seconds=4.0)
+        assert tp.done, tp.error_text
+        assert tp.recorded_position == pytest.approx(0.3 - CAM[0] + OFFSET, abs=2e-6)
+    finally:
+        rig.close()
