@@ -516,7 +516,9 @@ def run(root: Path, n_random: int, only: str | None) -> dict[str, str]:
             t, o = fn()
             result[name] = f"{t} {o}"
         except Exception as exc:  # noqa: BLE001 - a scenario that fails is a result too
-            result[name] = f"EXCEPTION {type(exc).__name__}: {exc}"
+            # the tree's own path (in a file name of the message) is not a difference
+            text = str(exc).replace(str(root.resolve()), "<root>")
+            result[name] = f"EXCEPTION {type(exc).__name__}: {text}"
     return result
 
 
