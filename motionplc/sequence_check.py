@@ -191,6 +191,7 @@ class _Check:
         self.order = {d.name: i for i, d in enumerate(seq.blocks)}
         self.cfgs = {a.name: _axis_config(config, a.name) for a in config.axes}
         self.trackers: dict[str, Any] = {}  # PLCopen parameter writes per axis (ConfigTracker)
+        self.homing_by_drive = {a.name: a.homing.method == "drive" for a in config.axes}
         self.groups = config.group_map
         self.effective: dict[str, dict[str, Any]] = {}  # latched inputs of each block
         self.reported: dict[str, set[tuple[str, str]]] = {}
@@ -377,7 +378,13 @@ class _Check:
             ss.tail[axis] = base + d if ok and not probs else None
             ss.discrete[axis] = True
         elif kind == "MC_Home":
-            homed = cfg.home_switch is None and "position" not in probs and cfg.modulo is None
+            by_drive = self.homing_by_drive.get(axis, False)  # ends where the drive's method does
+            homed = (
+                cfg.home_switch is None
+                and not by_drive
+                and "position" not in probs
+                and cfg.modulo is None
+            )
             ss.tail[axis] = float(fb.position) if homed else None
             ss.discrete[axis] = False
         elif kind in ("MC_MoveVelocity", "MC_Halt", "MC_Stop") or issubclass(cls, MotionFB):

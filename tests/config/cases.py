@@ -337,10 +337,12 @@ SEQUENCE_CASES: list[tuple[str, str, list[str]]] = [
         "steps:\n  - call: [{block: m, type: MC_MoveAbsolut, axis: x}]\n",
         [
             "{f}:2: steps[0].call[0].type: got string 'MC_MoveAbsolut' (allowed: "
-            "MC_Halt, MC_Home, MC_MoveAbsolute, MC_MoveAdditive, MC_MoveRelative, "
-            "MC_MoveVelocity, MC_Power, MC_ReadActualPosition, MC_ReadActualVelocity, "
-            "MC_ReadAxisError, MC_ReadMotionState, MC_ReadStatus, MC_Reset, MC_SetOverride, "
-            "MC_SetPosition, MC_Stop, SyncMoveAbsolute)"
+            "MC_AbortTrigger, MC_Halt, MC_HaltSuperimposed, MC_Home, MC_Jog, MC_MoveAbsolute, "
+            "MC_MoveAdditive, MC_MoveRelative, MC_MoveSuperimposed, MC_MoveVelocity, MC_Power, "
+            "MC_ReadActualPosition, MC_ReadActualTorque, MC_ReadActualVelocity, "
+            "MC_ReadAxisError, MC_ReadAxisInfo, MC_ReadBoolParameter, MC_ReadMotionState, "
+            "MC_ReadParameter, MC_ReadStatus, MC_Reset, MC_SetOverride, MC_SetPosition, MC_Stop, "
+            "MC_TouchProbe, MC_WriteBoolParameter, MC_WriteParameter, SyncMoveAbsolute)"
         ],
     ),
     (
