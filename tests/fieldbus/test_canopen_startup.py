@@ -282,7 +282,7 @@ def test_objects_absent_from_the_eds_are_skipped_without_a_transfer(
     d = rig.drive(eds=str(eds_path()))
     d.open()
     assert "SDO read 0x1402:01 skipped: not in the EDS" in d.startup_log
-    assert "SDO read 0x6502:00 = 0x80" in d.startup_log
+    assert "SDO read 0x6502:00 = 0xA0" in d.startup_log  # CSP (bit 7) and homing (bit 5)
 
 
 def _add_scaling_objects(node: canopen.LocalNode) -> None:
