@@ -1499,12 +1499,10 @@ def _parse_cam(c: Checker, cm: YamlMap, name: str, body: Any) -> CamSpec | None:
     smooth = c.field(m, "smooth", path, S.CAM["smooth"], False)
     given = [k for k in ("points", "file") if m.get(k) is not None]
     if len(given) != 1:
-        c.error(
-            m.line,
-            path,
-            "both `points` and `file`" if given else "no `points` and no `file`",
-            "exactly one of points, file",
-        )
+        if given:  # both: the second one named
+            c.error(m.line_of("file"), join(path, "file"), "given with `points`", "one of them")
+        else:
+            c.error(m.line, join(path, "points"), "missing", "points or file")
         return None
     src = c.file
     if given == ["file"]:

@@ -422,15 +422,15 @@ def _section_range(sec: _Section, k1: float, k2: float, k3: float) -> tuple[floa
 def _num(value: Any, index: int, name: str, bound: float) -> float:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise CamTableError(
-            f"points[{index}].{name}: must be a number in [{-bound:g}, {bound:g}], got {value!r}",
+            f"points[{index}].{name}: got {value!r} (allowed: a number in [{-bound:g}, {bound:g}])",
             index,
             name,
         )
     v = float(value)
     if not -bound <= v <= bound:
         raise CamTableError(
-            f"points[{index}].{name}: must be a finite number in [{-bound:g}, {bound:g}], "
-            f"got {v!r}",
+            f"points[{index}].{name}: got {v!r} (allowed: a finite number in [{-bound:g}, "
+            f"{bound:g}])",
             index,
             name,
         )
@@ -811,7 +811,7 @@ class CamTable:
                 unknown = sorted(set(p) - {"master", "slave", "slope", "curvature", "law"})
                 if unknown:
                     raise CamTableError(
-                        f"points[{i}]: unknown key {unknown[0]!r} (allowed: master, slave, "
+                        f"points[{i}].{unknown[0]}: unknown key (allowed: master, slave, "
                         "slope, curvature, law)",
                         i,
                         str(unknown[0]),

@@ -20,6 +20,7 @@ SHIPPED = [
     ("gantry.yaml", "gantry_sequence.yaml"),
     ("gantry.yaml", "gantry_groups_sequence.yaml"),
     ("telescope.yaml", "telescope_program.py"),
+    ("packaging.yaml", "packaging_sequence.yaml"),
 ]
 
 

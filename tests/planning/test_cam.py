@@ -447,8 +447,8 @@ def test_immutable_and_hashable() -> None:
         ([(0, 0), (1, math.inf)], None, 1, "slave", r"points\[1\]\.slave"),
         ([(0, 0), (1, 1, 2e9)], None, 1, "slope", r"\[-1e\+09, 1e\+09\]"),
         ([(0, 0), (1, 1, 0.0, math.nan)], None, 1, "curvature", "curvature"),
-        ([(0, 0), (1, "a")], None, 1, "slave", "must be a number"),
-        ([(0, 0), (1, True)], None, 1, "slave", "must be a number"),
+        ([(0, 0), (1, "a")], None, 1, "slave", "allowed: a number"),
+        ([(0, 0), (1, True)], None, 1, "slave", "allowed: a number"),
         ([(0, 0), (1, 1)], ["spline"], 0, "law", "unknown motion law 'spline'"),
         ([(0, 0), (1, 1), (2, 2)], ["poly5", "poly5", "poly5"], None, "laws", "one law per"),
         ([(0, 0), (1, 1), (2, 3)], ["linear", "linear"], 1, "slope", "segment 1"),
@@ -476,7 +476,7 @@ def test_numpy_points() -> None:
     arr = np.array([[0.0, 0.0], [1.0, 2.0], [2.0, 2.0]], dtype=np.float32)
     t = CamTable.from_points(arr, law="cycloid")
     assert t == CamTable.from_points([(0, 0), (1, 2), (2, 2)], law="cycloid")
-    with pytest.raises(CamTableError, match=r"points\[1\]\.slave: must be a number"):
+    with pytest.raises(CamTableError, match=r"points\[1\]\.slave: got .* \(allowed: a number"):
         CamTable.from_points([(0, 0), (1, np.bool_(True))])
 
 

@@ -195,12 +195,17 @@ def test_csv_file(tmp_path: Path) -> None:
             "cams.c1.point",
             "unknown key",
         ),
-        ("cams:\n  c1:\n    law: poly5\n", 10, "cams.c1", "no `points` and no `file`"),
+        (
+            "cams:\n  c1:\n    law: poly5\n",
+            10,
+            "cams.c1.points",
+            "missing (allowed: points or file)",
+        ),
         (
             "cams:\n  c1:\n    file: a.csv\n    points: [[0, 0], [1, 1]]\n",
             10,
-            "cams.c1",
-            "both `points` and `file`",
+            "cams.c1.file",
+            "given with `points` (allowed: one of them)",
         ),
         ("cams:\n  c1:\n    points: 3\n", 10, "cams.c1.points", "got number 3 (allowed: a list)"),
         ("cams:\n  1c: {points: [[0, 0], [1, 1]]}\n", 9, "cams.1c", "invalid name"),
@@ -237,7 +242,7 @@ def test_every_cam_error_of_a_file_is_reported(tmp_path: Path) -> None:
         tmp_path,
         "cams:\n  a: {points: [[0, 0]]}\n  b: {points: [[0, 0], [1, 1]]}\n  c: {law: x}\n",
     )
-    assert [e.split(": ")[1] for e in errs] == ["cams.a.points", "cams.c.law", "cams.c"]
+    assert [e.split(": ")[1] for e in errs] == ["cams.a.points", "cams.c.law", "cams.c.points"]
 
 
 def test_schema_literals_match_the_planner() -> None:

@@ -33,6 +33,7 @@ SEQUENCE_CONFIG = {
     "demo_sequence.yaml": "demo.yaml",
     "gantry_sequence.yaml": "gantry.yaml",
     "gantry_groups_sequence.yaml": "gantry.yaml",
+    "packaging_sequence.yaml": "packaging.yaml",
     "single_axis_sequence.yaml": "single_axis_can.yaml",
 }
 SCALARS = (Number, Integer, Choice, String, Bool)
