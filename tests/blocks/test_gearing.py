@@ -360,3 +360,18 @@ def test_buffered_gear_in_behind_gear_in_and_aborting_move() -> None:
     rig.run(5000)
     assert ma.done and rig.s.p == 0.0
     assert max(jumps(rig)) <= 1.0 + 1e-6
+
+
+def test_invariant_checker_holds_a_locked_coupling_to_its_law() -> None:
+    from motionplc.blocks.sync_job import check_coupling
+
+    rig = Rig().powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=1.0, execute=True))
+    g = rig.add(MC_GearIn(master=rig.m, slave=rig.s, ratio_numerator=3, ratio_denominator=2))
+    g.execute = True
+    assert check_coupling(rig.s) is None  # not coupled yet: nothing to check
+    rig.run(1500)
+    assert g.in_gear and check_coupling(rig.s) is None
+    rig.s.p += 1e-6  # off the law
+    why = check_coupling(rig.s)
+    assert why is not None and "gear locked" in why
