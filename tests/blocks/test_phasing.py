@@ -178,3 +178,26 @@ def test_gear_in_pos_sync_modes(mode: SyncMode) -> None:
         first = int(np.argmax(rel_v <= 0.0))
         assert np.max(rel_v[first:]) <= 1e-9
     assert rig.s.p == pytest.approx(slave_sync + rig.m.p, abs=1e-12)
+
+
+def test_gear_in_pos_start_point_is_sign_aware() -> None:
+    """A master moving negatively starts the catch-up at master_sync + start distance."""
+    rig = Rig().powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=-1.0, execute=True))
+    gp = rig.add(
+        MC_GearInPos(
+            master=rig.m,
+            slave=rig.s,
+            ratio_numerator=-1,
+            master_sync_position=-2.0,
+            slave_sync_position=0.5,
+            master_start_distance=0.5,
+            execute=True,
+        )
+    )
+    rig.watch = {"start": (gp, "start_sync")}
+    rig.run(4000)
+    assert gp.in_sync and rig.s.p == pytest.approx(0.5 - (rig.m.p + 2.0), abs=1e-12)
+    tr = rig.trace()
+    start = int(np.argmax(rig.flag("start")))
+    assert -1.5 - 3e-3 <= tr[start - 1, 0] <= -1.5 + 1e-9
