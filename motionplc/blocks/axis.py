@@ -85,6 +85,7 @@ from motionplc.blocks.planner_guard import guarded as _guarded
 from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
 from motionplc.blocks.sync_job import SYNC_KINDS, SyncCommand
+from motionplc.blocks.sync_job import keep_velocity as _keep_velocity
 from motionplc.blocks.sync_job import prepare as _prepare_sync
 from motionplc.blocks.sync_job import submit as _submit_sync
 from motionplc.fieldbus.base import Drive, DriveCommand
@@ -1474,6 +1475,8 @@ class Axis:
         nxt = self._activate_queued()
         if nxt is not None:
             return nxt
+        if job.sync:  # no buffered successor of a coupling could start: keep the velocity
+            return _keep_velocity(self)
         if kind == "home" or (kind == "feedstop" and self.state is S.HOMING):
             self.state = next_state(Event.HOME_DONE, self.state)  # T7
         elif self.state is S.DISCRETE_MOTION and self.sup is None:

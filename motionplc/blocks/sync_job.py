@@ -100,6 +100,7 @@ __all__ = [
     "SyncJob",
     "check_coupling",
     "coupling_of",
+    "keep_velocity",
     "order_axes",
     "prepare",
     "request_phasing",
@@ -864,14 +865,35 @@ def prepare(ax: Axis, job: AxisJob) -> bool:
     return True
 
 
-def _keep_velocity(ax: Axis, job: AxisJob) -> None:
-    """GearOut / CamOut: the slave keeps its velocity (acceleration to 0 at full jerk)."""
+def _keep_profile(ax: Axis) -> tuple[Profile, float]:
+    """The slave keeps its velocity: its acceleration to 0 at full jerk (the profile, v_end)."""
     cfg = ax.cfg
     v, a = ax.v, ax.a
     jm = cfg.j_max
     v_end = v if not math.isfinite(jm) else v + a * abs(a) / (2.0 * jm)
     v_end = min(max(v_end, -cfg.v_neg), cfg.v_max)
     prof = guarded(plan_velocity, State(ax.p, v, a), v_end, ax._axis_limits(0.0, 0.0, 0.0))
+    return prof, v_end
+
+
+def keep_velocity(ax: Axis) -> AxisJob:
+    """A coupling handed over to its buffered successors but none could start (each ended with
+    its Error): the slave keeps its velocity (ContinuousMotion) instead of stopping dead; the
+    running velocity job (internal) is returned, active."""
+    prof, v_end = _keep_profile(ax)
+    job = AxisJob(Command(kind="velocity", velocity=v_end), Handle("velocity"))
+    job.no_override = True
+    job.set_chain([prof])
+    ax.mq.active = job
+    job.handle.status = Status.ACTIVE
+    if ax.state is S.SYNCHRONIZED_MOTION:
+        ax.state = next_state(EVENTS["syncout"], ax.state)
+    return job
+
+
+def _keep_velocity(ax: Axis, job: AxisJob) -> None:
+    """GearOut / CamOut: the slave keeps its velocity (acceleration to 0 at full jerk)."""
+    prof, v_end = _keep_profile(ax)
     out_handle = job.handle
     job.handle = Handle("velocity")
     job.cmd = Command(kind="velocity", velocity=v_end)

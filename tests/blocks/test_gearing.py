@@ -375,3 +375,22 @@ def test_invariant_checker_holds_a_locked_coupling_to_its_law() -> None:
     rig.s.p += 1e-6  # off the law
     why = check_coupling(rig.s)
     assert why is not None and "gear locked" in why
+
+
+def test_buffered_successor_that_cannot_start_leaves_the_slave_moving() -> None:
+    """The coupling hands over at InGear, but its buffered successor is refused when it starts
+    (its target beyond a software limit): the slave keeps its velocity (ContinuousMotion)."""
+    rig = Rig(slave={"sw_limit_pos": 50.0, "sw_limit_neg": -50.0}).powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=0.5, execute=True))
+    rig.run(1000)
+    g = rig.add(MC_GearIn(master=rig.m, slave=rig.s, execute=True))
+    ma = rig.add(
+        MC_MoveAbsolute(
+            axis=rig.s, position=80.0, velocity=1.0, buffer_mode=BufferMode.BUFFERED, execute=True
+        )
+    )
+    rig.run(2000)
+    assert g.command_aborted
+    assert ma.error and ma.error_id is ErrorID.TARGET_OUTSIDE_SW_LIMITS
+    assert rig.s.state is S.CONTINUOUS_MOTION and rig.s.v == pytest.approx(0.5, abs=1e-12)
+    assert max(jumps(rig)) <= 1.0 + 1e-6
