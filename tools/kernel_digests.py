@@ -49,9 +49,12 @@ class Observer:
     def __init__(self, planner_calls: Callable[[], int]) -> None:
         self.h = hashlib.sha256()
         self.planner_calls = planner_calls
+        # the process-wide count at the scenario's start: the calls of this scenario alone,
+        # whatever ran before it (a new scenario must not shift the digests of the others)
+        self.base = planner_calls()
 
     def __call__(self, rt: Any, k: int) -> None:
-        parts: list[Any] = [k, self.planner_calls()]
+        parts: list[Any] = [k, self.planner_calls() - self.base]
         for ax in rt.axes.values():
             parts.append((ax.axis_error.value, ax.axis_error_reason, ax.override, ax.homed))
             for fb in ax.fbs:
