@@ -610,16 +610,23 @@ class SyncJob(AxisJob):
             self.period = k
 
     def _cam_supervised(self, m: tuple[float, float, float, float]) -> bool:
+        """The cam at the master's motion ``m`` within the slave's limits. ``chk`` is an
+        envelope of master |v|, |a|, |j| inside which the table's monotone peak bound
+        (:meth:`CamTable.slave_peaks_bound`) fits, whatever the signs: inside it nothing is
+        computed; outside, a wider envelope is tried, and failing that the exact signed
+        extremes of this very motion decide (not cached: they hold for these signs only)."""
         cv, ca, cj = self.chk
         v, a, j = abs(m[1]), abs(m[2]), abs(m[3])
         if v <= cv and a <= ca and j <= cj:
             return True
         for f in (1.25, 1.0):
-            why = cam_limits(self, f * m[1], f * m[2], f * m[3])
-            if why is None:
+            if cam_bound_fits(self, f * v, f * a, f * j):
                 self.chk = (f * v, f * a, f * j)
                 return True
-        self._fail(ErrorID.SLAVE_LIMITS_EXCEEDED, why or "")
+        why = cam_limits(self, m[1], m[2], m[3])
+        if why is None:
+            return True
+        self._fail(ErrorID.SLAVE_LIMITS_EXCEEDED, why)
         return False
 
     # -- phasing -------------------------------------------------------------------------------
@@ -672,6 +679,22 @@ def _limits(ax: Axis) -> tuple[float, float, float]:
     return min(cfg.v_max, cfg.v_neg), min(cfg.a_max, cfg.a_neg), cfg.j_max
 
 
+def cam_bound_fits(job: SyncJob, mv: float, ma: float, mj: float) -> bool:
+    """The table's monotone peak bound at master |v|, |a|, |j| (scaled) within the slave's
+    limits (the lower side of asymmetric ones): then every master motion inside this
+    envelope fits, whatever its signs."""
+    q = abs(job.msc)
+    ss = abs(job.ssc)
+    b = job.table.slave_peaks_bound(mv * q, ma * q, mj * q)
+    cfg = job.slave.cfg
+    tol = 1.0 + _TOL
+    return (
+        ss * b[0] <= min(cfg.v_max, cfg.v_neg) * tol
+        and ss * b[1] <= min(cfg.a_max, cfg.a_neg) * tol
+        and ss * b[2] <= cfg.j_max * tol
+    )
+
+
 def cam_limits(job: SyncJob, mv: float, ma: float, mj: float) -> str | None:
     """Why the cam of ``job`` at this master motion exceeds the slave's limits (None: fits)."""
     from motionplc.blocks.cam_select import cam_limit_violation  # (imports the kernel)
@@ -700,7 +723,9 @@ def _engage_check(job: SyncJob) -> tuple[ErrorID, str] | None:
         why = cam_limits(job, mv, ma, mj)
         if why is not None:
             return ErrorID.SLAVE_LIMITS_EXCEEDED, why
-        job.chk = (abs(mv), abs(ma), abs(mj))
+        # the envelope of the per-cycle supervision: only what the monotone bound covers
+        env = (abs(mv), abs(ma), abs(mj))
+        job.chk = env if cam_bound_fits(job, *env) else (0.0, 0.0, 0.0)
         return None
     vl, al, _ = _limits(job.slave)
     r = abs(job.ratio)
@@ -964,6 +989,8 @@ def check_coupling(ax: Axis) -> str | None:
     m = job.seen(job.last_tau)
     lp = job.law(*m)[0]
     p = job.c + lp if job.kind == "gear" else lp
+    if ax.sup is not None:  # a superimposed motion on top of the coupling (superimposed.py)
+        p += ax.sup.sp
     if abs(ax.p - p) > 1e-9 * (1.0 + abs(p)):
         return f"{job.kind} locked but p = {ax.p!r}, law {p!r}"
     return None

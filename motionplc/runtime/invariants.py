@@ -121,7 +121,9 @@ class InvariantChecker:
         return period
 
     def _check_axis(self, rt: Runtime, ax: Any, cycle: int) -> None:
-        cfg = ax.cfg
+        # the system limits: a move started before MC_WriteParameter lowered the applied
+        # (*Appl) ones keeps its plan (as the vendors do)
+        cfg = getattr(ax, "cfg_system", ax.cfg)
         state = ax.state
         cur = (state, ax.p, ax.v, ax.a, ax.offset, ax._f == 1.0 and ax._f_prof is None, cycle)
         prev = self._ax_prev.get(ax.name)

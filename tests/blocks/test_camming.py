@@ -235,3 +235,38 @@ def test_cam_in_waits_for_the_master_start_distance() -> None:
     tr = rig.trace()
     moving = np.flatnonzero(tr[:, 4] != 0.0)
     assert tr[moving[0], 0] >= 1.5 - 2e-3  # the slave started with the master at the start point
+
+
+def test_cam_supervision_envelope_is_sound_for_either_sign_of_the_master_acceleration() -> None:
+    """The per-cycle cam supervision caches an envelope of master |v|, |a|, |j| only where
+    the table's monotone bound fits; a motion the exact signed extremes allow for one sign of
+    the master's acceleration (braking) does not let the other sign (speeding up) through.
+    Table from points (0, 0), (0.2, 0.15), (1, 1), poly5 through cubic-spline slopes: at a
+    master velocity of 2, the slave's peak acceleration is ~43.3 with am = -5 and ~48.0 with
+    am = +5; the slave allows 45."""
+    from types import SimpleNamespace
+
+    from motionplc.blocks.axis_config import AxisConfig
+    from motionplc.blocks.sync_job import SyncJob
+
+    table = CamTable.from_points([(0, 0), (0.2, 0.15), (1, 1)], law="poly5", smooth=True)
+    cfg = AxisConfig(name="s", v_max=100.0, a_max=45.0, j_max=1e9)
+    braking = table.slave_bounds(2.0, -5.0, 0.0, False)
+    speeding = table.slave_bounds(2.0, 5.0, 0.0, False)
+    assert max(braking.a_max, -braking.a_min) < 45.0 < max(speeding.a_max, -speeding.a_min)
+    failures: list[str] = []
+    job = SimpleNamespace(
+        table=table,
+        msc=1.0,
+        ssc=1.0,
+        periodic=False,
+        slave=SimpleNamespace(cfg=cfg, name="s"),
+        master=SimpleNamespace(name="m"),
+        chk=(0.0, 0.0, 0.0),
+        peaks=(0.0, 0.0, 0.0),
+        _fail=lambda eid, why: failures.append(f"{eid.name}: {why}"),
+    )
+    assert SyncJob._cam_supervised(job, (0.0, 2.0, -5.0, 0.0))  # braking: fits
+    assert not failures
+    assert not SyncJob._cam_supervised(job, (0.0, 2.0, 5.0, 0.0))  # speeding up: refused
+    assert failures and failures[0].startswith("SLAVE_LIMITS_EXCEEDED")

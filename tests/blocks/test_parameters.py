@@ -204,7 +204,9 @@ def test_written_acceleration_deceleration_jerk_bound_the_next_move() -> None:
 
 
 def test_a_running_move_keeps_its_plan() -> None:
-    rt = Runtime(cycle=0.001)  # the invariants check the applied limits: not here
+    # the invariant checker judges the set values by the system limits: a move planned
+    # before the write goes on at its velocity without tripping it
+    rt = Runtime(cycle=0.001, check_invariants=True)
     x = rt.add_axis("x", v_max=2.0, a_max=4.0, j_max=40.0)
     power = MC_Power(axis=x, enable=True)
     ma = MC_MoveAbsolute(axis=x, position=3.0, velocity=2.0)

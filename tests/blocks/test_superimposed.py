@@ -413,28 +413,13 @@ def test_sum_within_limits_and_exact_end(
         assert b.x.state is S.STANDSTILL and b.x.sup is None
 
 
-def test_on_a_geared_slave(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_on_a_geared_slave() -> None:
     """SynchronizedMotion (plcopen.md 1.3: accepted, no state change): a registration
     correction on a slave geared 1:1 to a master at constant velocity; the coupling stays
-    locked and the slave ends ``distance`` ahead of its law. (The invariant checker's coupling
-    check is given the superimposed offset here, as sync_job.check_coupling should.)"""
-    import motionplc.runtime.invariants as inv
+    locked (the invariant checker's coupling check: law + the superimposed offset) and the
+    slave ends ``distance`` ahead of its law."""
     from motionplc.blocks.sync import MC_GearIn
 
-    orig = inv.check_coupling
-
-    def coupling(ax):  # type: ignore[no-untyped-def]
-        sup = ax.sup
-        if sup is None:
-            return orig(ax)
-        p = ax.p
-        ax.p = p - sup.sp
-        try:
-            return orig(ax)
-        finally:
-            ax.p = p
-
-    monkeypatch.setattr(inv, "check_coupling", coupling)
     b = Bench(axes={"x": dict(LIM), "m": dict(LIM)}).powered()
     m = b.axes["m"]
     mv = b.add(MC_MoveVelocity(axis=m, velocity=0.5))
