@@ -370,10 +370,30 @@ class _PhasingFB(_SlaveFB, InputChecks, MotionFB):
     def _in_phase_shift(self, axis: Any) -> float:
         return _pos("phase_shift", self.phase_shift, ErrorID.INVALID_DISTANCE)
 
-    _in_velocity = MC_GearInPos._in_velocity
-    _in_acceleration = _MoveFB._in_acceleration
-    _in_deceleration = _MoveFB._in_deceleration
-    _in_jerk = _MoveFB._in_jerk
+    # Velocity, Acceleration, Deceleration, Jerk are the shift's: a motion of the master (as
+    # the slave sees it), so in the master's units and within the master's ranges (0 = the
+    # master's limit); before the master is known (a sequence's static check) any positive
+    # finite value passes
+    def _dyn_check(self, axis: Any, check: Any) -> float:
+        m = self.master
+        if isinstance(m, Axis):
+            return float(check(self, m))
+        return float(check(self, _AnyRange()))
+
+    def _in_velocity(self, axis: Any) -> float:
+        if self.velocity == 0.0:
+            return 0.0  # the master's limit
+        return self._dyn_check(axis, _MoveFB._in_velocity)
+
+    def _in_acceleration(self, axis: Any) -> float:
+        return self._dyn_check(axis, _MoveFB._in_acceleration)
+
+    def _in_deceleration(self, axis: Any) -> float:
+        return self._dyn_check(axis, _MoveFB._in_deceleration)
+
+    def _in_jerk(self, axis: Any) -> float:
+        return self._dyn_check(axis, _MoveFB._in_jerk)
+
     _in_buffer_mode = _MoveFB._in_buffer_mode
 
     def _start(self, axis: Axis) -> Handle:
@@ -407,6 +427,24 @@ class _PhasingFB(_SlaveFB, InputChecks, MotionFB):
 
     def _busy_outputs(self, h: Handle) -> None:
         self._outputs(h)
+
+
+class _AnyRange:
+    """A stand-in axis whose ranges are all positive finite numbers (the shift's dynamics
+    checked before the master is known)."""
+
+    class cfg:  # noqa: N801 - mimics Axis.cfg
+        @staticmethod
+        def velocity_range() -> tuple[float, float]:
+            return 0.0, math.inf
+
+        @staticmethod
+        def acceleration_range() -> tuple[float, float]:
+            return 0.0, math.inf
+
+        @staticmethod
+        def jerk_range() -> tuple[float, float]:
+            return 0.0, math.inf
 
 
 class MC_PhasingAbsolute(_PhasingFB):

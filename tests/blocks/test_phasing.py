@@ -201,3 +201,27 @@ def test_gear_in_pos_start_point_is_sign_aware() -> None:
     tr = rig.trace()
     start = int(np.argmax(rig.flag("start")))
     assert -1.5 - 3e-3 <= tr[start - 1, 0] <= -1.5 + 1e-9
+
+
+def test_phasing_dynamics_are_the_masters() -> None:
+    """The shift's Velocity is a velocity of the master (its units, its range): with a slave
+    slower than the master (ratio 1/4), a shift velocity above the slave's v_max but within the
+    master's is accepted; one above the master's v_max is refused with INVALID_VELOCITY."""
+    rig = Rig(slave={"v_max": 1.0, "a_max": 24.0, "j_max": 300.0}).powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=1.0, execute=True))
+    g = rig.add(
+        MC_GearIn(master=rig.m, slave=rig.s, ratio_numerator=1, ratio_denominator=4, execute=True)
+    )
+    rig.run(1500)
+    assert g.in_gear
+    ok = rig.add(
+        MC_PhasingRelative(master=rig.m, slave=rig.s, phase_shift=0.5, velocity=1.5, execute=True)
+    )
+    rig.run(2000)
+    assert ok.done and not ok.error and g.in_gear
+    bad = rig.add(
+        MC_PhasingRelative(master=rig.m, slave=rig.s, phase_shift=0.5, velocity=2.5, execute=True)
+    )
+    rig.run(1)
+    assert bad.error and bad.error_id is ErrorID.INVALID_VELOCITY
+    assert "(0, 2]" in bad.error_text  # the master's range
