@@ -251,3 +251,74 @@ SyncMachine.TestCase.settings = settings(
     derandomize=True,
 )
 test_sync_stateful = SyncMachine.TestCase
+
+
+def _single_axis_commands(rig: Rig) -> dict[str, tuple[Any, AxisState | None]]:
+    """The single-axis FBs issued on a coupled slave and the state they lead to (None: the
+    state's ErrorID, plcopen.md 1.3)."""
+    from motionplc.blocks import (
+        MC_Halt,
+        MC_Jog,
+        MC_MoveAdditive,
+        MC_MoveRelative,
+        MC_MoveSuperimposed,
+    )
+
+    s = rig.s
+    return {
+        "MC_MoveAbsolute": (MC_MoveAbsolute(axis=s, position=5.0, velocity=1.0), S.DISCRETE_MOTION),
+        "MC_MoveRelative": (MC_MoveRelative(axis=s, distance=1.0, velocity=1.0), S.DISCRETE_MOTION),
+        "MC_MoveAdditive": (MC_MoveAdditive(axis=s, distance=1.0, velocity=1.0), S.DISCRETE_MOTION),
+        "MC_MoveVelocity": (MC_MoveVelocity(axis=s, velocity=0.2), S.CONTINUOUS_MOTION),
+        "MC_Halt": (MC_Halt(axis=s), S.DISCRETE_MOTION),
+        "MC_Stop": (MC_Stop(axis=s), S.STOPPING),
+        "MC_Home": (MC_Home(axis=s), None),
+        # a correction on top of the coupling: no state change (plcopen.md 1.3, C8)
+        "MC_MoveSuperimposed": (MC_MoveSuperimposed(axis=s, distance=0.01), S.SYNCHRONIZED_MOTION),
+        "MC_Jog": (MC_Jog(axis=s, velocity=0.2), S.CONTINUOUS_MOTION),
+    }
+
+
+@pytest.mark.parametrize(
+    "fbname",
+    [
+        "MC_MoveAbsolute",
+        "MC_MoveRelative",
+        "MC_MoveAdditive",
+        "MC_MoveVelocity",
+        "MC_Halt",
+        "MC_Stop",
+        "MC_Home",
+        "MC_MoveSuperimposed",
+        "MC_Jog",
+    ],
+)
+def test_single_axis_commands_on_a_coupled_slave(fbname: str) -> None:
+    """From SynchronizedMotion (T14/T16/T18, plcopen.md 1.3): a move, a velocity, a halt or a
+    stop takes the slave out of the coupling (its FB CommandAborted, the master untouched),
+    MC_Home is refused with STATE_SYNCHRONIZED_MOTION, a superimposed move rides on the
+    coupling (which stays InGear)."""
+    rig = Rig(slave=SLAVE).powered()
+    rig.add(MC_MoveVelocity(axis=rig.m, velocity=0.5, execute=True))
+    g = rig.add(MC_GearIn(master=rig.m, slave=rig.s, execute=True))
+    rig.run(1500)
+    assert g.in_gear and rig.s.state is S.SYNCHRONIZED_MOTION
+    m_state = rig.m.state
+    fb, target = _single_axis_commands(rig)[fbname]
+    rig.add(fb)
+    if fbname == "MC_Jog":
+        fb.jog_forward = True
+    else:
+        fb.execute = True
+    rig.run(2)
+    if target is None:
+        assert fb.error and fb.error_id is ErrorID.STATE_SYNCHRONIZED_MOTION
+        assert rig.s.state is S.SYNCHRONIZED_MOTION and g.in_gear
+    else:
+        assert not fb.error, fb.error_text
+        assert rig.s.state is target
+        if target is S.SYNCHRONIZED_MOTION:
+            assert g.in_gear and not g.command_aborted
+        else:
+            assert g.command_aborted and not g.in_gear
+    assert rig.m.state is m_state
