@@ -39,6 +39,7 @@ COMPILED_MODULES = (
     "motionplc.planning.profile",
     "motionplc.planning.plan",
     "motionplc.planning._fixed",
+    "motionplc.planning.sync",
 )
 GROUP = "motionplc._core"  # the shared library: motionplc/_core__mypyc.<abi>.so
 MANIFEST = "motionplc/_compiled.json"  # source digests of the last successful compile

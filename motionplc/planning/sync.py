@@ -81,15 +81,13 @@ DT_MIN = 1e-9  # [s] the shortest cycle time accepted (a nanosecond)
 
 def check_dt(dt: object, name: str = "dt") -> float:
     """A cycle time in [DT_MIN, MAX_SYNC_DURATION] = [1e-9 s, 1e4 s]; else PlanningError."""
-    if (
-        isinstance(dt, bool)
-        or not isinstance(dt, (int, float))
-        or not DT_MIN <= dt <= MAX_SYNC_DURATION
-    ):
+    # float() first: a numpy scalar compares to a numpy bool, which the compiled build refuses
+    x = float(dt) if isinstance(dt, (int, float)) and not isinstance(dt, bool) else math.nan
+    if not DT_MIN <= x <= MAX_SYNC_DURATION:
         raise PlanningError(
             f"{name} must be a number of seconds in [{DT_MIN:g}, {MAX_SYNC_DURATION:g}], got {dt!r}"
         )
-    return float(dt)
+    return x
 
 
 def _sequence(name: str, value: object) -> Sequence:  # type: ignore[type-arg]
@@ -154,7 +152,9 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
     d = pf - p0
     if J != _INF:
         if velocity:
-            v0, a0 = _brake.acceleration_brake(v0, a0, amax, amin, J, pre)
+            ret: list[tuple[float, float]] = []
+            v0, a0 = _brake.acceleration_brake(v0, a0, amax, amin, J, ret)
+            pre.extend(ret)
         else:
             pre3, v0, a0, d, _ = _brake.brake_prefix(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
             pre.extend(pre3)
@@ -226,6 +226,7 @@ def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
             if af > 0.0 and ax.vmin != -_INF:
                 floor = max(floor, af * af / (2.0 * max(vf - ax.vmin, 1e-300)))
         return floor / J * (1.0 + 1e-12)
+    vals: tuple[float, ...]
     if what == "a":
         vals = (a0, af)
     else:
@@ -442,15 +443,15 @@ def _scan_family(
         if ph is None:
             return None
         p, v, a = 0.0, v0, a0
-        for x in ph:
-            dur, j = x[0], x[1]
+        for seg in ph:
+            dur, j = seg[0], seg[1]
             if dur < -1e-12:
                 return None
             if dur > 0.0:
-                if len(x) > 2:  # exact values carried by the phase (as _third._verify takes them)
-                    a = x[2]
-                    if len(x) > 3:
-                        v = x[3]
+                if len(seg) > 2:  # exact values carried by the phase (as _third._verify takes them)
+                    a = seg[2]
+                    if len(seg) > 3:
+                        v = seg[3]
                 p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
                 v += dur * (a + 0.5 * dur * j)
                 a += dur * j
@@ -477,12 +478,12 @@ def _scan_family(
         f = r[0]
         if prev is not None and (prev[1] < 0.0) != (f < 0.0):
             a, b, fa = prev[0], x, prev[1]
-            ok = True
+            bracketed = True
             for _ in range(100):
                 m = 0.5 * (a + b)
                 rm = resid(m)
                 if rm is None:
-                    ok = False
+                    bracketed = False
                     break
                 if (rm[0] < 0.0) == (fa < 0.0):
                     a, fa = m, rm[0]
@@ -490,10 +491,10 @@ def _scan_family(
                     b = m
                 if b - a <= 4e-16 * max(1.0, abs(m)):
                     break
-            if ok:
+            if bracketed:
                 rm = resid(0.5 * (a + b))
                 if rm is not None:
-                    ph = [(max(x[0], 0.0), *x[1:]) for x in rm[1]]
+                    ph = [(max(seg[0], 0.0), *seg[1:]) for seg in rm[1]]
                     ver = _third._verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
                     if ver is not None and abs(ver[0] - T) <= _dur_tol(T):
                         out = list(ver[1])
@@ -861,9 +862,9 @@ def _solve_for(
         return [(T, 0.0, 0.0, 0.0)], "hold"  # at rest on its target: wait for the others
     if rest and not ax.velocity and t_min > 0.0:
         k = T / t_min
-        ph = _scaled_rest(ax, k, ext[0])
-        if ph is not None:
-            return ph
+        scaled = _scaled_rest(ax, k, ext[0])
+        if scaled is not None:
+            return scaled
     if ax.velocity:
         r = _velocity_fixed(ax, T)
         if r is not None:
@@ -1112,17 +1113,19 @@ def _phase_sync(
     return profiles, ""
 
 
-def plan_fixed_duration(start: State, target: State, limits: Limits, T: float) -> Profile | None:
+def plan_fixed_duration(start: State, target: State, limits: Limits, T: object) -> Profile | None:
     """A profile from ``start`` to ``target`` lasting exactly ``T`` (within 1e-9 s), or None if
     the axis cannot take that duration (shorter than its minimum, or blocked).
 
     ``T`` must be a number in [0, MAX_SYNC_DURATION] (1e4 s), else :class:`PlanningError`."""
-    if isinstance(T, bool) or not isinstance(T, (int, float)) or not 0.0 <= T <= MAX_SYNC_DURATION:
+    # (``T: object``: the compiled build checks it here, as the pure one, not at the call)
+    dur = float(T) if isinstance(T, (int, float)) and not isinstance(T, bool) else math.nan
+    if not 0.0 <= dur <= MAX_SYNC_DURATION:
         raise PlanningError(
             f"T must be a number of seconds in [0, {MAX_SYNC_DURATION:g}], got {T!r}"
         )
     try:
-        return _fixed_duration(start, target, limits, float(T))
+        return _fixed_duration(start, target, limits, dur)
     except ArithmeticError as exc:
         raise _internal(
             "plan_fixed_duration", exc, f"start={start!r}, target={target!r}, {limits!r}, T={T!r}"
@@ -1145,10 +1148,10 @@ def plan_sync(
     starts: Sequence[State],
     targets: Sequence[State],
     limits: Sequence[Limits],
-    sync: str = "time",
-    dt: float | None = None,
-    interface: Sequence[str] | None = None,
-    method: str = "direct",
+    sync: object = "time",
+    dt: object = None,
+    interface: object = None,
+    method: object = "direct",
 ) -> Trajectory:
     """Plan several axes together.
 
@@ -1169,6 +1172,9 @@ def plan_sync(
     seed 004 method alone, kept as the reference and test oracle). Both give profiles of the
     same duration within 2e-10 s that end on the target and hold the limits; the profiles
     themselves may differ (several profiles can take the same duration).
+
+    (The options are typed ``object``: the compiled build validates them here, with
+    :class:`PlanningError` as the pure one, instead of a TypeError at the call.)
     """
     starts = _sequence("starts", starts)
     targets = _sequence("targets", targets)
@@ -1181,20 +1187,21 @@ def plan_sync(
         )
     if n == 0:
         raise PlanningError("plan_sync needs at least one axis")
-    if sync not in ("time", "phase", "none"):
+    if not isinstance(sync, str) or sync not in ("time", "phase", "none"):
         raise PlanningError(f"sync must be one of 'time', 'phase', 'none', got {sync!r}")
-    if method not in ("direct", "bisection"):
+    if not isinstance(method, str) or method not in ("direct", "bisection"):
         raise PlanningError(f"method must be 'direct' or 'bisection', got {method!r}")
-    if dt is not None:
-        dt = check_dt(dt)
-    ifaces = list(_sequence("interface", interface)) if interface is not None else ["position"] * n
-    if len(ifaces) != n:
-        raise PlanningError(f"interface must have {n} entries, got {len(ifaces)}")
-    for i, kind in enumerate(ifaces):
-        if kind not in ("position", "velocity"):
+    cycle = None if dt is None else check_dt(dt)
+    given = list(_sequence("interface", interface)) if interface is not None else ["position"] * n
+    if len(given) != n:
+        raise PlanningError(f"interface must have {n} entries, got {len(given)}")
+    ifaces: list[str] = []
+    for i, kind in enumerate(given):
+        if not isinstance(kind, str) or kind not in ("position", "velocity"):
             raise PlanningError(f"interface[{i}] must be 'position' or 'velocity', got {kind!r}")
+        ifaces.append(kind)
     try:
-        return _plan_sync(starts, targets, limits, sync, dt, ifaces, method)
+        return _plan_sync(starts, targets, limits, sync, cycle, ifaces, method)
     except ArithmeticError as exc:
         raise _internal(
             "plan_sync", exc, f"starts={starts!r}, targets={targets!r}, limits={limits!r}"
@@ -1216,10 +1223,10 @@ def _plan_sync(
     ]
     if sync == "none":
         profiles = []
-        tmins = []
+        t_own: list[float] = []
         for ax in axes:
             t, ph, kind = _optimal(ax)
-            tmins.append(ax.t_pre + t)
+            t_own.append(ax.t_pre + t)
             if dt is not None:
                 # each axis on its own, cycle-exact (skipping its own blocked durations)
                 res = _time_sync([ax], dt, method)
@@ -1231,7 +1238,7 @@ def _plan_sync(
                 profiles.append(res[0][0])
                 continue
             profiles.append(_profile(ax, ph, kind))
-        return Trajectory(profiles, "none", "", tmins)
+        return Trajectory(profiles, "none", "", t_own)
     res = _time_sync(axes, dt, method)
     if res is None:
         raise PlanningError(
