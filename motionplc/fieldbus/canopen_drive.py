@@ -376,12 +376,14 @@ class _MasterNetwork(canopen.Network):
         self._master = master
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
-        self.send_frame(make_message(can_id, data, remote))
+        self.send_frame(make_message(can_id, data, remote), owned=True)
 
-    def send_frame(self, msg: can.Message) -> None:
+    def send_frame(self, msg: can.Message, owned: bool = False) -> None:
+        """Send ``msg``; ``owned``: built for this send, never used again by the caller
+        (handed to the receiver instead of copied, see ``fastcan.send_frame``)."""
         try:
             with self.send_lock:
-                send_frame(self.bus, msg)
+                send_frame(self.bus, msg, None, owned)
         except can.CanError as exc:
             self._master._on_send_error(exc)
             raise
@@ -1180,7 +1182,7 @@ class CanopenDrive(Drive):
                 check=False,
             )
             try:
-                self.master.network.send_frame(rtr)
+                self.master.network.send_frame(rtr, owned=True)
             except can.CanError:
                 pass  # recorded by the master (bus-off)
 

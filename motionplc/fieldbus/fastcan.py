@@ -103,27 +103,53 @@ class FastMessage(can.Message):
         return new
 
 
-def send_frame(bus: can.BusABC, msg: can.Message, timeout: float | None = None) -> None:
+def send_frame(
+    bus: can.BusABC, msg: can.Message, timeout: float | None = None, owned: bool = False
+) -> None:
     """``bus.send(msg, timeout)``; for a python-can ``VirtualBus`` (exactly that class) and a
     :class:`FastMessage` the same delivery done directly: every other bus on the channel (and
-    this one if it receives its own messages) gets its own copy (a new ``bytearray``) stamped
-    like ``VirtualBus.send`` does (wall-clock time unless ``preserve_timestamps``, the
-    channel, ``is_rx``), put into its queue. Skips only ``copy.deepcopy``'s generic dispatch
-    (memo dict, keep-alive list) per receiver."""
+    this one if it receives its own messages) gets its own frame stamped like
+    ``VirtualBus.send`` does (wall-clock time unless ``preserve_timestamps``, the channel,
+    ``is_rx``), appended to its queue as ``Queue.put`` does (waking a waiting ``recv``). Skips
+    only ``copy.deepcopy``'s generic dispatch (memo dict, keep-alive list) per receiver.
+
+    ``owned=True`` (the direct link of the lockstep cycle) says the caller built ``msg`` for
+    this send and never uses it again: the last receiver on the channel then gets ``msg``
+    itself (stamped, with a fresh ``bytearray`` of its data), every other receiver a copy, so
+    with one peer on the channel no copy is made at all. Every receiver still gets a frame of
+    its own with the same content, in the same order, as with ``bus.send``."""
     if type(bus) is not VirtualBus or type(msg) is not FastMessage:
         bus.send(msg, timeout)
         return
-    bus._check_if_open()
+    if not bus._open:
+        bus._check_if_open()  # raises like VirtualBus.send
     timestamp = msg.timestamp if bus.preserve_timestamps else wall_time()
     own = bus.queue
+    own_too = bus.receive_own_messages
+    channel = bus.channel
+    channel_id = bus.channel_id
+    last = channel[-1] if owned else None
+    if last is own and not own_too:
+        last = channel[-2] if len(channel) > 1 else None
     all_sent = True
-    for bus_queue in bus.channel:
-        if bus_queue is own and not bus.receive_own_messages:
+    for bus_queue in channel:
+        if bus_queue is own and not own_too:
             continue
-        msg_copy = msg.__deepcopy__(None)
+        if bus_queue is last:
+            msg_copy = msg
+            msg_copy.data = bytearray(msg.data)
+        else:
+            msg_copy = msg.__deepcopy__(None)
         msg_copy.timestamp = timestamp
-        msg_copy.channel = bus.channel_id
+        msg_copy.channel = channel_id
         msg_copy.is_rx = bus_queue is not own
+        if bus_queue.maxsize <= 0 and type(bus_queue) is queue.Queue:  # Queue.put, inlined
+            with bus_queue.mutex:
+                bus_queue.queue.append(msg_copy)
+                bus_queue.unfinished_tasks += 1
+                if bus_queue.not_empty._waiters:  # a recv() is waiting (threads only)
+                    bus_queue.not_empty.notify()
+            continue
         try:
             bus_queue.put(msg_copy, block=True, timeout=timeout)
         except queue.Full:

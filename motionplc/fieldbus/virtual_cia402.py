@@ -44,6 +44,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Collection, Iterable, Sequence
 from importlib import resources
+from operator import attrgetter
 from pathlib import Path
 
 import can
@@ -148,8 +149,12 @@ class SimulatedTimeNetwork(canopen.Network):
         return task
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        bus = self.bus
         try:
-            self.bus.send(make_message(can_id, data, remote))
+            if isinstance(bus, FaultInjectingBus):  # a fresh frame: handed over, not copied
+                bus.send_owned(make_message(can_id, data, remote))
+            else:
+                bus.send(make_message(can_id, data, remote))
         except can.CanError:
             pass
 
@@ -226,7 +231,7 @@ class VirtualCia402Drive:
         return self.node.nmt.state
 
     def _operational(self) -> bool:
-        return self.node.nmt.state == "OPERATIONAL"
+        return self.node.nmt._state == NMT_OPERATIONAL  # nmt.state == "OPERATIONAL"
 
     def _read_pdo_config(self) -> None:
         self.node.rpdo.read()
@@ -240,16 +245,14 @@ class VirtualCia402Drive:
         self._tpdo_codecs = [
             PdoCodec(m) for m in self.node.tpdo.map.values() if m.enabled and m.map
         ]
-        # per TPDO: (codec, COB-ID, transmission type, snapshot field of each mapped object)
-        self._tpdo_plan = [
-            (
-                codec,
-                codec.pdo_map.cob_id,
-                codec.pdo_map.trans_type or 1,
-                tuple(_SNAPSHOT_FIELDS.get(index) for index, _ in codec.keys),
-            )
-            for codec in self._tpdo_codecs
-        ]
+        # per TPDO: (codec, COB-ID, transmission type, snapshot field of each mapped object,
+        # getter of the values when every mapped object is a snapshot field and more than one)
+        self._tpdo_plan = []
+        for codec in self._tpdo_codecs:
+            fields = tuple(_SNAPSHOT_FIELDS.get(index) for index, _ in codec.keys)
+            getter = attrgetter(*fields) if len(fields) > 1 and None not in fields else None
+            plan = (codec, codec.pdo_map.cob_id, codec.pdo_map.trans_type or 1, fields, getter)
+            self._tpdo_plan.append(plan)
         if self.on_rx_table_changed is not None:
             self.on_rx_table_changed()
 
@@ -466,10 +469,13 @@ class VirtualCia402Drive:
         snap = self.device.snapshot()
         network = self.network
         assert network is not None
-        for codec, cob_id, tt, fields in self._tpdo_plan:
+        for codec, cob_id, tt, fields, getter in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
-            values = [0 if f is None else getattr(snap, f) for f in fields]
+            if getter is not None:
+                values = getter(snap)
+            else:
+                values = [0 if f is None else getattr(snap, f) for f in fields]
             network.send_message(cob_id, codec.pack(values))
 
     def flush_emcy(self) -> None:
