@@ -118,6 +118,7 @@ from motionplc.fieldbus.base import (
     ProbeResult,
     reset_in_progress,
 )
+from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.canopen_startup import (
     ABSENT,
     RPDO_OBJECTS,
@@ -383,7 +384,11 @@ class _MasterNetwork(canopen.Network):
         (handed to the receiver instead of copied, see ``fastcan.send_frame``)."""
         try:
             with self.send_lock:
-                send_frame(self.bus, msg, None, owned)
+                bus = self.bus
+                if owned and isinstance(bus, FaultInjectingBus):
+                    bus.send_owned(msg)
+                else:
+                    send_frame(bus, msg, None, owned)
         except can.CanError as exc:
             self._master._on_send_error(exc)
             raise
