@@ -25,6 +25,10 @@ Dispatch per element:
   element (``plan.position_phases``: compiled when the package is built with mypyc), so it is
   :func:`plan`'s result bit for bit.
 
+Batches of at most ``_SMALL`` (64) problems skip numpy's fixed cost per operation: every row
+is planned on plain floats by the same dispatch and the same arithmetic, operation for
+operation (so the same bits as the numpy path; tests/planning/test_batch.py checks it).
+
 Input validation is vectorised and raises the same :class:`PlanningError` as :func:`plan` and
 :class:`Limits` for the same inputs, naming the field, the index of the first bad element and
 the allowed range.
@@ -114,10 +118,13 @@ class BatchPlan:
         duration: np.ndarray,
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         kind: Sequence[str],
+        search: np.ndarray | None = None,
     ) -> None:
-        """Internal: built by :func:`plan_batch` (the arrays are taken over, made read-only)."""
-        cols = np.arange(t.shape[1])
-        search = np.where(cols[None, :] < n_segments[:, None], t, np.inf)
+        """Internal: built by :func:`plan_batch` (the arrays are taken over, made read-only;
+        ``search``: ``t`` with inf beyond each row's segments, computed if not given)."""
+        if search is None:
+            cols = np.arange(t.shape[1])
+            search = np.where(cols[None, :] < n_segments[:, None], t, np.inf)
         values: dict[str, Any] = {
             "duration": duration,
             "t": t,
@@ -355,6 +362,33 @@ def _validate(
                 "v_min"
             ),
         )
+
+
+def _validate_arrays(
+    arrs: list[np.ndarray], has_vmin: bool, has_amin: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """Every input check on the broadcast arrays (p0 .. j_max, then v_min / a_min if given),
+    in plan's order; returns (v_min, a_min) with their defaults."""
+    names = ("p0", "v0", "a0", "pf", "vf", "af")
+    for nm, x in zip(names, arrs[:6], strict=True):
+        _check_state(nm, x)
+    VF, AF, VMAX, AMAX, J = arrs[4], arrs[5], arrs[6], arrs[7], arrs[8]
+    _check_positive("v_max", VMAX)
+    _check_positive("a_max", AMAX)
+    _check_positive("j_max", J)
+    extra = arrs[9:]
+    if has_vmin:
+        VMIN = extra.pop(0)
+        _check_negative("v_min", VMIN)
+    else:
+        VMIN = -VMAX
+    if has_amin:
+        AMIN = extra.pop(0)
+        _check_negative("a_min", AMIN)
+    else:
+        AMIN = -AMAX
+    _validate(VF, AF, VMAX, VMIN, AMAX, AMIN, J)
+    return VMIN, AMIN
 
 
 # -- rest to rest in numpy -------------------------------------------------------------------
@@ -709,6 +743,370 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return lo, hi
 
 
+# -- small batches: the same arithmetic on plain floats --------------------------------------
+_SMALL = 64  # at most this many problems: row by row on floats (no numpy fixed cost)
+_NAN = math.nan
+
+
+def _pos(x: float) -> float:
+    """np.maximum(x, 0.0) on a float (NaN stays NaN)."""
+    return 0.0 if x < 0.0 else x
+
+
+def _rest_row(
+    p0: float, d: float, vmax: float, vmin: float, amax: float, amin: float, J: float
+) -> tuple[list[float], float, float, float, int, bool] | None:
+    """One rest-to-rest row (finite J, d beyond ``arrived``) as :func:`_rest_to_rest` and
+    :func:`_families` compute it, operation for operation on floats (the same bits): (the
+    seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
+    form accepts the row (it goes to the core)."""
+    tr = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+    down = d < 0.0
+    if J * tr <= min(amax, -amin) and J * tr * tr <= min(vmax, -vmin):
+        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, _NR, down
+    if down:
+        D, Vmax, Amax, Amin = -d, -vmin, -amin, -amax
+    else:
+        D, Vmax, Amax, Amin = d, vmax, amax, amin
+    # vel
+    P = math.sqrt(J * Vmax)
+    if P <= Amax:
+        h1 = 0.0
+    else:
+        h1 = _pos((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax)
+        P = Amax
+    Q = -math.sqrt(J * Vmax)
+    if Q >= Amin:
+        h2 = 0.0
+    else:
+        h2 = _pos((-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin)
+        Q = Amin
+    t1 = P / J
+    t5 = -Q / J
+    v1 = t1 * (0.5 * t1 * J)
+    v2 = v1 + h1 * P
+    d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+    d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
+    v5 = Vmax - 0.5 * t5 * t5 * J
+    v6 = v5 + h2 * Q
+    d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+    d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
+    cruise = (D - d1 - d2) / Vmax
+    vel = Vmax != _INF and cruise >= -_T_TOL * max(1.0, abs(D / Vmax))
+    cruise = _pos(cruise)
+    t_best = (t1 + h1 + t1 + cruise + t5 + h2 + t5) * _KEEP if vel else _INF
+    # acc0_acc1
+    acc = False
+    if Amax != _INF and (2.0 * Amax - 2.0 * Amin) / J < t_best:
+        ramps = (2.0 * Amax - 2.0 * Amin) / J
+        A2 = Amax * Amax
+        N2 = Amin * Amin
+        JJ = J * J
+        tA = Amax / J
+        tB = (Amax - Amin) / J
+        tC = (0.0 - Amin) / J
+        b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
+        c = (
+            24.0 * JJ * Amax * D
+            - 12.0 * A2 * N2
+            + 24.0 * Amax * Amin**3
+            - 12.0 * N2 * N2
+        ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
+        vhi = Vmax + _LIM_TOL * (Vmax if Vmax > 1.0 else 1.0)
+        # _quadratic_roots(b, c)
+        disc = b * b - 4.0 * c
+        if disc < 0.0:
+            lo = -b / 2.0 if disc > -1e-14 * (b * b + abs(4.0 * c)) else _NAN
+            hi = _NAN
+        else:
+            sq = math.sqrt(disc)
+            q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
+            r2 = c / q if q != 0.0 else q
+            if q != q or r2 != r2:
+                lo = hi = _NAN
+            else:
+                lo, hi = (q, r2) if q <= r2 else (r2, q)
+        for r in (lo, hi):
+            if not r >= -_T_TOL:  # NaN: no root
+                continue
+            r = _pos(r)
+            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+            if not hh1 >= -_T_TOL:
+                continue
+            hh1 = _pos(hh1)
+            if not ramps + hh1 + r < t_best:
+                continue
+            vz = tA * (0.5 * tA * J)
+            if hh1 > 0.0:
+                az = Amax
+                vz = vz + hh1 * az
+            else:
+                az = tA * J
+            tz = -az / -J
+            vz = vz + tz * (az + 0.5 * tz * -J)
+            if vz > vhi:
+                continue
+            tt = tA + hh1 + tB + r + tC
+            if tt < t_best:
+                acc, acc_h1, acc_h2, t_best = True, hh1, r, tt
+        if acc:
+            return [tA, acc_h1, tB, 0.0, 0.0, acc_h2, tC], Amax, Amin, Vmax, _ACC + down, down
+    if vel:
+        return [t1, h1, t1, cruise, t5, h2, t5], P, Q, Vmax, _VEL + down, down
+    # no cruise, at most one plateau (asymmetric limits)
+    Br = -Amin
+    vtol = Vmax * (1.0 + 1e-12)
+    sJ = math.sqrt(J)
+    if J * tr <= Amax and J * tr <= Br and J * tr * tr <= vtol:
+        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, Vmax, _NONE + down, down
+    bb = Amax / sJ
+    cc = math.sqrt(2.0 * Amax * D)
+    s0 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
+    V0 = s0 * s0
+    q0 = sJ * s0
+    h0 = V0 / Amax - Amax / J
+    if (
+        h0 >= -_T_TOL * max(1.0, Amax / J)
+        and q0 <= Br * (1.0 + 1e-12)
+        and V0 <= vtol
+    ):  # fmt: skip
+        cols = [Amax / J, _pos(h0), (Amax + q0) / J, 0.0, 0.0, 0.0, q0 / J]
+        return cols, Amax, -q0, Vmax, _ACC0 + down, down
+    bb = Br / sJ
+    cc = math.sqrt(2.0 * Br * D)
+    s1 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
+    V1 = s1 * s1
+    p1 = sJ * s1
+    h1r = V1 / Br - Br / J
+    if (
+        h1r >= -_T_TOL * max(1.0, Br / J)
+        and p1 <= Amax * (1.0 + 1e-12)
+        and V1 <= vtol
+    ):  # fmt: skip
+        cols = [p1 / J, 0.0, (p1 + Br) / J, 0.0, 0.0, _pos(h1r), Br / J]
+        return cols, p1, -Br, Vmax, _ACC1 + down, down
+    return None
+
+
+def _rest_segments(
+    p0: float, row: tuple[list[float], float, float, float, int, bool], J: float
+) -> tuple[list[tuple[float, ...]], float, float, float, float]:
+    """:func:`_rest_to_rest`'s integration of one row on floats (the same operations): the
+    segments (start time, duration, jerk, p, v, a) of the phases of positive duration, the
+    end state and the duration."""
+    cols, P, Q, VC, _, down = row
+    s = -1.0 if down else 1.0
+    sj = s * J
+    zj = s * 0.0
+    jerks = (sj, zj, -sj, zj, -sj, zj, sj)
+    t = 0.0
+    p = p0
+    v = 0.0
+    a = 0.0
+    segs: list[tuple[float, ...]] = []
+    for c in range(7):
+        x = cols[c]
+        if not x > 0.0:  # no duration: changes nothing, no segment
+            continue
+        if c & 1:  # a plateau: zero jerk, the exact values set
+            if c == 1:
+                a = s * P
+            elif c == 3:
+                a = zj
+                v = s * VC
+            else:
+                a = s * Q
+            segs.append((t, x, zj, p, v, a))
+            p = p + x * (v + x * (0.5 * a))
+            v = v + x * a
+        else:
+            jj = jerks[c]
+            segs.append((t, x, jj, p, v, a))
+            xj = x * jj
+            p = p + x * (v + x * (0.5 * a + xj / 6.0))
+            v = v + x * (a + 0.5 * xj)
+            a = a + xj
+        t = t + x
+    return segs, p, v, a, t
+
+
+def _phase_segments(
+    p0: float, v0: float, a0: float, phases: Sequence[tuple[float, ...]]
+) -> tuple[list[tuple[float, ...]], float, float, float, float]:
+    """:func:`_integrate_phases` (Profile.__init__) for one phase list on floats."""
+    t = 0.0
+    p = p0
+    v = v0
+    a = a0
+    segs: list[tuple[float, ...]] = []
+    for ph in phases:
+        x = ph[0]
+        jj = ph[1]
+        if len(ph) > 2:
+            a = ph[2]
+            if len(ph) > 3:
+                v = ph[3]
+        if x > 0.0:
+            segs.append((t, x, jj, p, v, a))
+            p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
+            v2 = v + x * (a + 0.5 * x * jj)
+            a = a + x * jj
+            v = v2
+            t = t + x
+    return segs, p, v, a, t
+
+
+def _small_valid(
+    P0: list[float],
+    V0: list[float],
+    A0: list[float],
+    PF: list[float],
+    VF: list[float],
+    AF: list[float],
+    VMAX: list[float],
+    VMIN: list[float],
+    AMAX: list[float],
+    AMIN: list[float],
+    J: list[float],
+) -> bool:
+    """True when the usual case passes every check (states in range, finite acceleration
+    limits, the others in range or infinite, targets at rest); False: let the vectorised
+    checks decide (and name the error)."""
+    sm = STATE_MAX
+    for col in (P0, V0, A0, PF):
+        for x in col:
+            if not -sm <= x <= sm:
+                return False
+    for col in (VF, AF):
+        for x in col:
+            if x != 0.0:
+                return False
+    lo, hi = LIMIT_MIN, LIMIT_MAX
+    for col in (VMAX, J):
+        for x in col:
+            if not (lo <= x <= hi or x == _INF):
+                return False
+    for x in AMAX:
+        if not lo <= x <= hi:
+            return False
+    for x in VMIN:
+        if not (-hi <= x <= -lo or x == -_INF):
+            return False
+    for x in AMIN:
+        if not -hi <= x <= -lo:
+            return False
+    return True
+
+
+def _plan_small(
+    P0: list[float],
+    V0: list[float],
+    A0: list[float],
+    PF: list[float],
+    VF: list[float],
+    AF: list[float],
+    VMAX: list[float],
+    VMIN: list[float],
+    AMAX: list[float],
+    AMIN: list[float],
+    J: list[float],
+) -> BatchPlan:
+    """plan_batch for validated inputs as lists, row by row on floats: rest to rest with a
+    finite jerk limit by :func:`_rest_row` (the numpy path's arithmetic), every other row by
+    the core, as the numpy path dispatches them."""
+    n = len(P0)
+    eps = 8.0 * _EPS
+    rows: list[tuple[list[tuple[float, ...]], float, float, float, float]] = []
+    kinds: list[str] = []
+    for i in range(n):
+        p0, v0, a0, pf, vf, af = P0[i], V0[i], A0[i], PF[i], VF[i], AF[i]
+        vmax, vmin, amax, amin, jm = VMAX[i], VMIN[i], AMAX[i], AMIN[i], J[i]
+        d = pf - p0
+        if (
+            v0 == 0.0
+            and a0 == 0.0
+            and vf == 0.0
+            and af == 0.0
+            and jm != _INF
+            and not abs(d) <= max(1e-15, eps * max(abs(p0), abs(pf)))
+        ):
+            rr = _rest_row(p0, d, vmax, vmin, amax, amin, jm)
+            if rr is not None:
+                res = _rest_segments(p0, rr, jm)
+                if not res[4] <= MAX_DURATION:
+                    raise _too_long(i, res[4])
+                rows.append(res)
+                kinds.append(_KINDS[rr[4]])
+                continue
+        if arrived(p0, v0, a0, pf, vf, af):
+            rows.append(([], p0, vf, af, 0.0))
+            kinds.append("arrived")
+            continue
+        try:
+            T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
+        except PlanningError as exc:
+            raise PlanningError(f"problem {i}: {exc}") from exc
+        except ArithmeticError as exc:
+            raise PlanningError(
+                f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                f"for problem {i} (planner defect: please report these inputs)"
+            ) from exc
+        if not T <= MAX_DURATION:
+            raise _too_long(i, T)
+        rows.append(_phase_segments(p0, v0, a0, phases))
+        kinds.append(kind)
+    width = max(MIN_WIDTH, max((len(r[0]) for r in rows), default=0))
+    flat: list[float] = []
+    nseg: list[int] = []
+    ends: list[float] = []
+    for segs, p, v, a, t in rows:
+        m = len(segs)
+        nseg.append(m)
+        for seg in segs:
+            flat.extend(seg)
+            flat.append(seg[0])  # BatchPlan's search times: the start times, inf after
+        flat.extend((t, 0.0, 0.0, p, v, a, _INF) * (width - m))
+        ends.extend((p, v, a, t))
+    out = np.array(flat).reshape(n, width, 7).transpose(2, 0, 1).copy()
+    e = np.array(ends).reshape(n, 4).T.copy()
+    return BatchPlan(
+        out[0], out[1], out[2], out[3], out[4], out[5], np.array(nseg, dtype=np.intp),
+        e[3], (e[0], e[1], e[2]), kinds, out[6],
+    )  # fmt: skip
+
+
+def _small_lists(values: tuple[object, ...]) -> tuple[list[float], ...] | None:
+    """The eleven inputs of plan_batch (v_min / a_min may be None) as lists of one length
+    N <= _SMALL in the order of :func:`_plan_small` (v_min, a_min defaulted), when every
+    input is a float or a 1-D float64 array and they broadcast; None otherwise (the general
+    path then converts, broadcasts and names any error)."""
+    n = 1
+    for x in values:
+        if type(x) is np.ndarray:
+            if x.dtype != np.float64 or x.ndim != 1:
+                return None
+            m = x.shape[0]
+            if m != 1:
+                if n != 1 and m != n:
+                    return None
+                n = m
+        elif type(x) is not float and x is not None:
+            return None
+    if n > _SMALL:
+        return None
+    out: list[list[float]] = []
+    for x in values:
+        if type(x) is float:
+            out.append([x] * n)
+        elif x is not None:
+            lst = x.tolist()  # type: ignore[attr-defined]
+            out.append(lst * n if len(lst) == 1 else lst)
+    vmax, amax, J = out[6], out[7], out[8]
+    vmin = out[9] if values[9] is not None else [-x for x in vmax]
+    amin = out[-1] if values[10] is not None else [-x for x in amax]
+    return (*out[:6], vmax, vmin, amax, amin, J)
+
+
 # -- the public function ---------------------------------------------------------------------
 def plan_batch(
     p0: ArrayLike,
@@ -736,6 +1134,15 @@ def plan_batch(
     planning. Rest-to-rest rows are solved in numpy, the others by the core per row.
     """
     names = ("p0", "v0", "a0", "pf", "vf", "af", "v_max", "a_max", "j_max")
+    small = _small_lists(
+        (p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min)
+    )  # fmt: skip
+    if small is not None:
+        if not _small_valid(*small):  # let the vectorised checks name the error
+            arrs = [np.atleast_1d(np.asarray(x, dtype=float)) for x in small]
+            arrs = arrs[:7] + [arrs[8], arrs[10], arrs[7], arrs[9]]
+            _validate_arrays(arrs, True, True)
+        return _plan_small(*small)
     raw = [
         _as_array(nm, x)
         for nm, x in zip(names, (p0, v0, a0, pf, vf, af, v_max, a_max, j_max), strict=True)
@@ -754,24 +1161,16 @@ def plan_batch(
             f"{', a_min' if a_min is not None else ''})"
         ) from exc
     arrs = [np.atleast_1d(x) for x in wide]
+    if arrs[0].shape[0] <= _SMALL:  # other input types (lists, ints, numpy scalars)
+        ls = [x.tolist() for x in arrs]
+        lv = ls.pop(9) if v_min is not None else [-x for x in ls[6]]
+        la = ls.pop(9) if a_min is not None else [-x for x in ls[7]]
+        lists = (*ls[:7], lv, ls[7], la, ls[8])
+        if not _small_valid(*lists):
+            _validate_arrays(arrs, v_min is not None, a_min is not None)
+        return _plan_small(*lists)
+    VMIN, AMIN = _validate_arrays(arrs, v_min is not None, a_min is not None)
     P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
-    for nm, x in zip(names[:6], arrs[:6], strict=True):
-        _check_state(nm, x)
-    _check_positive("v_max", VMAX)
-    _check_positive("a_max", AMAX)
-    _check_positive("j_max", J)
-    extra = arrs[9:]
-    if v_min is not None:
-        VMIN = extra.pop(0)
-        _check_negative("v_min", VMIN)
-    else:
-        VMIN = -VMAX
-    if a_min is not None:
-        AMIN = extra.pop(0)
-        _check_negative("a_min", AMIN)
-    else:
-        AMIN = -AMAX
-    _validate(VF, AF, VMAX, VMIN, AMAX, AMIN, J)
     n = P0.shape[0]
     d = PF - P0
     if V0.any() or A0.any() or VF.any() or AF.any():

@@ -25,6 +25,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motionplc.planning import BatchPlan, Limits, PlanningError, Profile, State, plan, plan_batch
+from motionplc.planning.batch import _SMALL as SMALL
 from tests.planning._cases import Case, generate_cases
 from tests.planning._strategies import hsettings
 
@@ -124,6 +125,30 @@ def _assert_batch_equals_plan(cases: list[Case]) -> BatchPlan:
     return b
 
 
+def _assert_rows_identical(b: BatchPlan, i: int, ref: BatchPlan, k: int) -> None:
+    """Row i of b is row k of ref bit for bit (up to the sign of zero)."""
+    for name in ("t", "durations", "j", "p", "v", "a"):
+        x, y = getattr(b, name)[i], getattr(ref, name)[k]
+        for u, z in ((x, y), (y, x)):  # a wider row's extra columns are padding
+            assert not np.any(z[u.shape[0] :] != z[-1]), (name, i, k)
+        m = min(x.shape[0], y.shape[0])
+        assert np.array_equal(x[:m], y[:m]), (name, i, k, x, y)
+    for name in ("duration", "end_p", "end_v", "end_a", "n_segments"):
+        assert getattr(b, name)[i] == getattr(ref, name)[k], (name, i, k)
+    assert b.kind[i] == ref.kind[k]
+
+
+def _assert_small_path_is_numpy_path(cases: list[Case]) -> None:
+    """plan_batch on chunks of at most SMALL rows (plain floats) gives the rows of one call
+    on all of them (numpy) bit for bit: the same arithmetic, the same dispatch."""
+    assert len(cases) > SMALL
+    wide = plan_batch(*_columns(cases))
+    for start in range(0, len(cases), SMALL):
+        part = plan_batch(*_columns(cases[start : start + SMALL]))
+        for k in range(len(part)):
+            _assert_rows_identical(part, k, wide, start + k)
+
+
 # -- equality with plan ----------------------------------------------------------------------
 @pytest.mark.parametrize("asymmetric", [False, True], ids=["symmetric", "asymmetric"])
 def test_rest_to_rest_random_equals_plan(asymmetric: bool, summary: Callable[[str], None]) -> None:
@@ -206,6 +231,31 @@ def _edge_cases() -> list[Case]:
     return out
 
 
+@pytest.mark.parametrize("kind", ["symmetric", "asymmetric", "second-order", "general", "edge"])
+def test_small_batches_equal_the_numpy_path_bit_for_bit(kind: str) -> None:
+    """Batches of at most SMALL problems are planned row by row on floats: every row equals
+    the numpy path's (which equals plan) bit for bit, closed-form rows included."""
+    rng = np.random.default_rng(1515)
+    if kind == "edge":
+        cases = []
+        for c in _edge_cases():
+            try:
+                plan(c.start(), c.target(), c.limits())
+            except PlanningError:
+                continue
+            cases.append(c)
+    elif kind == "general":
+        cases = generate_cases(300, 1516, nonzero=True, asymmetric_fraction=0.5)
+    else:
+        cases = _rest(rng, 600, kind == "asymmetric")
+        if kind == "second-order":
+            cases = [
+                Case(c.p0, 0.0, 0.0, c.pf, 0.0, 0.0, c.v_max, INF if k % 5 == 0 else c.a_max, INF)
+                for k, c in enumerate(cases)
+            ]
+    _assert_small_path_is_numpy_path(cases)
+
+
 def test_edge_cases_equal_plan_or_fail_alike() -> None:
     ok: list[Case] = []
     for c in _edge_cases():
@@ -246,8 +296,11 @@ def test_rest_to_rest_hypothesis_equals_plan(
         with pytest.raises(PlanningError):
             plan_batch(*_columns([c]))
         return
-    b = plan_batch(*_columns([c, c]))
+    b = plan_batch(*_columns([c, c]))  # the small-batch path (floats)
     assert _row_equals_plan(b, 1, prof) == ""
+    wide = plan_batch(*_columns([c] * (SMALL + 1)))  # the numpy path
+    assert _row_equals_plan(wide, SMALL, prof) == ""
+    _assert_rows_identical(wide, SMALL, b, 1)
 
 
 def test_profile_of_a_row_is_the_row_and_plans_profile() -> None:
