@@ -7,6 +7,14 @@ cost of a lockstep cycle. :class:`FastMessage` is a ``can.Message`` whose ``__de
 makes the same independent copy (a new ``bytearray`` for ``data``) directly. The bus, its
 queues and its semantics are python-can's own; only the copy is cheaper.
 
+:func:`send_frame` delivers a :class:`FastMessage` on a ``VirtualBus`` as ``VirtualBus.send``
+does (same receivers, order, stamps and errors) without the generic copy and ``Queue.put``'s
+layers. The lockstep cycle's senders (the CANopen master, the virtual drives' network) build a
+fresh frame per send and pass ``owned=True``: the last receiver on the channel then gets that
+frame object itself (its data re-copied), so with master and rack alone on a channel no frame
+is ever copied, while any other bus on the channel (a sniffer, a ``canopen`` peer) still gets
+its own copy of every frame, in the same order.
+
 :func:`drain` takes every frame waiting on a bus at once: for a ``VirtualBus`` without filters
 and with an unbounded queue it empties the queue under its mutex in one step (instead of one
 ``recv(timeout=0)`` per frame through ``BusABC.recv``'s filter/timeout loop); any other bus is

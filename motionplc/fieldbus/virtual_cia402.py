@@ -16,8 +16,10 @@ and PDOs apart), and this module adds what LocalNode lacks:
   (EMCY 0x8210, PDO ignored), following error (0x8611, from the device core).
 
 :class:`VirtualCanBus` hosts any number of drives behind **one** bus endpoint and one
-``canopen.Network`` (one deep copy per frame on the python-can virtual bus instead of one per
-drive), wrapped in a :class:`~motionplc.fieldbus.can_faults.FaultInjectingBus`. It is stepped
+``canopen.Network`` (one delivery per frame on the python-can virtual bus instead of one per
+drive; frames the drives send are handed to the receiver without a copy, see
+:func:`~motionplc.fieldbus.fastcan.send_frame`), wrapped in a
+:class:`~motionplc.fieldbus.can_faults.FaultInjectingBus`. It is stepped
 with simulated time: :meth:`VirtualCanBus.step` drains the bus with ``recv(timeout=0)`` into
 ``Network.notify`` and runs the time-driven services (heartbeats, supervision). Periodic
 transmissions that canopen would start in a thread (``send_periodic``) run on that simulated
