@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from itertools import chain
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -401,6 +402,7 @@ _KINDS = np.array(
     ],
     dtype=object,
 )  # fmt: skip
+_KIND_NAMES: tuple[str, ...] = tuple(_KINDS.tolist())
 _NR, _VEL, _ACC, _NONE, _ACC0, _ACC1, _SECOND, _FIRST = 0, 2, 4, 6, 8, 10, 12, 13
 
 
@@ -892,8 +894,8 @@ def _rest_segments(
     p0: float, row: tuple[list[float], float, float, float, int, bool], J: float
 ) -> tuple[list[tuple[float, ...]], float, float, float, float]:
     """:func:`_rest_to_rest`'s integration of one row on floats (the same operations): the
-    segments (start time, duration, jerk, p, v, a) of the phases of positive duration, the
-    end state and the duration."""
+    segments (start time, duration, jerk, p, v, a, start time again: BatchPlan's search time)
+    of the phases of positive duration, the end state and the duration."""
     cols, P, Q, VC, _, down = row
     s = -1.0 if down else 1.0
     sj = s * J
@@ -916,12 +918,12 @@ def _rest_segments(
                 v = s * VC
             else:
                 a = s * Q
-            segs.append((t, x, zj, p, v, a))
+            segs.append((t, x, zj, p, v, a, t))
             p = p + x * (v + x * (0.5 * a))
             v = v + x * a
         else:
             jj = jerks[c]
-            segs.append((t, x, jj, p, v, a))
+            segs.append((t, x, jj, p, v, a, t))
             xj = x * jj
             p = p + x * (v + x * (0.5 * a + xj / 6.0))
             v = v + x * (a + 0.5 * xj)
@@ -947,7 +949,7 @@ def _phase_segments(
             if len(ph) > 3:
                 v = ph[3]
         if x > 0.0:
-            segs.append((t, x, jj, p, v, a))
+            segs.append((t, x, jj, p, v, a, t))
             p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
             v2 = v + x * (a + 0.5 * x * jj)
             a = a + x * jj
@@ -973,28 +975,32 @@ def _small_valid(
     limits, the others in range or infinite, targets at rest); False: let the vectorised
     checks decide (and name the error)."""
     sm = STATE_MAX
+    if not P0:
+        return True  # no problems: nothing to check (as the vectorised checks)
+    # min / max / sum run at C speed; a NaN makes the sum NaN (min and max may skip it)
     for col in (P0, V0, A0, PF):
-        for x in col:
-            if not -sm <= x <= sm:
-                return False
+        t = sum(col)
+        if not (t == t and -sm <= min(col) and max(col) <= sm):
+            return False
     for col in (VF, AF):
-        for x in col:
-            if x != 0.0:
-                return False
+        if any(col):  # a target not at rest: the vectorised checks
+            return False
     lo, hi = LIMIT_MIN, LIMIT_MAX
-    for col in (VMAX, J):
-        for x in col:
-            if not (lo <= x <= hi or x == _INF):
-                return False
-    for x in AMAX:
-        if not lo <= x <= hi:
+    for col in (VMAX, J):  # in range or inf
+        t = sum(col)
+        if not (t == t and lo <= min(col)):
             return False
-    for x in VMIN:
-        if not (-hi <= x <= -lo or x == -_INF):
+        if max(col) > hi and not all(x <= hi or x == _INF for x in col):
             return False
-    for x in AMIN:
-        if not -hi <= x <= -lo:
+    for col in (AMAX, [-x for x in AMIN]):  # finite, in range
+        t = sum(col)
+        if not (t == t and lo <= min(col) and max(col) <= hi):
             return False
+    t = sum(VMIN)
+    if not (t == t and max(VMIN) <= -lo):
+        return False
+    if min(VMIN) < -hi and not all(x >= -hi or x == -_INF for x in VMIN):
+        return False
     return True
 
 
@@ -1036,7 +1042,7 @@ def _plan_small(
                 if not res[4] <= MAX_DURATION:
                     raise _too_long(i, res[4])
                 rows.append(res)
-                kinds.append(_KINDS[rr[4]])
+                kinds.append(_KIND_NAMES[rr[4]])
                 continue
         if arrived(p0, v0, a0, pf, vf, af):
             rows.append(([], p0, vf, af, 0.0))
@@ -1062,9 +1068,7 @@ def _plan_small(
     for segs, p, v, a, t in rows:
         m = len(segs)
         nseg.append(m)
-        for seg in segs:
-            flat.extend(seg)
-            flat.append(seg[0])  # BatchPlan's search times: the start times, inf after
+        flat.extend(chain.from_iterable(segs))  # the last value: BatchPlan's search time
         flat.extend((t, 0.0, 0.0, p, v, a, _INF) * (width - m))
         ends.extend((p, v, a, t))
     out = np.array(flat).reshape(n, width, 7).transpose(2, 0, 1).copy()
