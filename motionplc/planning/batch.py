@@ -37,6 +37,7 @@ the allowed range.
 from __future__ import annotations
 
 import math
+from array import array
 from collections.abc import Sequence
 from itertools import chain
 from typing import Any, NamedTuple
@@ -1024,9 +1025,9 @@ def _plan_small(
     eps = 8.0 * _EPS
     rows: list[tuple[list[tuple[float, ...]], float, float, float, float]] = []
     kinds: list[str] = []
-    for i in range(n):
-        p0, v0, a0, pf, vf, af = P0[i], V0[i], A0[i], PF[i], VF[i], AF[i]
-        vmax, vmin, amax, amin, jm = VMAX[i], VMIN[i], AMAX[i], AMIN[i], J[i]
+    for i, (p0, v0, a0, pf, vf, af, vmax, vmin, amax, amin, jm) in enumerate(
+        zip(P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J, strict=True)
+    ):
         d = pf - p0
         if (
             v0 == 0.0
@@ -1071,11 +1072,13 @@ def _plan_small(
         flat.extend(chain.from_iterable(segs))  # the last value: BatchPlan's search time
         flat.extend((t, 0.0, 0.0, p, v, a, _INF) * (width - m))
         ends.extend((p, v, a, t))
-    out = np.array(flat).reshape(n, width, 7).transpose(2, 0, 1).copy()
-    e = np.array(ends).reshape(n, 4).T.copy()
+    # array('d') converts the floats at C speed; the fields are strided views (no copy)
+    out = np.frombuffer(array("d", flat), dtype=float).reshape(n, width, 7)
+    e = np.frombuffer(array("d", ends), dtype=float).reshape(n, 4)
     return BatchPlan(
-        out[0], out[1], out[2], out[3], out[4], out[5], np.array(nseg, dtype=np.intp),
-        e[3], (e[0], e[1], e[2]), kinds, out[6],
+        out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
+        np.array(nseg, dtype=np.intp), e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
+        out[:, :, 6],
     )  # fmt: skip
 
 
