@@ -372,12 +372,16 @@ def _validate_arrays(
     """Every input check on the broadcast arrays (p0 .. j_max, then v_min / a_min if given),
     in plan's order; returns (v_min, a_min) with their defaults."""
     names = ("p0", "v0", "a0", "pf", "vf", "af")
-    for nm, x in zip(names, arrs[:6], strict=True):
-        _check_state(nm, x)
     VF, AF, VMAX, AMAX, J = arrs[4], arrs[5], arrs[6], arrs[7], arrs[8]
-    _check_positive("v_max", VMAX)
-    _check_positive("a_max", AMAX)
-    _check_positive("j_max", J)
+    states = np.stack(arrs[:6])  # the usual case in three operations, not twelve
+    if states.size and not (states.max() <= STATE_MAX and states.min() >= -STATE_MAX):
+        for nm, x in zip(names, arrs[:6], strict=True):  # NaN fails both: find and name it
+            _check_state(nm, x)
+    limits = np.stack((VMAX, AMAX, J))
+    if limits.size and not (limits.min() >= LIMIT_MIN and limits.max() <= LIMIT_MAX):
+        _check_positive("v_max", VMAX)
+        _check_positive("a_max", AMAX)
+        _check_positive("j_max", J)
     extra = arrs[9:]
     if has_vmin:
         VMIN = extra.pop(0)
@@ -1150,24 +1154,34 @@ def plan_batch(
             arrs = arrs[:7] + [arrs[8], arrs[10], arrs[7], arrs[9]]
             _validate_arrays(arrs, True, True)
         return _plan_small(*small)
-    raw = [
-        _as_array(nm, x)
-        for nm, x in zip(names, (p0, v0, a0, pf, vf, af, v_max, a_max, j_max), strict=True)
-    ]
-    if v_min is not None:
-        raw.append(_as_array("v_min", v_min))
-    if a_min is not None:
-        raw.append(_as_array("a_min", a_min))
-    try:
-        wide = np.broadcast_arrays(*raw)
-    except ValueError as exc:
-        shapes = ", ".join(f"{x.shape}" for x in raw)
-        raise PlanningError(
-            f"plan_batch: the inputs do not broadcast to one length (shapes {shapes} for "
-            f"{', '.join(names)}{', v_min' if v_min is not None else ''}"
-            f"{', a_min' if a_min is not None else ''})"
-        ) from exc
-    arrs = [np.atleast_1d(x) for x in wide]
+    given = [p0, v0, a0, pf, vf, af, v_max, a_max, j_max]
+    given += [x for x in (v_min, a_min) if x is not None]
+    shape = p0.shape if type(p0) is np.ndarray else None
+    if (
+        shape is not None
+        and len(shape) == 1
+        and all(type(x) is np.ndarray and x.dtype == np.float64 and x.shape == shape for x in given)
+    ):  # float arrays of one length: nothing to convert or broadcast (they are only read)
+        arrs = [x for x in given if type(x) is np.ndarray]  # all of them
+    else:
+        raw = [
+            _as_array(nm, x)
+            for nm, x in zip(names, (p0, v0, a0, pf, vf, af, v_max, a_max, j_max), strict=True)
+        ]
+        if v_min is not None:
+            raw.append(_as_array("v_min", v_min))
+        if a_min is not None:
+            raw.append(_as_array("a_min", a_min))
+        try:
+            wide = np.broadcast_arrays(*raw)
+        except ValueError as exc:
+            shapes = ", ".join(f"{x.shape}" for x in raw)
+            raise PlanningError(
+                f"plan_batch: the inputs do not broadcast to one length (shapes {shapes} for "
+                f"{', '.join(names)}{', v_min' if v_min is not None else ''}"
+                f"{', a_min' if a_min is not None else ''})"
+            ) from exc
+        arrs = [np.atleast_1d(x) for x in wide]
     if arrs[0].shape[0] <= _SMALL:  # other input types (lists, ints, numpy scalars)
         ls = [x.tolist() for x in arrs]
         lv = ls.pop(9) if v_min is not None else [-x for x in ls[6]]

@@ -256,6 +256,30 @@ def test_small_batches_equal_the_numpy_path_bit_for_bit(kind: str) -> None:
     _assert_small_path_is_numpy_path(cases)
 
 
+@pytest.mark.parametrize("n", [5, 200])
+def test_input_types_give_the_same_rows_and_inputs_stay_untouched(n: int) -> None:
+    """Float arrays of one length (used as they are), lists and broadcast scalars (converted
+    first) give the same rows, small batches and numpy ones; the inputs are not written."""
+    cols = _columns(_rest(np.random.default_rng(7), n, True))
+    before = [c.copy() for c in cols]
+    ref = plan_batch(*cols)
+    assert all(np.array_equal(c, b) for c, b in zip(cols, before, strict=True))
+    as_lists = plan_batch(*(c.tolist() for c in cols))
+    scalars = plan_batch(*cols[:6], float(cols[6][0]), *cols[7:])
+    lone = plan_batch(*(c[:1] for c in cols[:6]), *(float(c[0]) for c in cols[6:]))
+    for i in range(n):
+        _assert_rows_identical(as_lists, i, ref, i)
+        assert (
+            scalars.duration[i]
+            == plan_batch(
+                *(c[i : i + 1] for c in cols[:6]),
+                float(cols[6][0]),
+                *(c[i : i + 1] for c in cols[7:]),
+            ).duration[0]
+        )
+    _assert_rows_identical(lone, 0, ref, 0)
+
+
 def test_edge_cases_equal_plan_or_fail_alike() -> None:
     ok: list[Case] = []
     for c in _edge_cases():
