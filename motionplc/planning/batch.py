@@ -607,20 +607,26 @@ def _families(
             - 12.0 * N2 * N2
         ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
         vhi = Vmax + _LIM_TOL * np.where(Vmax > 1.0, Vmax, 1.0)
+        # the loop's invariant terms, computed once (the same operations in the same order)
+        num0 = 0.0 - 2.0 * A2 + 2.0 * N2
+        jm2 = 2.0 * J * Amin
+        den = 2.0 * J * Amax
+        vz0 = tA * (0.5 * tA * J)
+        tAJ = tA * J
+        mJ = -J
         for r in _quadratic_roots(b, c):
             g = pre & (r >= -_T_TOL)  # NaN: no root
             r = np.maximum(r, 0.0)
-            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+            hh1 = (num0 - jm2 * r) / den
             g &= hh1 >= -_T_TOL
             hh1 = np.maximum(hh1, 0.0)
             g &= ramps + hh1 + r < t_best
             # _verify's velocity check where the acceleration crosses zero (phase 3)
-            vz = tA * (0.5 * tA * J)
             plateau = hh1 > 0.0
-            az = np.where(plateau, Amax, tA * J)
-            vz = np.where(plateau, vz + hh1 * az, vz)
-            tz = -az / -J
-            vz = vz + tz * (az + 0.5 * tz * -J)
+            az = np.where(plateau, Amax, tAJ)
+            vz = np.where(plateau, vz0 + hh1 * az, vz0)
+            tz = -az / mJ
+            vz = vz + tz * (az + 0.5 * tz * mJ)
             g &= ~(vz > vhi)
             tt = _seq_sum((tA, hh1, tB, r, tC))
             g &= tt < t_best
