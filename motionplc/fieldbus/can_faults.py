@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import can
 from can import BusState
 
-from motionplc.fieldbus.fastcan import send_frame
+from motionplc.fieldbus.fastcan import drain, send_frame
 
 __all__ = ["FaultInjectingBus", "FrameRecord"]
 
@@ -148,8 +148,6 @@ class FaultInjectingBus(can.BusABC):
 
     def drain(self) -> list[can.Message]:
         """Every frame deliverable now, in order, without blocking (the cyclic fast path)."""
-        from motionplc.fieldbus.fastcan import drain
-
         out = list(self._ready_rx)
         self._ready_rx.clear()
         raw = drain(self._inner)
