@@ -1,6 +1,6 @@
 """Time ``plan_batch`` per plan against Ruckig's own loop and a Python loop of ``plan``.
 
-For each N (default 10, 1e3, 1e4, 1e5) and each kind of problem, in one run on the same cases:
+For each N (default 10, 100, 1e3, 1e4, 1e5) and each kind of problem, in one run on the same cases:
 
 * ``batch``: one ``plan_batch`` call on the N problems (arrays built beforehand), per plan;
 * ``ruckig``: ``Ruckig(1).calculate(inp, traj)`` in a Python loop over prebuilt
@@ -17,6 +17,11 @@ noisy: compare ratios of one run). ``--check`` also asserts that every batch dur
 or asymmetric limits, which plan solves by quartic roots and plan_batch in closed form)::
 
     python tools/bench_batch.py --repeat 5
+
+Batches of at most 64 problems take plan_batch's plain-float path, larger ones numpy. Each
+timing is one call, so it includes the cold caches left by the loops before it: a size timed
+after others can differ by ~20 % from the same size timed alone (compare before/after runs
+with the same ``--sizes``).
     python tools/bench_batch.py --sizes 10000 --kinds rest --repeat 9
 """
 
@@ -48,8 +53,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         "--sizes",
         type=int,
         nargs="+",
-        default=[10, 1000, 10_000, 100_000],
-        help="batch sizes N (10 1000 10000 100000)",
+        default=[10, 100, 1000, 10_000, 100_000],
+        help="batch sizes N (10 100 1000 10000 100000)",
     )
     ap.add_argument("--kinds", nargs="+", choices=KINDS, default=list(KINDS), help="problem kinds")
     ap.add_argument("--repeat", type=int, default=3, help="repetitions; medians reported (3)")
