@@ -1035,43 +1035,58 @@ def _plan_small(
     eps = 8.0 * _EPS
     rows: list[tuple[list[tuple[float, ...]], float, float, float, float]] = []
     kinds: list[str] = []
+    # the first failure of each group, raised in the numpy path's order: closed-form rest to
+    # rest, rest to rest without a jerk limit, then the core's rows
+    errors: list[PlanningError | None] = [None, None, None]
     for i, (p0, v0, a0, pf, vf, af, vmax, vmin, amax, amin, jm) in enumerate(
         zip(P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J, strict=True)
     ):
         d = pf - p0
+        group = 2
         if (
             v0 == 0.0
             and a0 == 0.0
             and vf == 0.0
             and af == 0.0
-            and jm != _INF
             and not abs(d) <= max(1e-15, eps * max(abs(p0), abs(pf)))
         ):
-            rr = _rest_row(p0, d, vmax, vmin, amax, amin, jm)
-            if rr is not None:
-                res = _rest_segments(p0, rr, jm)
-                if not res[4] <= MAX_DURATION:
-                    raise _too_long(i, res[4])
-                rows.append(res)
-                kinds.append(_KIND_NAMES[rr[4]])
-                continue
+            if jm == _INF:
+                group = 1
+            else:
+                rr = _rest_row(p0, d, vmax, vmin, amax, amin, jm)
+                if rr is not None:
+                    res = _rest_segments(p0, rr, jm)
+                    if not res[4] <= MAX_DURATION:
+                        errors[0] = errors[0] or _too_long(i, res[4])
+                        continue
+                    rows.append(res)
+                    kinds.append(_KIND_NAMES[rr[4]])
+                    continue
         if arrived(p0, v0, a0, pf, vf, af):
             rows.append(([], p0, vf, af, 0.0))
             kinds.append("arrived")
             continue
         try:
             T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
-        except PlanningError as exc:
-            raise PlanningError(f"problem {i}: {exc}") from exc
-        except ArithmeticError as exc:
-            raise PlanningError(
-                f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                f"for problem {i} (planner defect: please report these inputs)"
-            ) from exc
+        except (PlanningError, ArithmeticError) as exc:
+            if isinstance(exc, PlanningError):
+                err = PlanningError(f"problem {i}: {exc}")
+            else:
+                err = PlanningError(
+                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                    f"for problem {i} (planner defect: please report these inputs)"
+                )
+            err.__cause__ = exc
+            errors[group] = errors[group] or err
+            continue
         if not T <= MAX_DURATION:
-            raise _too_long(i, T)
+            errors[group] = errors[group] or _too_long(i, T)
+            continue
         rows.append(_phase_segments(p0, v0, a0, phases))
         kinds.append(kind)
+    for err in errors:
+        if err is not None:
+            raise err
     width = max(MIN_WIDTH, max((len(r[0]) for r in rows), default=0))
     flat: list[float] = []
     nseg: list[int] = []
@@ -1148,7 +1163,8 @@ def plan_batch(
     with one acceleration plateau or asymmetric limits, equal to rounding: see the module
     docstring); invalid input raises the :class:`PlanningError` of :func:`plan` / ``Limits``
     naming the field, the index of its first bad element and the allowed range, before any
-    planning. Rest-to-rest rows are solved in numpy, the others by the core per row.
+    planning. Rest-to-rest rows are solved in numpy, the others by the core per row; a batch
+    of at most 64 problems row by row on plain floats with the same arithmetic (the same bits).
     """
     names = ("p0", "v0", "a0", "pf", "vf", "af", "v_max", "a_max", "j_max")
     small = _small_lists(

@@ -492,3 +492,23 @@ def test_unplannable_problems_raise_like_plan(
     with pytest.raises(PlanningError):
         lim = Limits(c["v_max"], c["a_max"], c["j_max"], c.get("v_min"), c.get("a_min"))
         plan(State(c["p0"], c["v0"], c["a0"]), State(c["pf"], c["vf"], c["af"]), lim)
+
+
+@pytest.mark.parametrize("n", [2, 2 * (SMALL + 1)])
+def test_several_failures_raise_the_same_error_small_or_numpy(n: int) -> None:
+    """Row 0 (moving: the core) and row 1 (rest to rest in closed form) both last too long:
+    either path names row 1, the numpy path's order (closed-form rows first)."""
+    k = n // 2
+    kwargs = {
+        "p0": 0.0,
+        "v0": [1e-3, 0.0] * k,
+        "a0": 0.0,
+        "pf": [1e12, 1e12] * k,
+        "vf": 0.0,
+        "af": 0.0,
+        "v_max": INF,
+        "a_max": INF,
+        "j_max": 1e-15,
+    }
+    with pytest.raises(PlanningError, match=r"^problem 1: the profile would last"):
+        plan_batch(**kwargs)  # type: ignore[arg-type]
