@@ -237,6 +237,7 @@ class SyncJob(AxisJob):
         "locked_at",
         "_eop_now",
         "d_lim",
+        "ramp_env",
     )
 
     def __init__(self, cmd: SyncCommand, handle: Handle, slave: Axis) -> None:
@@ -263,6 +264,8 @@ class SyncJob(AxisJob):
         self.ph_handle: PhaseHandle | None = None
         self.ph_req: tuple[PhaseHandle, float, bool, tuple[float, ...]] | None = None
         self.d_lim = (0.0, 0.0)  # |a|, |j| limits of the catch-up ramp
+        # cams: master |v|, |a|, |j| the ramp's headroom was reserved for (beyond it: re-plan)
+        self.ramp_env = (math.inf, math.inf, math.inf)
         self.table: Any = None
         self.periodic = False
         self.lift = 0.0
@@ -432,6 +435,17 @@ class SyncJob(AxisJob):
             self._cam_events(m[0])
             if own and not self._cam_supervised(m):
                 return None
+            ev, ea, ej = self.ramp_env
+            if (
+                self.stage == _RAMP
+                and self.d is not None
+                and (abs(m[1]) > ev or abs(m[2]) > ea or abs(m[3]) > ej)
+            ):
+                err = self._replan_ramp(m)
+                if err is not None:
+                    if own:
+                        self._fail(err[0], err[1])
+                    return None
         lp, lv, la, lj = self.law(*m)
         if self.stage == _LOCKED:
             p, v, a, j = (self.c + lp if self.kind == "gear" else lp), lv, la, lj
@@ -529,8 +543,36 @@ class SyncJob(AxisJob):
                         )
                     self.d = guarded(plan, d0, State(0.0, 0.0, 0.0), lim)
                     self.d_lim = (max(lim.a_max, -lim.a_min), lim.j_max)  # type: ignore[operator]
+                    if self.kind == "cam":  # self.peaks: the law's at this master motion
+                        self.ramp_env = (abs(mv), abs(ma), abs(mj))
         except PlanningError as exc:
             return ErrorID.PLANNING_FAILED, f"planner: {exc}"
+        return None
+
+    def _replan_ramp(self, m: tuple[float, float, float, float]) -> tuple[ErrorID, str] | None:
+        """Cams: the master's motion left the envelope the ramp's headroom was reserved for
+        (the law's acceleration and jerk grow with it): plan the ramp again from the state it
+        gave in the last step, in the headroom the law leaves for a master envelope 1.25x the
+        current motion (the table's monotone peak bound), so that ramp + law stay within the
+        slave's limits while the master speeds up."""
+        d = self.d
+        assert d is not None
+        s = d.at(self.last_tau - self.d_t0)
+        env = (1.25 * abs(m[1]), 1.25 * abs(m[2]), 1.25 * abs(m[3]))
+        q, ss = abs(self.msc), abs(self.ssc)
+        b = self.table.slave_peaks_bound(env[0] * q, env[1] * q, env[2] * q)
+        self.peaks = (ss * b[0], ss * b[1], ss * b[2])
+        d0 = State(s.p, s.v, s.a)
+        lim = self._catch_up_limits(d0, m[1])
+        if lim is None:  # (cams take every direction)
+            return ErrorID.PLANNING_FAILED, "no catch-up limits"
+        try:
+            self.d = guarded(plan, d0, State(0.0, 0.0, 0.0), lim)
+        except PlanningError as exc:
+            return ErrorID.PLANNING_FAILED, f"planner: {exc}"
+        self.d_lim = (max(lim.a_max, -lim.a_min), lim.j_max)  # type: ignore[operator]
+        self.d_t0 = self.last_tau
+        self.ramp_env = env
         return None
 
     def _room(self, lim: Limits, mv: float) -> Limits:

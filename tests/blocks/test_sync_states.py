@@ -322,3 +322,27 @@ def test_single_axis_commands_on_a_coupled_slave(fbname: str) -> None:
         else:
             assert g.command_aborted and not g.in_gear
     assert rig.m.state is m_state
+
+
+def test_cam_ramp_replanned_when_the_master_speeds_up() -> None:
+    """Found by a soak of the stateful test (400 random examples): a CamIn catching up while
+    its master changes velocity. The ramp's headroom is reserved for the master's motion at
+    engagement; the law's acceleration and jerk grow with the master's speed, so the ramp is
+    planned again (for 1.25x the master's motion) when the master leaves that envelope -- before,
+    ramp + law stepped the slave's acceleration 0.01 % beyond j_max dt (the invariant checker's
+    "acceleration jump", raised by every cycle of this rig)."""
+    st = SyncMachine()
+    st.master_velocity(v=-1.0)
+    st.run(n=10)
+    st.cam_in(ms=0.5, rel=False)
+    st.run(n=100)
+    st.stop(who="m")
+    st.master_velocity(v=-1.0)
+    st.cam_in(ms=1.0, rel=False)
+    st.run(n=400)
+    st.cam_out()
+    st.cam_in(ms=0.5, rel=False)
+    st.master_velocity(v=0.6)
+    st.run(n=600)
+    assert st.rig.s.state is S.SYNCHRONIZED_MOTION
+    st.teardown()
