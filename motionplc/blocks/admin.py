@@ -5,7 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 from motionplc.blocks.axis import OVERRIDE_MIN, POSITION_MAX, Axis, Command, Handle
-from motionplc.blocks.base import EnableFB, ExecuteFB, InputError, check_dynamic, check_number
+from motionplc.blocks.base import (
+    EnableFB,
+    ExecuteFB,
+    InputError,
+    check_dynamic,
+    check_execution_mode,
+    check_number,
+)
 from motionplc.blocks.enums import AxisState, BufferMode, ErrorID, ExecutionMode, Source
 from motionplc.errors import PlanningError
 
@@ -77,12 +84,7 @@ class MC_SetPosition(ExecuteFB):
         pos = check_number(
             "position", self.position, ErrorID.INVALID_POSITION, -POSITION_MAX, POSITION_MAX
         )
-        mode = self.execution_mode
-        if not isinstance(mode, ExecutionMode):
-            raise InputError(
-                ErrorID.INVALID_EXECUTION_MODE,
-                f"execution_mode must be an ExecutionMode, got {mode!r}",
-            )
+        mode = check_execution_mode(self.execution_mode)
         bm = BufferMode.ABORTING if mode is ExecutionMode.IMMEDIATELY else BufferMode.BUFFERED
         return axis.submit(
             Command(kind="setpos", mode=bm, position=pos, relative=bool(self.relative))

@@ -37,7 +37,7 @@ from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar
 
 from motionplc.blocks.axis import Axis, Handle, Status
-from motionplc.blocks.enums import ErrorID
+from motionplc.blocks.enums import ErrorID, ExecutionMode
 
 if TYPE_CHECKING:
     from motionplc.runtime.trace import Trace
@@ -184,6 +184,17 @@ def check_dynamic(name: str, value: Any, error_id: ErrorID, lo: float, hi: float
         error_id,
         f"{name} must be 0 (the axis' limit) or a finite number in [{lo:g}, {hi:g}], got {value!r}",
     )
+
+
+def check_execution_mode(value: Any) -> ExecutionMode:
+    """Validate an ExecutionMode input (MC_SetPosition, MC_Write*Parameter,
+    MC_CamTableSelect); raises :class:`InputError` INVALID_EXECUTION_MODE otherwise."""
+    if not isinstance(value, ExecutionMode):
+        raise InputError(
+            ErrorID.INVALID_EXECUTION_MODE,
+            f"execution_mode must be an ExecutionMode, got {value!r}",
+        )
+    return value
 
 
 class ExecuteFB(FunctionBlock):

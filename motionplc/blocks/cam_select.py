@@ -43,7 +43,7 @@ from typing import Any
 
 from motionplc.blocks.axis import Axis, Handle
 from motionplc.blocks.axis_config import AxisConfig
-from motionplc.blocks.base import ExecuteFB, InputError
+from motionplc.blocks.base import ExecuteFB, InputError, check_execution_mode
 from motionplc.blocks.enums import ErrorID, ExecutionMode
 from motionplc.blocks.motion import InputChecks
 from motionplc.blocks.motion_queue import Status
@@ -189,13 +189,7 @@ class MC_CamTableSelect(InputChecks, ExecuteFB):
         return _flag("slave_absolute", self.slave_absolute)
 
     def _in_execution_mode(self, axis: Any) -> ExecutionMode:
-        mode = self.execution_mode
-        if not isinstance(mode, ExecutionMode):
-            raise InputError(
-                ErrorID.INVALID_EXECUTION_MODE,
-                f"execution_mode must be an ExecutionMode, got {mode!r}",
-            )
-        return mode
+        return check_execution_mode(self.execution_mode)
 
     # -- execution -------------------------------------------------------------------------
     def _start(self, axis: Axis) -> Handle:

@@ -43,7 +43,7 @@ from motionplc.blocks.axis_params import (
     read_parameter,
     write_parameter,
 )
-from motionplc.blocks.base import EnableFB, ExecuteFB, InputError
+from motionplc.blocks.base import EnableFB, ExecuteFB, InputError, check_execution_mode
 from motionplc.blocks.enums import ErrorID, ExecutionMode
 from motionplc.blocks.motion import InputChecks
 from motionplc.fieldbus.base import DriveAddress, ParameterError, ParameterTransfer
@@ -248,13 +248,7 @@ class MC_WriteParameter(ExecuteFB, InputChecks):
         return self.value
 
     def _in_execution_mode(self, axis: Any) -> ExecutionMode:
-        mode = self.execution_mode
-        if not isinstance(mode, ExecutionMode):
-            raise InputError(
-                ErrorID.INVALID_EXECUTION_MODE,
-                f"execution_mode must be an ExecutionMode, got {mode!r}",
-            )
-        return mode
+        return check_execution_mode(self.execution_mode)
 
     # -- execution ---------------------------------------------------------------------------
     def _start(self, axis: Axis) -> Handle:
