@@ -511,15 +511,19 @@ class Runtime:
         # the trace row, packed straight into the trace's staging block (no row list)
         trace = self.trace
         buf, off = trace.reserve_row()
-        _PACK_HEAD(buf, off, k, t_virtual)
-        off += 16
-        edges = trace if self.trace_edges else None
-        for ax in self._axis_list:
-            ax.trace_cycle(buf, off, edges, k)  # its row part, then its FB edges
-            off += _AXIS_ROW
-        for g in self._group_list:
-            _GROUP_PACK(buf, off, *g.trace_values())
-            off += _GROUP_ROW
+        try:
+            _PACK_HEAD(buf, off, k, t_virtual)
+            off += 16
+            edges = trace if self.trace_edges else None
+            for ax in self._axis_list:
+                ax.trace_cycle(buf, off, edges, k)  # its row part, then its FB edges
+                off += _AXIS_ROW
+            for g in self._group_list:
+                _GROUP_PACK(buf, off, *g.trace_values())
+                off += _GROUP_ROW
+        except BaseException:  # (Ctrl-C inside the row): no half-written row in the trace
+            trace.unreserve_row()
+            raise
         if edges is not None:
             for g in self._group_list:
                 g.emit_fb_edges(trace, k)

@@ -307,18 +307,25 @@ class Trace:
         return stage, ring, chunk
 
     def _freeze(self) -> None:
-        self._frozen = True
-        self._stage_rows, self._ring_rows, self._chunk_rows = self._plan()
-        self._stage = np.empty((self._stage_rows, len(self._columns)))
-        self._stage_bytes = memoryview(self._stage).cast("B")  # for struct.pack_into
+        # built aside and marked frozen last: a Ctrl-C in the middle leaves the trace as it
+        # was (unfrozen, rebuilt at the next row), never frozen without its column map
+        plan = self._plan()
+        stage = np.empty((plan[0], len(self._columns)))
         by_type: dict[np.dtype, list[int]] = {}
         for i, d in enumerate(self._dtypes):
             by_type.setdefault(d, []).append(i)
-        self._where = [(0, 0)] * len(self._columns)
+        where = [(0, 0)] * len(self._columns)
+        groups = []
         for g, (d, cols) in enumerate(by_type.items()):
-            self._groups.append((d, np.array(cols, dtype=np.intp)))
+            groups.append((d, np.array(cols, dtype=np.intp)))
             for r, c in enumerate(cols):
-                self._where[c] = (g, r)
+                where[c] = (g, r)
+        self._stage_rows, self._ring_rows, self._chunk_rows = plan
+        self._stage = stage
+        self._stage_bytes = memoryview(stage).cast("B")  # for struct.pack_into
+        self._where = where
+        self._groups = groups
+        self._frozen = True
 
     def _chunk_size(self, k: int) -> int:
         return min(self._chunk_rows, self._ring_rows - k * self._chunk_rows)
@@ -349,6 +356,11 @@ class Trace:
         i = self._fill
         self._fill = i + 1
         return self._stage_bytes, i * 8 * len(self._columns)
+
+    def unreserve_row(self) -> None:
+        """Take back the row of the last :meth:`reserve_row` (its filling was interrupted, e.g.
+        by Ctrl-C in the middle of a cycle): the trace never holds a half-written row."""
+        self._fill -= 1
 
     def _flush(self) -> None:
         """Move the full staging block into the ring (column by column, exact conversion)."""

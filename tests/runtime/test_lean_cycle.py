@@ -269,3 +269,43 @@ def test_ideal_drive_lazy_feedback_equals_the_eager_one() -> None:
     assert d.read_inputs(0.003) == DriveFeedback(3.1, 0.0, True)
     d.set_comm_ok(False)
     assert not d.read_inputs(0.004).comm_ok
+
+
+def test_ctrl_c_inside_a_row_or_the_first_freeze_leaves_no_broken_trace() -> None:
+    """A KeyboardInterrupt while the cycle packs its trace row takes the row back (no
+    half-written row: ``motionplc run`` wrote NaN states and failed on Ctrl-C), and one inside
+    the trace's first freeze leaves it unfrozen, rebuilt at the next row (it was marked frozen
+    without its column map: ``column`` raised IndexError)."""
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=1.0, a_max=1.0, j_max=10.0)
+    rt.add_task("main", lambda ctx: None)
+    rt.run(cycles=3)
+    packing = x.trace_cycle
+
+    def interrupted(*args: object) -> None:
+        raise KeyboardInterrupt
+
+    x.trace_cycle = interrupted  # type: ignore[method-assign]
+    with pytest.raises(KeyboardInterrupt):
+        rt.run(cycles=1)
+    x.trace_cycle = packing  # type: ignore[method-assign]
+    assert len(rt.trace) == 3 and not np.isnan(rt.trace.array()).any()
+    rt.run(cycles=2)
+    assert len(rt.trace) == 5 and not np.isnan(rt.trace.array()).any()
+
+    t = Trace(capacity=10, max_bytes=64 * 2**10)
+    t.add_columns(["s"], [np.float64])
+    plan = t._plan
+    calls = []
+
+    def first_interrupted() -> tuple[int, int, int]:
+        calls.append(1)
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        return plan()
+
+    t._plan = first_interrupted  # type: ignore[method-assign]
+    with pytest.raises(KeyboardInterrupt):
+        t.record([0, 0.0, 1.0])
+    t.record([1, 0.001, 2.0])
+    np.testing.assert_array_equal(t.column("s"), [2.0])
