@@ -37,7 +37,9 @@ called by the runtime):
 * simulated clock with an in-process virtual server as ``peer`` (lockstep): the cycle waits
   until the server has answered or *parked* the request (an injected response delay runs on the
   simulated clock, see :class:`~motionplc.fieldbus.virtual_modbus.VirtualModbusServer`), so
-  every run is bit-reproducible: the same timeouts in the same cycles on any host load.
+  every run is bit-reproducible: the same timeouts in the same cycles on any host load. Its
+  waits (also connect and setup) are bounded by at least 5 s of wall time, a guard against a
+  peer that is gone, never reached while it runs.
 * simulated clock with any other server: the cycle waits for the answers at most ``timeout``
   seconds (wall clock); no answer by then is COMM_TIMEOUT at once.
 
@@ -137,6 +139,10 @@ CODE_NO_RESPONSE = 0x8130
 CODE_EXCEPTION_BASE = 0xFF00
 CODE_OUT_OF_RANGE = 0x6320  # CiA 301 "parameter error": a setpoint its register cannot hold
 _POLL = 0.001  # [s] slice of a bounded wait (simulated clock only)
+# [s] wall-clock bound of one wait on an in-process lockstep peer: its answers and timeouts run
+# on the simulated clock, so this only guards against a peer that is gone; generous, so that a
+# loaded host (the peer's thread not scheduled for a while) changes nothing in a run
+_LOCKSTEP_WALL = 5.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -407,13 +413,21 @@ class ModbusDrive(Drive):
         """Real time: never wait for an answer inside the cycle (see the module docstring)."""
         self.realtime = bool(realtime)
 
+    def _wall_bound(self) -> float:
+        """[s] wall-clock bound of one blocking wait (connect, a setup request): ``timeout``,
+        at least ``_LOCKSTEP_WALL`` with an in-process lockstep peer on the simulated clock
+        (whose answers never depend on the host's load)."""
+        if self._parks is not None and not self.realtime:
+            return max(self.config.timeout, _LOCKSTEP_WALL)
+        return self.config.timeout
+
     # ----------------------------------------------------------------- setup
     def open(self) -> None:
         """Connect, identify, write the mode and the setup parameters, read the status once
         (see the module docstring); raises :class:`FieldbusError` naming what failed."""
         cfg = self.config
-        if not self.link.connect(cfg.timeout):
-            reason = self.link.error or f"no answer within {cfg.timeout} s"
+        if not self.link.connect(self._wall_bound()):
+            reason = self.link.error or f"no answer within {self._wall_bound()} s"
             self.link.close()
             raise FieldbusError(f"{self.name}: cannot connect to {cfg.host}:{cfg.port}: {reason}")
         try:
@@ -518,17 +532,35 @@ class ModbusDrive(Drive):
             )
         return regs
 
+    def _wait_setup_answer(self, seq: int | None) -> bool:
+        """Setup path: wait for something to read; False on no answer. With a lockstep peer
+        (``seq``: its request count before the request) a request it parks is no answer at
+        once: the simulated clock stands still during a blocking setup, so the answer could
+        only come after the timeout; the wall-clock bound guards against a peer that is gone."""
+        if seq is None or self.realtime:
+            return self.link.wait_readable(self.config.timeout)
+        assert self._parks is not None
+        for _ in range(max(1, math.ceil(self._wall_bound() / _POLL))):
+            if self.link.wait_readable(_POLL):
+                return True
+            if not self.link.connected:
+                return False
+            if self._parks.parked_due(self.config.device_id, seq) is not None:
+                return False
+        return False
+
     def _transact(self, pdu: ModbusPDU, what: str) -> ModbusPDU:
         """Setup path: one request and its answer, bounded by the timeout (BUSY re-sent once);
         errors name the request (``what``)."""
         for attempt in range(2):
             self.requests += 1
+            seq = None if self._parks is None else self._parks.request_count(self.config.device_id)
             tid = self.link.send(pdu, self.config.device_id)
             if tid is None:
                 raise _RequestError(CODE_NO_RESPONSE, f"{what}: {self.link.error}", "disconnected")
             reply: Reply | None = None
             for _ in range(8):  # unrelated frames are skipped; each wait is bounded
-                if not self.link.wait_readable(self.config.timeout):
+                if not self._wait_setup_answer(seq):
                     break
                 reply = next((r for r in self.link.receive() if r.tid == tid), None)
                 if reply is not None or not self.link.connected:
@@ -659,7 +691,7 @@ class ModbusDrive(Drive):
         self._cycles_since_attempt = 0
         self.link.start_connect()
         if not self.realtime:
-            self.link.poll_connect(self.config.timeout)
+            self.link.poll_connect(self._wall_bound())
 
     def _wait_settled(self) -> None:
         """Simulated clock: wait until the exchange is answered, parked by the lockstep peer, or
@@ -680,10 +712,11 @@ class ModbusDrive(Drive):
 
     def _settle_lockstep(self) -> bool:
         """Lockstep: take answers in until the exchange is done or the peer holds one of its
-        requests (parked until a later simulated time); True then, False when ``timeout`` of
-        wall time per request has passed without either."""
+        requests (parked until a later simulated time); True then, False when ``timeout`` (at
+        least ``_LOCKSTEP_WALL``) of wall time per request has passed without either."""
         cfg = self.config
-        for _ in range(len(self.codec.requests) * max(1, math.ceil(cfg.timeout / _POLL))):
+        bound = max(cfg.timeout, _LOCKSTEP_WALL)
+        for _ in range(len(self.codec.requests) * max(1, math.ceil(bound / _POLL))):
             ex = self._exchange
             if ex is None or not self.link.connected:
                 return True
@@ -795,7 +828,7 @@ class ModbusDrive(Drive):
         on a fault reset); True when it is usable in this cycle."""
         link = self.link
         if link.connecting:
-            link.poll_connect(0.0 if self.realtime else self.config.timeout)
+            link.poll_connect(0.0 if self.realtime else self._wall_bound())
             if not link.connected and not link.connecting:
                 self._link_lost()
         if link.connected:

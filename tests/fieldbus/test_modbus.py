@@ -20,7 +20,10 @@ from motionplc.fieldbus.modbus_regmap import load_register_map
 from motionplc.fieldbus.virtual_modbus import VirtualModbusDrive, VirtualModbusServer
 
 DT = 0.001
-TIMEOUT = 0.05
+TIMEOUT = 0.05  # the master's: 50 cycles of DT on the simulated clock (lockstep peer)
+# pymodbus' own client waits on the wall clock: only a bound, generous so host load cannot fail
+# a request (CI once timed out the first one at 50 ms)
+PLAIN_TIMEOUT = 3.0
 # map v1 with the FC 16 write and the FC 03 read as two requests, one after the other
 V1_SEPARATE = dataclasses.replace(load_register_map("motionplc-v1"), exchange="separate")
 EXCHANGES = pytest.mark.parametrize(
@@ -72,7 +75,7 @@ def client() -> Iterator[Callable[[int], ModbusTcpClient]]:
     made: list[ModbusTcpClient] = []
 
     def make(port: int) -> ModbusTcpClient:
-        c = ModbusTcpClient("127.0.0.1", port=port, timeout=TIMEOUT, retries=0)
+        c = ModbusTcpClient("127.0.0.1", port=port, timeout=PLAIN_TIMEOUT, retries=0)
         assert c.connect()
         made.append(c)
         return c
@@ -145,9 +148,9 @@ class ModbusRig:
                 ModbusDriveConfig(  # type: ignore[arg-type]
                     port=srv.port, device_id=d.device_id, timeout=TIMEOUT, cycle_time=DT, **cfg
                 ),
-                peer=srv if i == 0 else None,
+                peer=srv,  # lockstep for every drive (the server's step is idempotent)
             )
-            for i, d in enumerate(srv.drives)
+            for d in srv.drives
         ]
         self.k = 0
 
@@ -197,7 +200,9 @@ def enable(r: ModbusRig) -> None:
 
 def test_word_order_mismatch_refuses_to_enable(server) -> None:
     srv = server(VirtualModbusDrive(1, word_order="little"))
-    drive = ModbusDrive("m", ModbusDriveConfig(port=srv.port, timeout=TIMEOUT, word_order="big"))
+    drive = ModbusDrive(
+        "m", ModbusDriveConfig(port=srv.port, timeout=TIMEOUT, word_order="big"), peer=srv
+    )
     with pytest.raises(FieldbusError, match="word-order probe"):
         drive.open()
     drive.close()
