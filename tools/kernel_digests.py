@@ -17,7 +17,11 @@ path of ``motionplc run``; each configuration also alone for 1 s), the spec Appe
 as ``tests/blocks/test_appendix_a.py`` builds them, and ``--random`` (default 300) random FB
 sequences from a fixed seed (MoveAbsolute/Relative/Additive/Velocity, Halt, Stop, Home,
 SetPosition, SetOverride, Reset with every BufferMode, ContinuousUpdate, feed enables, power
-off/on, software limits, modulo and asymmetric axes, override changes mid-move, invalid inputs).
+off/on, software limits, modulo and asymmetric axes, override changes mid-move, invalid inputs),
+and ``can:8axes`` / ``can:8axes+sniffer``: eight axes on virtual CiA 402 drives over one
+python-can ``virtual`` bus with faults injected and reset (see :func:`_can_scenario`; its
+observables also hash the decoded PDO values, the drives' states and, with the sniffer, every
+frame on the channel).
 
 ``--against REF`` runs this very script in a temporary detached ``git worktree`` of REF (removed
 afterwards) and in this checkout, concurrently, then prints ``identical`` or the differing
@@ -497,10 +501,205 @@ def _random_axis(
     pulse(reset, n_cycles - 250, 1)
 
 
+# ------------------------------------------------------------------------- virtual CAN rig
+CAN_LEGS = ((4.0, 1.2), (10.0, 0.8), (6.0, 1.5), (0.0, 1.0))  # [m], [m/s]
+
+
+def _can_scenario(sniffer: bool) -> tuple[str, str]:
+    """Eight axes on virtual CiA 402 drives behind our CANopen master on one python-can
+    ``virtual`` bus (lockstep, one SYNC per cycle, as ``tools/bench_runtime.py --drives can``):
+    endless blended moves (each axis its own phase), a drive fault injected and reset, a
+    persistent fault refused and then cleared, a dropped RPDO (held, no fault) and too many
+    (RPDO time-out fault), a late TPDO, a lost TPDO1 beyond the loss limit, a short SYNC
+    loss, a malformed frame, all reset by MC_Reset and the moves resumed. Besides the trace,
+    every cycle hashes what travelled: each master drive's decoded TPDO values, counters and
+    controlword, each virtual drive's device state, the endpoints' frame counters.
+    ``sniffer``: a third bus on the channel records every frame (COB-ID, flags, bytes, in
+    order; not its wall-clock stamp), hashed with the rest (frames then get copied to it)."""
+    import can
+
+    from motionplc.blocks import BufferMode, MC_MoveAbsolute, MC_Power, MC_Reset
+    from motionplc.fieldbus.can_faults import FaultInjectingBus
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+    from motionplc.runtime import Runtime
+
+    n_axes = 8
+    channel = f"kernel-digests-can-{os.getpid()}-{int(sniffer)}"
+    rack = VirtualCanBus(
+        can.Bus(interface="virtual", channel=channel),
+        [VirtualCia402Drive(i) for i in range(1, n_axes + 1)],
+    )
+    master_bus = FaultInjectingBus(can.Bus(interface="virtual", channel=channel))
+    master = CanopenMaster(master_bus, peer=rack, heartbeat_period=0.01)
+    spy = can.Bus(interface="virtual", channel=channel) if sniffer else None
+    rt = Runtime(cycle=0.001)
+    try:
+        axes = []
+        for i in range(1, n_axes + 1):
+            extra: dict[str, Any] = {}
+            if i == 2:
+                extra["velocity_feed_forward"] = True  # RPDO2 with 0x60B1
+            if i == 4:
+                extra["feedback_velocity"] = False  # TPDO1 only
+            if i == 7:
+                extra.update(following_error_window=0.05, following_error_timeout=0.004)
+            cfg = CanopenDriveConfig(
+                node_id=i, counts_per_unit=1000.0, cycle_time=rt.cycle, **extra
+            )
+            drive = CanopenDrive(f"a{i - 1}", master, cfg)
+            axes.append(rt.add_axis(f"a{i - 1}", 2.0, 10.0, 200.0, drive=drive))
+        power = [MC_Power(axis=x, enable=True) for x in axes]
+        reset = [MC_Reset(axis=x) for x in axes]
+        moves = [
+            [
+                MC_MoveAbsolute(
+                    axis=x, buffer_mode=BufferMode.BLENDING_LOW, acceleration=8.0, deceleration=8.0
+                )
+                for _ in range(2)
+            ]
+            for x in axes
+        ]
+        legs = list(range(n_axes))
+        turn = [0] * n_axes
+        events: dict[int, list[Callable[[], None]]] = {}
+        state = {"k": 0}
+
+        def at(k: int, fn: Callable[[], None]) -> None:
+            events.setdefault(k, []).append(fn)
+
+        def pulse(fb: Any, k: int) -> None:
+            at(k, lambda: setattr(fb, "execute", True))
+            at(k + 1, lambda: setattr(fb, "execute", False))
+
+        faults = rack.faults
+        at(600, lambda: rack[3].inject_fault(0x2310))
+        pulse(reset[2], 700)
+        at(900, lambda: rack[6].inject_fault(0x4210, persistent=True))
+        pulse(reset[5], 1000)  # refused: the fault is still present
+        at(1100, rack[6].clear_fault)
+        pulse(reset[5], 1150)
+        at(1300, lambda: master_bus.drop_tx_ids.add(0x205))  # one RPDO lost: held
+        at(1301, lambda: master_bus.drop_tx_ids.discard(0x205))
+        at(1400, lambda: master_bus.drop_tx_ids.add(0x201))  # RPDO time-out 0x8250
+        at(1405, lambda: master_bus.drop_tx_ids.discard(0x201))
+        pulse(reset[0], 1500)
+        at(1600, lambda: faults.delay_tx.update({0x188: 1}))  # a late TPDO: stale
+        at(1603, faults.delay_tx.clear)
+        at(1700, lambda: faults.drop_tx_ids.add(0x183))  # no feedback beyond the limit
+        at(1706, lambda: faults.drop_tx_ids.discard(0x183))
+        pulse(reset[2], 1800)
+        at(1900, lambda: setattr(master, "sync_enabled", False))  # SYNC loss
+        at(1903, lambda: setattr(master, "sync_enabled", True))
+        for side, cob_id, data in (
+            (master_bus, 0x204, b"\x01"),
+            (master_bus, 0x080, b"\x01\x02"),
+            (faults, 0x184, b"\x00"),
+        ):  # malformed frames (wrong lengths) to the drives and to the master
+            frame = can.Message(arbitration_id=cob_id, is_extended_id=False, data=data)
+            at(2000, lambda side=side, frame=frame: side.send(frame))
+        for j in range(n_axes):
+            pulse(reset[j], 2100)
+
+        def program(ctx: Any) -> None:
+            k = state["k"]
+            for fn in events.get(k, ()):
+                fn()
+            for j in range(n_axes):
+                power[j]()
+                reset[j]()
+                if not power[j].status:
+                    continue
+                cur, other = moves[j][turn[j]], moves[j][1 - turn[j]]
+                if not cur.busy and not cur.execute:
+                    pos, vel = CAN_LEGS[legs[j] % len(CAN_LEGS)]
+                    legs[j] += 1
+                    cur.position = pos * (1.0 - 0.1 * j)
+                    cur.velocity = vel
+                    cur.execute = True
+                else:
+                    cur.execute = False
+                cur()
+                other()
+                if cur.active:
+                    turn[j] = 1 - turn[j]
+            state["k"] = k + 1
+
+        rt.add_task("main", program)
+        obs = _observed(rt)
+        h = obs.h
+
+        def wire(rt_: Any, k: int) -> None:
+            parts: list[Any] = [master.frames_received, master.sync_sent]
+            parts.append(sorted(master.malformed_frames.items()))
+            parts.append(sorted(rack.malformed_frames.items()))
+            for d in master.drives:
+                parts.append(
+                    (
+                        d.statusword,
+                        d.position_counts,
+                        d.velocity_counts,
+                        d.drive_error_code,
+                        d.following_error_counts,
+                        d.emcy_code,
+                        d.controlword,
+                        d._tpdo_count,
+                    )
+                )
+            for v in rack.drives.values():
+                dev = v.device
+                a = dev.actual
+                parts.append(
+                    (
+                        dev.state.value,
+                        dev.controlword,
+                        dev.target,
+                        dev.velocity_offset,
+                        dev.demand,
+                        a.position,
+                        a.velocity,
+                        a.acceleration,
+                        dev.error_code,
+                        v.sync_received,
+                        v.nmt_state,
+                    )
+                )
+            if spy is not None:
+                while (msg := spy.recv(timeout=0)) is not None:
+                    parts.append(
+                        (
+                            msg.arbitration_id,
+                            msg.is_extended_id,
+                            msg.is_remote_frame,
+                            msg.is_error_frame,
+                            msg.dlc,
+                            bytes(msg.data),
+                        )
+                    )
+            h.update(repr(parts).encode())
+
+        rt.add_cycle_hook(wire)
+        rt.run(cycles=2600)
+        return rt.trace.digest(), obs.digest()
+    finally:
+        rt.close()
+        master.close()
+        rack.close()
+        if spy is not None:
+            spy.shutdown()
+
+
+def _can_scenarios() -> list[tuple[str, Callable[[], tuple[str, str]]]]:
+    return [
+        ("can:8axes", lambda: _can_scenario(False)),
+        ("can:8axes+sniffer", lambda: _can_scenario(True)),
+    ]
+
+
 # ------------------------------------------------------------------------------------- main
 def scenarios(root: Path, n_random: int) -> list[tuple[str, Callable[[], tuple[str, str]]]]:
     """All scenarios, in a fixed order."""
-    out = _config_scenarios(root) + _appendix_a_scenarios()
+    out = _config_scenarios(root) + _appendix_a_scenarios() + _can_scenarios()
 
     def rnd(seed: int) -> Callable[[], tuple[str, str]]:
         return lambda: _random_scenario(seed)
