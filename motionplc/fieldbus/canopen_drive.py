@@ -159,7 +159,7 @@ from motionplc.fieldbus.fastcan import (
     send_frame,
     service_error,
 )
-from motionplc.fieldbus.scaling import Scaling
+from motionplc.fieldbus.scaling import Scaling, saturate_i32
 from motionplc.fieldbus.sdo import (
     ABORT_OBJECT_MISSING,
     ABORT_SUBINDEX_MISSING,
@@ -189,6 +189,10 @@ EMCY_HISTORY = 32  # EMCYs kept in canopen's node.emcy.log / .active
 ABSENT_CODES = frozenset({ABORT_OBJECT_MISSING, ABORT_SUBINDEX_MISSING})
 NMT_BOOT_UP = 0x00
 NMT_PRE_OPERATIONAL = 0x7F
+NMT_OPERATIONAL = 0x05  # canopen's NmtBase._state of "OPERATIONAL"
+_HB_OK = (True, "")
+_OE = Cia402State.OPERATION_ENABLED
+_FAULTY = (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
 
 # attribute of CanopenDrive each TPDO object is decoded into
 _TPDO_ATTRS = {
@@ -819,10 +823,17 @@ def _in_od(od: ObjectDictionary, index: int, subindex: int) -> bool:
     return True
 
 
-class _CompiledPdo:
-    """One configured PDO as a ``struct`` layout (little endian, byte-aligned objects)."""
+# RPDO objects -> index in the tuple of a cycle's values (controlword, target position,
+# torque offset, mode of operation, velocity offset), see CanopenDrive.write_outputs
+_RPDO_SLOTS = {0x6040: 0, 0x607A: 1, 0x60B2: 2, 0x6060: 3, 0x60B1: 4}
+_CW_TARGET = (0, 1)  # RPDO1 of the default layout: controlword + target position
 
-    __slots__ = ("cob_id", "objects", "struct", "trans_type")
+
+class _CompiledPdo:
+    """One configured PDO as a ``struct`` layout (little endian, byte-aligned objects);
+    ``slots``: for an RPDO, where each mapped object's value is in a cycle's values."""
+
+    __slots__ = ("cob_id", "objects", "pack", "slots", "struct", "trans_type")
 
     def __init__(self, pdo: ConfiguredPdo) -> None:
         table = RPDO_OBJECTS if pdo.kind == "rpdo" else TPDO_OBJECTS
@@ -830,6 +841,8 @@ class _CompiledPdo:
         self.objects = pdo.objects
         self.trans_type = pdo.trans_type
         self.struct = struct.Struct("<" + "".join(table[i][0] for i in pdo.objects))
+        self.pack = self.struct.pack
+        self.slots = tuple(_RPDO_SLOTS[i] for i in pdo.objects) if pdo.kind == "rpdo" else ()
 
 
 class _AcyclicSdo:
@@ -900,6 +913,8 @@ class CanopenDrive(Drive):
         if any(d.config.node_id == n for d in master.drives):
             raise ValueError(f"{name}: node {n} is already an axis on this master")
         self.scaling = Scaling(config.counts_per_unit, config.offset_counts)
+        self._counts_per_unit = self.scaling.counts_per_unit  # (the cycle's conversions)
+        self._offset_counts = self.scaling.offset_counts
         self.od: ObjectDictionary | None = None
         if config.eds is not None:
             try:
@@ -1215,14 +1230,15 @@ class CanopenDrive(Drive):
             return True, ""
         period = cfg.heartbeat_period
         if period <= 0:
-            return True, ""
-        last = self.node.nmt.timestamp
+            return _HB_OK
+        nmt = self.node.nmt
+        last = nmt.timestamp
         ref = last if last is not None else self._armed_t
         if ref is not None and t - ref > cfg.heartbeat_timeout_factor * period + 1e-9:
             return False, f"heartbeat of node {n} lost"
-        if last is not None and self.node.nmt.state != "OPERATIONAL":
-            return False, f"node {n} is {self.node.nmt.state}"
-        return True, ""
+        if last is not None and nmt._state != NMT_OPERATIONAL:  # nmt.state != "OPERATIONAL"
+            return False, f"node {n} is {nmt.state}"
+        return _HB_OK
 
     def read_inputs(self, t: float) -> DriveFeedback:
         self.master.pump(t)
@@ -1240,7 +1256,7 @@ class CanopenDrive(Drive):
         self._sync_pending = False
 
         state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
-        fault = state in (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
+        fault = state in _FAULTY
         if self._verify_deadline is not None:
             self._verify(t, fresh, state, fault)
         error_code = 0
@@ -1276,14 +1292,16 @@ class CanopenDrive(Drive):
                 detail = f"no TPDO from node {self.config.node_id} for {self._missed} cycles"
             elif not self._opened:
                 comm_ok, detail = False, "not opened"
-        enabled = state is Cia402State.OPERATION_ENABLED and comm_ok
-        self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
+        enabled = state is _OE and comm_ok
+        if self._reset_until is not None:  # (reset_in_progress(None, ...) is None)
+            self._reset_until = reset_in_progress(self._reset_until, t, comm_ok and not fault)
         reset_pending = reconfiguring or self._reset_until is not None
         if self._hm is not None:
             self._homing_read(t, fresh)
+        # Scaling.position_to_si / velocity_to_si, inlined
         return _feedback(
-            self.scaling.position_to_si(self.position_counts),
-            self.scaling.velocity_to_si(self.velocity_counts),
+            (self.position_counts - self._offset_counts) / self._counts_per_unit,
+            self.velocity_counts / self._counts_per_unit,
             enabled,
             fault,
             error_code,
@@ -1383,20 +1401,31 @@ class CanopenDrive(Drive):
                 hm.phase = "run"
                 hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
-        if state is Cia402State.OPERATION_ENABLED and command.enable:
-            target_counts = self.scaling.position_to_counts(command.position)
+        if state is _OE and command.enable:
+            # Scaling.position_to_counts, inlined
+            target_counts = saturate_i32(
+                command.position * self._counts_per_unit + self._offset_counts
+            )
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
-        values = {0x6040: cw, 0x607A: target_counts, 0x60B2: 0, 0x6060: self._cyclic_mode}
-        if self._needs_velocity:
-            values[0x60B1] = self.scaling.velocity_to_counts(command.velocity)
+        # the values of the RPDO objects, in _RPDO_SLOTS order
+        velocity = (
+            saturate_i32(command.velocity * self._counts_per_unit) if self._needs_velocity else 0
+        )
+        values = (cw, target_counts, 0, self._cyclic_mode, velocity)
+        master = self.master
+        send = master.network.send_message  # (CanopenMaster.send_pdo)
         try:
             for c in self._rpdos:
-                self.master.send_pdo(c.cob_id, c.struct.pack(*[values[i] for i in c.objects]))
+                slots = c.slots
+                if slots == _CW_TARGET:
+                    send(c.cob_id, c.pack(cw, target_counts))
+                else:
+                    send(c.cob_id, c.pack(*[values[i] for i in slots]))
         except can.CanError:
             pass  # recorded by the master (bus-off)
-        self._sync_pending = self.master.sync_enabled
-        self.master.written(self, t)
+        self._sync_pending = master.sync_enabled
+        master.written(self, t)
 
     # ------------------------------------------------------- acyclic SDO in the cycle
     def sdo_submit(

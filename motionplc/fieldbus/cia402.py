@@ -140,12 +140,21 @@ _STATE_BITS: dict[Cia402State, int] = {
 }
 
 
-def decode_statusword(statusword: int) -> Cia402State:
-    """Power state encoded in a statusword (0x6041); UNKNOWN if no pattern matches."""
+def _decode_state_bits(statusword: int) -> Cia402State:
     for mask, value, state in STATUSWORD_PATTERNS:
         if statusword & mask == value:
             return state
     return Cia402State.UNKNOWN
+
+
+# every mask lies within 0x6F: the state of each value of bits 0..6 (per cycle: one index)
+_DECODED: tuple[Cia402State, ...] = tuple(_decode_state_bits(bits) for bits in range(0x80))
+assert all(mask & ~0x6F == 0 for mask, _, _ in STATUSWORD_PATTERNS)
+
+
+def decode_statusword(statusword: int) -> Cia402State:
+    """Power state encoded in a statusword (0x6041); UNKNOWN if no pattern matches."""
+    return _DECODED[statusword & 0x6F]
 
 
 def statusword_bits(state: Cia402State) -> int:
@@ -282,6 +291,8 @@ def _master_table() -> dict[tuple[Cia402State, Cia402State], tuple[int, int | No
 
 MASTER_TABLE: dict[tuple[Cia402State, Cia402State], tuple[int, int | None]] = _master_table()
 TARGET_STATES: tuple[Cia402State, ...] = _TARGETS
+_OE = Cia402State.OPERATION_ENABLED
+_OE_HOLD = MASTER_TABLE[(_OE, _OE)][0]
 
 
 def next_controlword(
@@ -296,6 +307,8 @@ def next_controlword(
     master does: first 0x00, then 0x80, then 0x00 again (so that a fault that is still present
     gets a fresh edge two cycles later). Without ``fault_reset`` a faulted drive gets 0x00.
     """
+    if state is _OE and target is _OE:
+        return _OE_HOLD  # the cyclic steady state (MASTER_TABLE without hashing two enums)
     if target not in _TARGETS:
         raise ValueError(f"target must be one of {[s.name for s in _TARGETS]}, got {target.name}")
     if state is Cia402State.FAULT and fault_reset:

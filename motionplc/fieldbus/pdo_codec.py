@@ -44,6 +44,9 @@ class PdoCodec:
         self._struct = struct.Struct(fmt) if aligned else None
         if self._struct is not None and self._struct.size != self.length:
             self._struct = None
+        # the compiled layout's own pack (values as arguments), None for canopen's path
+        self.struct_pack = self._struct.pack if self._struct is not None else None
+        self.struct_unpack = self._struct.unpack if self._struct is not None else None
 
     def pack(self, values: Sequence[int]) -> bytes:
         """Bytes of the PDO for ``values`` in map order."""

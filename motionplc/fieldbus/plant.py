@@ -25,12 +25,16 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+from motionplc._fastinit import slot_setters
+
 __all__ = [
     "PlantParams",
     "PlantState",
     "ProbeInput",
     "ProbeSensor",
+    "plant_state",
     "plant_step",
+    "plant_step_powered",
     "plant_step_traced",
 ]
 
@@ -84,6 +88,33 @@ def _clamp(x: float, lim: float) -> float:
     return lim if x > lim else -lim if x < -lim else x
 
 
+_new = object.__new__
+_INF = math.inf
+
+
+def _state_builder() -> Callable[[float, float, float], PlantState]:
+    """``PlantState(p, v, a)`` without the frozen dataclass ``__init__`` (one per drive and
+    cycle; the same value), or the constructor itself if the class no longer fits."""
+    try:
+        (set_p, set_v, set_a), _ = slot_setters(
+            PlantState, ("position", "velocity", "acceleration")
+        )
+    except TypeError:  # PlantState changed: the normal constructor (slower, same values)
+        return PlantState
+
+    def build(p: float, v: float, a: float) -> PlantState:
+        state = _new(PlantState)
+        set_p(state, p)
+        set_v(state, v)
+        set_a(state, a)
+        return state
+
+    return build
+
+
+plant_state = _state_builder()
+
+
 def plant_step(
     params: PlantParams,
     state: PlantState,
@@ -102,42 +133,11 @@ def plant_step(
     """
     if stalled:
         return PlantState(state.position, 0.0, 0.0)
+    if powered:
+        return plant_step_powered(params, state, demand_from, demand_to, dt, velocity_offset)
     n = params.substeps
     h = dt / n
     p, v, a = state.position, state.velocity, 0.0
-    v_max = params.v_max
-    coulomb = params.coulomb
-    viscous = params.viscous
-    if powered:
-        # hot loop (every drive, every cycle): clamp and friction inlined
-        a_max = params.a_max
-        kp = params.kp
-        inv_tau = 1.0 / params.tau_v
-        load = params.load
-        step = (demand_to - demand_from) / n
-        v_ff = params.kff * (demand_to - demand_from) / dt + velocity_offset
-        for i in range(n):
-            v_cmd = v_ff + kp * (demand_from + step * i - p)
-            if v_cmd > v_max:
-                v_cmd = v_max
-            elif v_cmd < -v_max:
-                v_cmd = -v_max
-            a = (v_cmd - v) * inv_tau - load
-            if v > 0.0:
-                a -= coulomb + viscous * v
-            elif v < 0.0:
-                a += coulomb - viscous * v
-            if a > a_max:
-                a = a_max
-            elif a < -a_max:
-                a = -a_max
-            v += a * h
-            if v > v_max:
-                v = v_max
-            elif v < -v_max:
-                v = -v_max
-            p += v * h
-        return PlantState(p, v, a)
     for _ in range(n):
         drag = v / params.tau_coast + params.friction(v)
         v_new = v - drag * h
@@ -146,7 +146,85 @@ def plant_step(
         a = (v_new - v) / h
         v = v_new
         p += v * h
-    return PlantState(p, v, a)
+    return plant_state(p, v, a)
+
+
+def plant_step_powered(
+    params: PlantParams,
+    state: PlantState,
+    demand_from: float,
+    demand_to: float,
+    dt: float,
+    velocity_offset: float,
+) -> PlantState:
+    """:func:`plant_step` with the power stage on and the mechanics free (positional: the
+    call every virtual drive makes in every cycle).
+
+    Without friction and load (``coulomb == viscous == load == 0``, the default plant) and
+    with a finite velocity the loop leaves out their terms: ``a - 0.0``, ``a - (0.0 + 0.0 *
+    v)`` and ``a + (0.0 - 0.0 * v)`` (v < 0) give ``a`` itself, the last one because ``a``
+    cannot be -0.0 there (it would need ``v_cmd - v == -0.0``, impossible with ``v < 0``), so
+    the result is the same bit for bit (``tests/fieldbus/test_lean_drive.py`` compares both
+    loops). An infinite or NaN velocity, or an infinite ``v_max``, takes the full loop
+    (``0.0 * inf`` is NaN).
+    """
+    n = params.substeps
+    h = dt / n
+    p, v, a = state.position, state.velocity, 0.0
+    v_max = params.v_max
+    coulomb = params.coulomb
+    viscous = params.viscous
+    # hot loop (every drive, every cycle): clamp and friction inlined
+    a_max = params.a_max
+    kp = params.kp
+    inv_tau = 1.0 / params.tau_v
+    load = params.load
+    step = (demand_to - demand_from) / n
+    v_ff = params.kff * (demand_to - demand_from) / dt + velocity_offset
+    # (a finite v_max keeps v finite in the loop; a NaN v takes neither friction branch)
+    if coulomb == 0.0 and viscous == 0.0 and load == 0.0 and -_INF < v < _INF and v_max < _INF:
+        v_min = -v_max
+        a_min = -a_max
+        for i in range(n):
+            v_cmd = v_ff + kp * (demand_from + step * i - p)
+            if v_cmd > v_max:
+                v_cmd = v_max
+            elif v_cmd < v_min:
+                v_cmd = v_min
+            a = (v_cmd - v) * inv_tau
+            if a > a_max:
+                a = a_max
+            elif a < a_min:
+                a = a_min
+            v += a * h
+            if v > v_max:
+                v = v_max
+            elif v < v_min:
+                v = v_min
+            p += v * h
+        return plant_state(p, v, a)
+    for i in range(n):
+        v_cmd = v_ff + kp * (demand_from + step * i - p)
+        if v_cmd > v_max:
+            v_cmd = v_max
+        elif v_cmd < -v_max:
+            v_cmd = -v_max
+        a = (v_cmd - v) * inv_tau - load
+        if v > 0.0:
+            a -= coulomb + viscous * v
+        elif v < 0.0:
+            a += coulomb - viscous * v
+        if a > a_max:
+            a = a_max
+        elif a < -a_max:
+            a = -a_max
+        v += a * h
+        if v > v_max:
+            v = v_max
+        elif v < -v_max:
+            v = -v_max
+        p += v * h
+    return plant_state(p, v, a)
 
 
 def plant_step_traced(

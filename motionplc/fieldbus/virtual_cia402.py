@@ -43,10 +43,10 @@ COB-IDs, the rest is dropped and counted).
 
 from __future__ import annotations
 
+import math
 import struct
 from collections.abc import Callable, Collection, Iterable, Sequence
 from importlib import resources
-from operator import attrgetter
 from pathlib import Path
 
 import can
@@ -84,6 +84,11 @@ ABORT_INVALID_COMMAND = 0x05040001
 ABORT_OUT_OF_MEMORY = 0x05040005
 INTERPOLATION_PERIOD_MIN = 0.999e-6  # [s] 0x60C2 accepted from 1 µs ...
 INTERPOLATION_PERIOD_MAX = 1.0  # [s] ... to 1 s
+# RPDO objects the SYNC applies, as keys of the latched values
+_KEY_MODE = (0x6060, 0)
+_KEY_CONTROLWORD = (0x6040, 0)
+_KEY_TARGET = (0x607A, 0)
+_KEY_OFFSET = (0x60B1, 0)
 SDO_MAX_SEGMENTED = 1024  # [bytes] largest segmented download accepted (the OD has no more)
 
 
@@ -142,12 +147,15 @@ class SimulatedTimeNetwork(canopen.Network):
         self.unsubscribe(self.lss.LSS_RX_COBID)  # drives are no LSS master (unbounded queue)
         self.now = 0.0
         self._tasks: list[_SimPeriodicTask] = []
+        # no task (active or stopped) is due before this time: run_periodic returns early
+        self._next_due = math.inf
 
     def send_periodic(  # type: ignore[override]
         self, can_id: int, data: bytes, period: float, remote: bool = False
     ) -> _SimPeriodicTask:
         task = _SimPeriodicTask(self, can_id, data, period)
         self._tasks.append(task)
+        self._next_due = min(self._next_due, task.next_t)
         return task
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
@@ -161,7 +169,11 @@ class SimulatedTimeNetwork(canopen.Network):
             pass
 
     def run_periodic(self, t: float) -> None:
+        """Send the periodic frames due at simulated time ``t`` (in the order the tasks
+        were started). Stopped tasks are dropped whenever a task is due."""
         self.now = t
+        if t + 1e-12 < self._next_due:
+            return  # no task due (the earliest of all, stopped ones included, is later)
         self._tasks = [task for task in self._tasks if task.active]
         for task in self._tasks:
             if t + 1e-12 >= task.next_t:
@@ -169,6 +181,19 @@ class SimulatedTimeNetwork(canopen.Network):
                 task.next_t += task.period
                 if task.next_t <= t:  # fell behind (time jumped): no burst
                     task.next_t = t + task.period
+        self._next_due = min((task.next_t for task in self._tasks), default=math.inf)
+
+
+def _zero() -> int:
+    """The value a TPDO sends for a mapped object that is no live value of the device."""
+    return 0
+
+
+def _packer(codec: PdoCodec) -> Callable[..., bytes]:
+    def pack(*values: int) -> bytes:
+        return codec.pack(values)
+
+    return pack
 
 
 class VirtualCia402Drive:
@@ -247,14 +272,18 @@ class VirtualCia402Drive:
         self._tpdo_codecs = [
             PdoCodec(m) for m in self.node.tpdo.map.values() if m.enabled and m.map
         ]
-        # per TPDO: (codec, COB-ID, transmission type, snapshot field of each mapped object,
-        # getter of the values when every mapped object is a snapshot field and more than one)
+        # per TPDO: (pack of the values, COB-ID, transmission type, per mapped object the
+        # function giving its live value: a snapshot field's getter, 0 for any other object)
+        getters = self.device.field_getters()
         self._tpdo_plan = []
         for codec in self._tpdo_codecs:
             fields = tuple(_SNAPSHOT_FIELDS.get(index) for index, _ in codec.keys)
-            getter = attrgetter(*fields) if len(fields) > 1 and None not in fields else None
-            plan = (codec, codec.pdo_map.cob_id, codec.pdo_map.trans_type or 1, fields, getter)
-            self._tpdo_plan.append(plan)
+            values = tuple(_zero if f is None else getters[f] for f in fields)
+            pack = codec.struct_pack
+            if pack is None:  # not byte-aligned: canopen's variables encode it
+                pack = _packer(codec)
+            tt = codec.pdo_map.trans_type or 1
+            self._tpdo_plan.append((pack, codec.pdo_map.cob_id, tt, values))
         if self.on_rx_table_changed is not None:
             self.on_rx_table_changed()
 
@@ -425,8 +454,19 @@ class VirtualCia402Drive:
 
     def _on_rpdo_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
         codec = self._rpdo_by_cob.get(can_id)
-        if codec is not None:
-            self._on_rpdo_data(codec, data)
+        if codec is None:
+            return
+        unpack = codec.struct_unpack
+        if (
+            unpack is not None
+            and len(data) == codec.length
+            and self.node.nmt._state == NMT_OPERATIONAL
+        ):
+            # _on_rpdo_data's path for a frame of the mapped length, inlined
+            self._latched.update(zip(codec.keys, unpack(data), strict=True))
+            self._rpdo_new = True
+            return
+        self._on_rpdo_data(codec, data)
 
     def _on_rpdo_data(self, codec: PdoCodec, data: bytearray) -> None:
         if not self._operational():
@@ -444,7 +484,7 @@ class VirtualCia402Drive:
         self._rpdo_new = True
 
     def _on_sync(self, can_id: int, data: bytes, timestamp: float) -> None:
-        if not self._operational():
+        if self.node.nmt._state != NMT_OPERATIONAL:  # not self._operational()
             return
         self.sync_received += 1
         self._last_sync_t = timestamp
@@ -453,11 +493,11 @@ class VirtualCia402Drive:
             self._rpdo_new = False
             self._rpdo_missed = 0
             latched = self._latched
-            if (0x6060, 0) in latched:
-                d.set_mode(latched[(0x6060, 0)])
-            if (0x6040, 0) in latched:
-                d.apply_controlword(latched[(0x6040, 0)])
-            d.latch(latched.get((0x607A, 0), d.target), latched.get((0x60B1, 0), d.velocity_offset))
+            if _KEY_MODE in latched:
+                d.set_mode(latched[_KEY_MODE])
+            if _KEY_CONTROLWORD in latched:
+                d.apply_controlword(latched[_KEY_CONTROLWORD])
+            d.latch(latched.get(_KEY_TARGET, d.target), latched.get(_KEY_OFFSET, d.velocity_offset))
         elif d.following:
             self._rpdo_missed += 1  # hold the last setpoint
             if self._rpdo_missed > self.rpdo_loss_limit:
@@ -465,20 +505,19 @@ class VirtualCia402Drive:
         d.cycle(self.interpolation_period)
         self._sync_count += 1
         self._send_tpdos()
-        self.flush_emcy()
+        if d.pending_emcy:  # (flush_emcy's own first test)
+            self.flush_emcy()
 
     def _send_tpdos(self) -> None:
-        snap = self.device.snapshot()
+        """The TPDOs due at this SYNC, each packed from the live values of the objects it
+        maps (sampled after the cycle: the values :meth:`Cia402Device.snapshot` shows)."""
         network = self.network
         assert network is not None
-        for codec, cob_id, tt, fields, getter in self._tpdo_plan:
+        send = network.send_message
+        for pack, cob_id, tt, values in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
-            if getter is not None:
-                values = getter(snap)
-            else:
-                values = [0 if f is None else getattr(snap, f) for f in fields]
-            network.send_message(cob_id, codec.pack(values))
+            send(cob_id, pack(*[value() for value in values]))
 
     def flush_emcy(self) -> None:
         if not self.device.pending_emcy or self.node.nmt.state == "STOPPED":
@@ -495,8 +534,8 @@ class VirtualCia402Drive:
         """Time-driven supervision at simulated time ``t`` (after the frames of this step)."""
         d = self.device
         if (
-            self._operational()
-            and self.comm_cycle_period > 0.0
+            self.comm_cycle_period > 0.0
+            and self.node.nmt._state == NMT_OPERATIONAL  # self._operational()
             and self._last_sync_t is not None
             and t - self._last_sync_t > 1.5 * self.comm_cycle_period + 1e-9
         ):
@@ -507,7 +546,8 @@ class VirtualCia402Drive:
             if t - self._last_master_hb_t > self.consumer_heartbeat[1] + 1e-9:
                 self._last_master_hb_t = None
                 d.raise_fault(ERROR_CODES["heartbeat"])
-        self.flush_emcy()
+        if d.pending_emcy:  # (flush_emcy's own first test)
+            self.flush_emcy()
 
     # ------------------------------------------------------------ touch probe
     def set_probe_sensor(self, probe: int, sensor: ProbeSensor | None) -> None:

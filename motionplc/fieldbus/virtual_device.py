@@ -13,6 +13,7 @@ when a controlword arrives (SDO or register write: at once; RPDO: at the SYNC) a
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -40,6 +41,7 @@ from motionplc.fieldbus.plant import (
     PlantState,
     ProbeInput,
     plant_step,
+    plant_step_powered,
     plant_step_traced,
 )
 from motionplc.fieldbus.scaling import saturate_i32
@@ -69,6 +71,17 @@ POWERED_STATES = (
 
 SUPPORTED_MODES = (OperationMode.CYCLIC_SYNCHRONOUS_POSITION, OperationMode.HOMING)
 _HOMING_MODE = int(OperationMode.HOMING)  # a plain int: compared in every cycle
+_CSP_MODE = int(OperationMode.CYCLIC_SYNCHRONOUS_POSITION)
+_OE = Cia402State.OPERATION_ENABLED
+_FAULT = Cia402State.FAULT
+_NOT_READY = Cia402State.NOT_READY_TO_SWITCH_ON
+_STOPPING = (Cia402State.QUICK_STOP_ACTIVE, Cia402State.FAULT_REACTION_ACTIVE)
+# statusword bits of the state, remote and voltage enabled (what every cycle starts from)
+_SW_BASE: dict[Cia402State, int] = {
+    state: statusword_bits(state) | SW_REMOTE | (0 if state is _NOT_READY else SW_VOLTAGE_ENABLED)
+    for state in Cia402State
+}
+_SW_OE = _SW_BASE[_OE]
 
 
 def error_register_for(code: int) -> int:
@@ -245,22 +258,19 @@ class Cia402Device:
     @property
     def following(self) -> bool:
         """Drive follows the command value (statusword bit 12 in CSP)."""
-        return (
-            self.state is Cia402State.OPERATION_ENABLED
-            and self.mode_display == OperationMode.CYCLIC_SYNCHRONOUS_POSITION
-        )
+        return self.state is _OE and self.mode_display == _CSP_MODE
 
     def statusword(self) -> int:
-        sw = statusword_bits(self.state) | SW_REMOTE
-        if self.state is not Cia402State.NOT_READY_TO_SWITCH_ON:
-            sw |= SW_VOLTAGE_ENABLED
-        if self.following:
+        state = self.state
+        sw = _SW_OE if state is _OE else _SW_BASE[state]
+        if state is _OE and self.mode_display == _CSP_MODE:  # following
             sw |= SW_DRIVE_FOLLOWS
-            if abs(self.target - self.actual.position) <= 1.0 and self.actual.velocity == 0.0:
+            actual = self.actual
+            if abs(self.target - actual.position) <= 1.0 and actual.velocity == 0.0:
                 sw |= SW_TARGET_REACHED
         if self.fe_bit:
             sw |= SW_FOLLOWING_ERROR
-        if self.persistent_fault and self.state is not Cia402State.FAULT:
+        if self.persistent_fault and state is not _FAULT:
             sw |= SW_WARNING
         if self.mode_display == _HOMING_MODE:
             st = self.homing_status
@@ -296,6 +306,49 @@ class Cia402Device:
         _s_er(snap, self.error_register)
         return snap
 
+    def field_getters(self) -> dict[str, Callable[[], int]]:
+        """Per :class:`DeviceSnapshot` field a function of no argument giving that field's
+        live value, computed as :meth:`snapshot` computes it (the TPDOs of a cycle read only
+        the fields they map, without building a whole snapshot)."""
+        saturate = saturate_i32
+
+        def position() -> int:
+            return saturate(self.actual.position)
+
+        def velocity() -> int:
+            return saturate(self.actual.velocity)
+
+        def following_error() -> int:
+            return saturate(self.demand - self.actual.position) if self.following else 0
+
+        def torque() -> int:
+            tq = round(self.actual.acceleration * self.plant.torque_per_acceleration)
+            return max(-32768, min(32767, tq))
+
+        def demand() -> int:
+            return saturate(self.demand)
+
+        def error_code() -> int:
+            return self.error_code
+
+        def mode_display() -> int:
+            return self.mode_display
+
+        def error_register() -> int:
+            return self.error_register
+
+        return {
+            "statusword": self.statusword,
+            "mode_display": mode_display,
+            "position": position,
+            "velocity": velocity,
+            "following_error": following_error,
+            "torque": torque,
+            "demand": demand,
+            "error_code": error_code,
+            "error_register": error_register,
+        }
+
     # -------------------------------------------------------------- commands
     def set_mode(self, mode: int) -> bool:
         """Write 0x6060; False if the mode is not supported (the caller rejects the write)."""
@@ -316,6 +369,15 @@ class Cia402Device:
 
     def apply_controlword(self, controlword: int) -> int | None:
         """Decode and apply a controlword; returns the transition number taken (or None)."""
+        if (
+            controlword == self.controlword
+            and controlword & 0x8F == 0x0F
+            and self.state is _OE
+            and self.mode_display != _HOMING_MODE
+        ):
+            # the cyclic steady state: "enable operation" held in OPERATION ENABLED decodes
+            # to ENABLE_OPERATION, which has no transition there (device_transition: None)
+            return None
         command = decode_command(controlword, self.controlword)
         previous = self.controlword
         self.controlword = controlword
@@ -504,51 +566,75 @@ class Cia402Device:
         if self._special:
             self._cycle_special(dt)  # a probe enabled or homing mode: the motion sampled
             return
-        if self.persistent_fault and self.state is not Cia402State.FAULT:
+        if self.persistent_fault and self.state is not _FAULT:
             self.raise_fault(self.persistent_fault)
+        state = self.state  # (nothing below changes it before the following-error check)
         demand_from = self.demand
-        powered = self.powered
+        powered = state in POWERED_STATES
         v_offset = 0.0
         stopped = False
-        if self.following:
+        following = state is _OE and self.mode_display == _CSP_MODE
+        if following:
             demand_to = float(self.target)
             if self.position_limits is not None:
                 lo, hi = self.position_limits
                 demand_to = min(max(demand_to, float(lo)), float(hi))
             self.demand_velocity = (demand_to - demand_from) / dt
             v_offset = float(self.velocity_offset)
-        elif self.state is Cia402State.OPERATION_ENABLED:
+        elif state is _OE:
             demand_to = demand_from  # enabled in an unsupported/no mode: hold position
             self.demand_velocity = 0.0
-        elif self.state in (Cia402State.QUICK_STOP_ACTIVE, Cia402State.FAULT_REACTION_ACTIVE):
+        elif state in _STOPPING:
             demand_to, stopped = self._stop_ramp(dt)
         else:
             demand_to = demand_from
-        self.actual = plant_step(
-            self.plant,
-            self.actual,
-            demand_from,
-            demand_to,
-            dt,
-            powered=powered,
-            velocity_offset=v_offset,
-            stalled=self.stalled,
-        )
-        self.demand = demand_to if powered else self.actual.position
-        if not powered:
+        if powered and not self.stalled:
+            actual = plant_step_powered(
+                self.plant, self.actual, demand_from, demand_to, dt, v_offset
+            )
+        else:
+            actual = plant_step(
+                self.plant,
+                self.actual,
+                demand_from,
+                demand_to,
+                dt,
+                powered=powered,
+                velocity_offset=v_offset,
+                stalled=self.stalled,
+            )
+        self.actual = actual
+        if powered:
+            self.demand = demand_to
+        else:
+            self.demand = actual.position
             self.demand_velocity = 0.0
-        self._monitor_following_error(dt)
-        if stopped and self.state in POWERED_STATES:
+        if following and self.following_error_window != 0xFFFFFFFF:
+            # _monitor_following_error, inlined
+            fe = abs(demand_to - actual.position)
+            if fe > self.following_error_window:
+                self.fe_bit = True
+                self.fe_over_time += dt
+                if self.fe_over_time >= self.following_error_timeout - 1e-12:
+                    self.raise_fault(ERROR_CODES["following_error"])
+            else:
+                self.fe_bit = False
+                self.fe_over_time = 0.0
+        else:
+            self.fe_bit = False
+            self.fe_over_time = 0.0
+        if stopped:
+            self._stopped()
+
+    def _stopped(self) -> None:
+        """The stop ramp of QUICK STOP ACTIVE / FAULT REACTION ACTIVE has ended."""
+        if self.state in POWERED_STATES:
             # standstill reached: the power stage holds the axis, residual creep is zeroed
             self.actual = PlantState(self.actual.position, 0.0, 0.0)
-        if stopped and self.state is Cia402State.FAULT_REACTION_ACTIVE:
+        if self.state is Cia402State.FAULT_REACTION_ACTIVE:
             self.state = Cia402State.FAULT  # 14
             self.last_transition = 14
-        elif (
-            stopped
-            and self.state is Cia402State.QUICK_STOP_ACTIVE
-            and not 5 <= self.quick_stop_option <= 8
-        ):
+        elif self.state is Cia402State.QUICK_STOP_ACTIVE and not 5 <= self.quick_stop_option <= 8:
             self.state = Cia402State.SWITCH_ON_DISABLED  # 12 after the stop (options 0..4)
             self.last_transition = 12
 
