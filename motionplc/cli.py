@@ -953,24 +953,23 @@ def _cmd_drives(args: argparse.Namespace) -> int:
                 )
             )
         else:
-            for order in ("big", "little"):
-                ids = tuple(  # no word_order: the register map's, big for motionplc-v1
-                    a.drive.unit_id
-                    for a in axes
-                    if (a.drive.word_order or "big") == order and a.drive.unit_id
-                )
-                if ids:
-                    specs.append(
-                        (
-                            bus,
-                            DrivesSpec(
-                                modbus=ids,
-                                modbus_port=bus.port,
-                                word_order=order,  # type: ignore[arg-type]
-                                duration=args.duration,
-                            ),
-                        )
+            # one server on the bus's port with every unit of the bus, as 'motionplc run'
+            # reaches them (host:port, unit id); no word_order: the register map's, big for
+            # motionplc-v1
+            units = [a.drive for a in axes if a.drive.unit_id]
+            if units:
+                specs.append(
+                    (
+                        bus,
+                        DrivesSpec(
+                            modbus=tuple(u.unit_id for u in units),
+                            modbus_port=bus.port,
+                            modbus_shared=True,
+                            modbus_word_orders=tuple(u.word_order or "big" for u in units),
+                            duration=args.duration,
+                        ),
                     )
+                )
     if not specs:
         raise MotionPlcError(f"{args.config}: no drives to serve in this configuration")
 

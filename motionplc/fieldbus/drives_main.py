@@ -3,7 +3,9 @@
 ``python -m motionplc.fieldbus.drives_main --modbus 1,2 --can-nodes 1,2 --can-channel vcan0``
 
 * each Modbus drive gets its own pymodbus server on 127.0.0.1 (ephemeral port unless
-  ``--modbus-port`` is given; consecutive ports for several drives);
+  ``--modbus-port`` is given; consecutive ports for several drives), or with
+  ``--modbus-one-port`` (``DrivesSpec.modbus_shared``, what ``motionplc drives`` does for a
+  configuration's Modbus bus) all of them one server on one port, told apart by the unit id;
 * CAN drives sit on a real CAN interface (``socketcan``: ``vcan0`` or an adapter). python-can's
   ``virtual`` bus does not cross processes; ``udp_multicast`` is refused (network safety rule).
 
@@ -255,9 +257,14 @@ def can_open_hint(interface: str, channel: str, exc: BaseException) -> str:
 class DrivesSpec:
     """What to start in the drives process."""
 
-    modbus: tuple[int, ...] = ()  # device ids, one server (port) each
+    modbus: tuple[int, ...] = ()  # device ids, one server (port) each unless modbus_shared
     modbus_port: int = 0  # first port; 0 = ephemeral
     word_order: WordOrder = "big"
+    # True: every device id on one server (one port, told apart by the unit id: a configuration's
+    # Modbus bus, a gateway); False: one server per device id on consecutive ports
+    modbus_shared: bool = False
+    # word order per device id (the same length as ``modbus``); empty: ``word_order`` for all
+    modbus_word_orders: tuple[WordOrder, ...] = ()
     can_nodes: tuple[int, ...] = ()
     can_interface: str = "socketcan"
     can_channel: str = "vcan0"
@@ -271,6 +278,24 @@ class DrivesSpec:
             raise FieldbusError("udp_multicast is not allowed (network safety rule); use vcan")
         if not self.modbus and not self.can_nodes:
             raise ValueError("nothing to run: give Modbus device ids and/or CAN node ids")
+        if self.modbus_word_orders and len(self.modbus_word_orders) != len(self.modbus):
+            raise ValueError(
+                f"modbus_word_orders: {len(self.modbus_word_orders)} word orders for "
+                f"{len(self.modbus)} Modbus device ids (allowed: one per id, or none)"
+            )
+        if len(set(self.modbus)) != len(self.modbus):
+            raise ValueError(f"modbus: device ids must be distinct, got {list(self.modbus)}")
+
+    def modbus_servers(self) -> list[tuple[int, list[tuple[int, WordOrder]]]]:
+        """The Modbus servers to start: (port, [(device id, word order), ...]) each."""
+        orders = self.modbus_word_orders or (self.word_order,) * len(self.modbus)
+        units = list(zip(self.modbus, orders, strict=True))
+        if self.modbus_shared:
+            return [(self.modbus_port, units)] if units else []
+        return [
+            (self.modbus_port + i if self.modbus_port else 0, [unit])
+            for i, unit in enumerate(units)
+        ]
 
 
 async def run_drives(
@@ -302,18 +327,20 @@ async def _serve_drives(
     can_thread: threading.Thread | None = None
     can_stop = threading.Event()
     try:
-        for i, device_id in enumerate(spec.modbus):
-            port = spec.modbus_port + i if spec.modbus_port else 0
+        for port, units in spec.modbus_servers():
             srv = VirtualModbusServer(
-                VirtualModbusDrive(device_id, word_order=spec.word_order), port=port
+                [VirtualModbusDrive(device_id, word_order=order) for device_id, order in units],
+                port=port,
             )
             try:
                 await srv.serve()
             except (OSError, RuntimeError) as exc:  # pymodbus: "Could not start listen"
                 reason = port_problem(srv.host, port) or (str(exc) or type(exc).__name__)
+                ids = ", ".join(str(device_id) for device_id, _ in units)
                 raise DrivesStartError(
                     "modbus",
-                    f"Modbus server for device {device_id} on {srv.host}:{port}",
+                    f"Modbus server for device{'s' if len(units) > 1 else ''} {ids} on "
+                    f"{srv.host}:{port}",
                     reason,
                     port=port,
                 ) from exc
@@ -352,7 +379,7 @@ async def _serve_drives(
             can_thread.start()
         if ready is not None:
             info: dict[str, object] = {
-                "modbus": {str(s.drives[0].device_id): s.port for s in servers}
+                "modbus": {str(d.device_id): s.port for s in servers for d in s.drives}
             }
             if spec.can_nodes:
                 info["can"] = {
@@ -398,7 +425,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         type=int,
         default=0,
         help="TCP port of the first Modbus drive, the next ones on the following ports "
-        "(default: 0 = ephemeral ports, announced on stdout)",
+        "(default: 0 = ephemeral ports, announced on stdout); with --modbus-one-port the port "
+        "of all of them",
+    )
+    parser.add_argument(
+        "--modbus-one-port",
+        action="store_true",
+        help="serve every Modbus device id on one server (one port, the unit id tells them "
+        "apart), as a configuration's Modbus bus expects",
     )
     parser.add_argument(
         "--word-order",
@@ -420,6 +454,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             modbus=args.modbus,
             modbus_port=args.modbus_port,
             word_order=args.word_order,
+            modbus_shared=args.modbus_one_port,
             can_nodes=args.can_nodes,
             can_interface=args.can_interface,
             can_channel=args.can_channel,
