@@ -379,6 +379,8 @@ class _MasterNetwork(canopen.Network):
     def __init__(self, bus: can.BusABC, master: CanopenMaster) -> None:
         super().__init__(bus)
         self._master = master
+        self._owned_for: object = None  # the bus _send_owned was looked up for
+        self._send_owned: Callable[[can.Message], None] | None = None
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
         self.send_frame(make_message(can_id, data, remote), owned=True)
@@ -386,19 +388,25 @@ class _MasterNetwork(canopen.Network):
     def send_frame(self, msg: can.Message, owned: bool = False) -> None:
         """Send ``msg``; ``owned``: built for this send, never used again by the caller
         (handed to the receiver instead of copied, see ``fastcan.send_frame``)."""
+        master = self._master
         try:
             with self.send_lock:
                 bus = self.bus
-                if owned and isinstance(bus, FaultInjectingBus):
-                    bus.send_owned(msg)
+                if bus is not self._owned_for:  # (one isinstance per bus, not per frame)
+                    self._owned_for = bus
+                    self._send_owned = (
+                        bus.send_owned if isinstance(bus, FaultInjectingBus) else None
+                    )
+                if owned and self._send_owned is not None:
+                    self._send_owned(msg)
                 else:
                     send_frame(bus, msg, None, owned)
         except can.CanError as exc:
-            self._master._on_send_error(exc)
+            master._on_send_error(exc)
             raise
-        self._master._on_send_ok()
-        if self._master._exchange_now:
-            self._master._exchange()
+        master.bus_ok = True  # master._on_send_ok()
+        if master._exchange_now:
+            master._exchange()
 
 
 class CanopenMaster(GuardedEndpoint):
@@ -1143,7 +1151,22 @@ class CanopenDrive(Drive):
             if counts:
                 self._tpdo_count += 1
 
-        return on_tpdo
+        if len(attrs) != 2:
+            return on_tpdo
+        first, second = attrs
+
+        def on_tpdo2(data: bytearray) -> None:  # on_tpdo for two objects, unrolled
+            if len(data) != size:
+                master.rx.malformed("pdo", master.t, cob_id, data)
+                return
+            a, b = unpack(data)
+            setattr(self, first, a)
+            setattr(self, second, b)
+            self._waived = False
+            if counts:
+                self._tpdo_count += 1
+
+        return on_tpdo2
 
     # ------------------------------------------------------------- callbacks
     def _on_sdo_response(self, can_id: int, data: bytearray, timestamp: float) -> None:

@@ -149,6 +149,8 @@ class SimulatedTimeNetwork(canopen.Network):
         self._tasks: list[_SimPeriodicTask] = []
         # no task (active or stopped) is due before this time: run_periodic returns early
         self._next_due = math.inf
+        self._owned_for: object = None  # the bus _send_owned was looked up for
+        self._send_owned: Callable[[can.Message], None] | None = None
 
     def send_periodic(  # type: ignore[override]
         self, can_id: int, data: bytes, period: float, remote: bool = False
@@ -160,9 +162,12 @@ class SimulatedTimeNetwork(canopen.Network):
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
         bus = self.bus
+        if bus is not self._owned_for:  # (one isinstance per bus, not per frame)
+            self._owned_for = bus
+            self._send_owned = bus.send_owned if isinstance(bus, FaultInjectingBus) else None
         try:
-            if isinstance(bus, FaultInjectingBus):  # a fresh frame: handed over, not copied
-                bus.send_owned(make_message(can_id, data, remote))
+            if self._send_owned is not None:  # a fresh frame: handed over, not copied
+                self._send_owned(make_message(can_id, data, remote))
             else:
                 bus.send(make_message(can_id, data, remote))
         except can.CanError:
@@ -194,6 +199,32 @@ def _packer(codec: PdoCodec) -> Callable[..., bytes]:
         return codec.pack(values)
 
     return pack
+
+
+def _frame_builder(
+    pack: Callable[..., bytes], values: tuple[Callable[[], int], ...]
+) -> Callable[[], bytes]:
+    """The data of one TPDO: ``pack(*[value() for value in values])``, unrolled for the usual
+    one or two mapped objects."""
+    if len(values) == 1:
+        (first,) = values
+
+        def one() -> bytes:
+            return pack(first())
+
+        return one
+    if len(values) == 2:
+        first, second = values
+
+        def two() -> bytes:
+            return pack(first(), second())
+
+        return two
+
+    def many() -> bytes:
+        return pack(*[value() for value in values])
+
+    return many
 
 
 class VirtualCia402Drive:
@@ -283,7 +314,7 @@ class VirtualCia402Drive:
             if pack is None:  # not byte-aligned: canopen's variables encode it
                 pack = _packer(codec)
             tt = codec.pdo_map.trans_type or 1
-            self._tpdo_plan.append((pack, codec.pdo_map.cob_id, tt, values))
+            self._tpdo_plan.append((_frame_builder(pack, values), codec.pdo_map.cob_id, tt))
         if self.on_rx_table_changed is not None:
             self.on_rx_table_changed()
 
@@ -514,10 +545,10 @@ class VirtualCia402Drive:
         network = self.network
         assert network is not None
         send = network.send_message
-        for pack, cob_id, tt, values in self._tpdo_plan:
+        for frame, cob_id, tt in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
-            send(cob_id, pack(*[value() for value in values]))
+            send(cob_id, frame())
 
     def flush_emcy(self) -> None:
         if not self.device.pending_emcy or self.node.nmt.state == "STOPPED":

@@ -44,7 +44,7 @@ from motionplc.fieldbus.plant import (
     plant_step_powered,
     plant_step_traced,
 )
-from motionplc.fieldbus.scaling import saturate_i32
+from motionplc.fieldbus.scaling import INT32_MAX, INT32_MIN, saturate_i32
 
 __all__ = ["ERROR_CODES", "Cia402Device", "DeviceSnapshot", "error_register_for"]
 
@@ -311,12 +311,16 @@ class Cia402Device:
         live value, computed as :meth:`snapshot` computes it (the TPDOs of a cycle read only
         the fields they map, without building a whole snapshot)."""
         saturate = saturate_i32
+        lo, hi = float(INT32_MIN), float(INT32_MAX)
 
         def position() -> int:
-            return saturate(self.actual.position)
+            x = self.actual.position
+            # saturate_i32's own result strictly inside the range (NaN fails the test)
+            return int(round(x)) if lo < x < hi else saturate(x)
 
         def velocity() -> int:
-            return saturate(self.actual.velocity)
+            x = self.actual.velocity
+            return int(round(x)) if lo < x < hi else saturate(x)
 
         def following_error() -> int:
             return saturate(self.demand - self.actual.position) if self.following else 0
