@@ -249,13 +249,15 @@ def test_frozen_modbus_drive_does_not_stall_a_can_axis(monkeypatch: pytest.Monke
             rt.stats()["main"],
         )
         stats = rt.stats()["main"]
-        # the cycle never waited for the frozen drive: execution time far below the period in
-        # 99 % of the cycles (before this fix every cycle blocked for the 100 ms timeout); the
-        # start lateness is the host's scheduling (p99 and max are host figures: on a quiet
-        # host they stay below the period, i.e. no gap above 2x the period)
-        assert stats.exec_p99 < period / 2, stats
-        assert stats.lateness_p50 < period / 2, stats
+        # the cycle never waited for the frozen drive: every select of the link polled (timeout
+        # 0), the median execution time far below the period and the 99th percentile far below
+        # the 100 ms timeout every cycle blocked for before this fix (p99 and max are host
+        # figures: a loaded host preempts the process for milliseconds, measured 5-8 ms with
+        # five busy processes on two cores)
         assert waits and max(waits) == 0.0  # polled, never waited for
+        assert stats.exec_p50 < period / 2, stats
+        assert stats.exec_p99 < 0.1 / 4, stats
+        assert stats.lateness_p50 < period / 2, stats
         # the Modbus axis faults after its 10 cycles without an answer (counted in executed
         # cycles: the answer lost may be the one of the cycle before the freeze)
         cycles = rt.trace.column("cycle")
