@@ -689,7 +689,8 @@ class VirtualCanBus(GuardedEndpoint):
             cob_id = msg.arbitration_id
             data = msg.data
             try:
-                kind = service_error(cob_id, data)
+                # (no CiA 301 service rule covers 0x100..0x580: the PDOs)
+                kind = None if 0x100 <= cob_id <= 0x580 else service_error(cob_id, data)
                 if kind is not None:
                     rx.malformed(kind, t, cob_id, data)
                     continue

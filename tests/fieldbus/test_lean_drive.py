@@ -5,7 +5,8 @@
 * ``Cia402Device.field_getters`` give the values of ``Cia402Device.snapshot``;
 * the steady-state shortcuts (``apply_controlword`` holding 0x0F in OPERATION ENABLED, the
   statusword decode table, ``next_controlword`` in OPERATION ENABLED) equal the table logic;
-* ``run_periodic``'s early return sends the same heartbeats at the same times.
+* the drives' dispatch skips ``service_error`` only where it has no rule; ``RxGuard.admit``'s
+  inlined check keeps exactly the frames ``frame_error`` passes.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from motionplc.fieldbus import cia402
+from motionplc.fieldbus import cia402, fastcan
 from motionplc.fieldbus.cia402 import (
     MASTER_TABLE,
     STATUSWORD_PATTERNS,
@@ -28,6 +29,7 @@ from motionplc.fieldbus.cia402 import (
     device_transition,
     next_controlword,
 )
+from motionplc.fieldbus.fastcan import RxGuard, frame_error, service_error
 from motionplc.fieldbus.plant import PlantParams, PlantState, plant_step, plant_step_powered
 from motionplc.fieldbus.virtual_device import Cia402Device, DeviceSnapshot
 
@@ -182,3 +184,49 @@ def test_apply_controlword_steady_state_equals_the_transition_table(
     assert d.controlword == controlword
     if number is None:
         assert d.state is state
+
+
+def test_no_service_rule_covers_the_pdo_range() -> None:
+    """The drives' dispatch skips ``service_error`` for COB-IDs 0x100..0x580."""
+    for cob_id in range(0x100, 0x581):
+        for n in range(10):
+            assert service_error(cob_id, bytes(n)) is None
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    frames=st.lists(
+        st.builds(
+            dict,
+            arbitration_id=st.one_of(st.integers(-2, 0x900), st.sampled_from([0x181, 0x7FF])),
+            is_extended_id=st.booleans(),
+            is_remote_frame=st.booleans(),
+            is_error_frame=st.booleans(),
+            is_fd=st.booleans(),
+            data=st.binary(max_size=12),
+            dlc_delta=st.sampled_from([0, 0, 0, 1, -1]),
+        ),
+        max_size=6,
+    )
+)
+def test_admit_keeps_exactly_the_frames_frame_error_passes(frames: list[dict]) -> None:
+    msgs = []
+    for f in frames:
+        msg = fastcan.make_message(0, b"")
+        msg.arbitration_id = f["arbitration_id"]
+        msg.is_extended_id = f["is_extended_id"]
+        msg.is_remote_frame = f["is_remote_frame"]
+        msg.is_error_frame = f["is_error_frame"]
+        msg.is_fd = f["is_fd"]
+        msg.data = bytearray(f["data"])
+        msg.dlc = len(f["data"]) + f["dlc_delta"]
+        msgs.append(msg)
+    guard = RxGuard("test", log_interval=0.0)
+    got = guard.admit(msgs, 0.0)
+    assert got == [m for m in msgs if frame_error(m) is None]
+    kinds: dict[str, int] = {}
+    for m in msgs:
+        kind = frame_error(m)
+        if kind is not None:
+            kinds[kind] = kinds.get(kind, 0) + 1
+    assert guard.malformed_frames == kinds
