@@ -1437,14 +1437,14 @@ class CanopenDrive(Drive):
         )
         values = (cw, target_counts, 0, self._cyclic_mode, velocity)
         master = self.master
-        send = master.network.send_message  # (CanopenMaster.send_pdo)
+        send = master.network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
         try:
             for c in self._rpdos:
                 slots = c.slots
                 if slots == _CW_TARGET:
-                    send(c.cob_id, c.pack(cw, target_counts))
+                    send(make_message(c.cob_id, c.pack(cw, target_counts)), True)
                 else:
-                    send(c.cob_id, c.pack(*[values[i] for i in slots]))
+                    send(make_message(c.cob_id, c.pack(*[values[i] for i in slots])), True)
         except can.CanError:
             pass  # recorded by the master (bus-off)
         self._sync_pending = master.sync_enabled

@@ -528,7 +528,9 @@ class VirtualCia402Drive:
                 d.set_mode(latched[_KEY_MODE])
             if _KEY_CONTROLWORD in latched:
                 d.apply_controlword(latched[_KEY_CONTROLWORD])
-            d.latch(latched.get(_KEY_TARGET, d.target), latched.get(_KEY_OFFSET, d.velocity_offset))
+            # d.latch(0x607A, 0x60B1), inlined
+            d.target = latched.get(_KEY_TARGET, d.target)
+            d.velocity_offset = latched.get(_KEY_OFFSET, d.velocity_offset)
         elif d.following:
             self._rpdo_missed += 1  # hold the last setpoint
             if self._rpdo_missed > self.rpdo_loss_limit:
@@ -544,11 +546,20 @@ class VirtualCia402Drive:
         maps (sampled after the cycle: the values :meth:`Cia402Device.snapshot` shows)."""
         network = self.network
         assert network is not None
-        send = network.send_message
+        send: Callable[[int, bytes], None] | None = network.send_message
+        send_owned = network._send_owned
+        if network.bus is network._owned_for and send_owned is not None:
+            send = None  # network.send_message's owned hand-over, without its call per frame
         for frame, cob_id, tt in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
-            send(cob_id, frame())
+            if send is not None:
+                send(cob_id, frame())
+                continue
+            try:
+                send_owned(make_message(cob_id, frame()))
+            except can.CanError:
+                pass  # (as send_message: a drive off the bus is not heard)
 
     def flush_emcy(self) -> None:
         if not self.device.pending_emcy or self.node.nmt.state == "STOPPED":
