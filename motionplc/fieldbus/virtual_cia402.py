@@ -322,9 +322,31 @@ class VirtualCia402Drive:
         """COB-ID -> handler for the cyclic frames (SYNC, RPDOs), bypassing canopen's PDO
         dispatch; every other frame goes through ``Network.notify``."""
         table: dict[int, Callable[[int, bytearray, float], None]] = {SYNC_COB_ID: self._on_sync}
-        for cob_id in self._rpdo_by_cob:
-            table[cob_id] = self._on_rpdo_frame
+        for cob_id, codec in self._rpdo_by_cob.items():
+            table[cob_id] = self._rpdo_handler(codec)
         return table
+
+    def _rpdo_handler(self, codec: PdoCodec) -> Callable[[int, bytearray, float], None]:
+        """:meth:`_on_rpdo_frame` for the RPDO of ``codec`` (the table is rebuilt whenever
+        the PDO maps are re-read), unrolled for one or two mapped objects."""
+        unpack = codec.struct_unpack
+        if unpack is None or len(codec.keys) != 2:
+            return self._on_rpdo_frame
+        length = codec.length
+        first, second = codec.keys
+        node = self.node
+
+        def on_rpdo2(can_id: int, data: bytearray, timestamp: float) -> None:
+            if len(data) == length and node.nmt._state == NMT_OPERATIONAL:
+                a, b = unpack(data)
+                latched = self._latched
+                latched[first] = a
+                latched[second] = b
+                self._rpdo_new = True
+                return
+            self._on_rpdo_data(codec, data)
+
+        return on_rpdo2
 
     # ------------------------------------------------------------------- NMT
     def _on_nmt(self, can_id: int, data: bytes, timestamp: float) -> None:
