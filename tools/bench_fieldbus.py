@@ -11,6 +11,7 @@
 3. FC23 round trip on loopback (spec item 19: median < 1 ms as a loose regression guard).
 
     python tools/bench_fieldbus.py [--seconds 60] [--sim-cycles 4000] [--skip-rt] [--fifo 10]
+    python tools/bench_fieldbus.py --can-profile 5000  # where the 8-axis CAN cycle's time goes
 """
 
 from __future__ import annotations
@@ -205,6 +206,72 @@ def bench_latency(requests: int) -> tuple[float, float]:
         srv.stop()
 
 
+def can_profile(n_axes: int, cycles: int, top: int = 30) -> None:
+    """Where the CPU time of the lockstep CAN cycle goes: a sampling profile of ``cycles``
+    simulated cycles of ``n_axes`` CAN axes (a thread takes the main thread's stack every
+    0.5 ms; no tracing hooks, so small functions are not inflated as under cProfile). Prints
+    the share of samples in which each function was on the stack (inclusive) and, among
+    those, the ones at the top (exclusive). Shares of a shared machine's CPU time: compare
+    shares, not absolute times."""
+    import collections
+    import threading
+
+    rig = Rig("can", n_axes, 0.001)
+    main_id = threading.get_ident()
+    inclusive: collections.Counter[str] = collections.Counter()
+    exclusive: collections.Counter[str] = collections.Counter()
+    samples = 0
+    done = threading.Event()
+
+    def sample() -> None:
+        nonlocal samples
+        while not done.wait(0.0005):
+            frame = sys._current_frames().get(main_id)
+            if frame is None:
+                continue
+            samples += 1
+            seen: set[str] = set()
+            top_frame = True
+            while frame is not None:
+                code = frame.f_code
+                name = f"{Path(code.co_filename).stem}.{code.co_name}"
+                if top_frame:
+                    exclusive[name] += 1
+                    top_frame = False
+                if name not in seen:
+                    seen.add(name)
+                    inclusive[name] += 1
+                frame = frame.f_back
+
+    try:
+        rig.rt.run(cycles=20)  # power up, configure
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(0.0002)
+        sampler = threading.Thread(target=sample, daemon=True)
+        sampler.start()
+        c0 = time.process_time()
+        try:
+            rig.rt.run(cycles=cycles)
+        finally:
+            done.set()
+            sampler.join()
+            sys.setswitchinterval(switch)
+        cpu = time.process_time() - c0
+        rig.check()
+    finally:
+        rig.close()
+    print(
+        f"CAN cycle profile, {n_axes} axes, {cycles} cycles ({cpu / cycles * 1e6:.0f} us CPU per"
+        f" cycle with the sampler), {samples} samples; inclusive / exclusive share:"
+    )
+    skip = {"bench_fieldbus.can_profile", "bench_fieldbus.main", "bench_fieldbus.<module>"}
+    for name, count in inclusive.most_common(top + len(skip)):
+        if name not in skip:
+            print(
+                f"  {100 * count / samples:5.1f} % {100 * exclusive[name] / samples:5.1f} %  {name}"
+            )
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0, help="duration of each real-time run")
@@ -212,8 +279,18 @@ def main() -> None:
     ap.add_argument("--skip-rt", action="store_true", help="only the simulated-clock part")
     ap.add_argument("--fifo", type=int, default=None, help="SCHED_FIFO priority for RT runs")
     ap.add_argument("--latency-requests", type=int, default=1000)
+    ap.add_argument(
+        "--can-profile",
+        type=int,
+        default=0,
+        metavar="CYCLES",
+        help="only a sampling profile of this many cycles of 8 CAN axes",
+    )
     args = ap.parse_args()
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+    if args.can_profile:
+        can_profile(8, args.can_profile)
+        return
     print("simulated clock, runtime + FBs + blended moves (cycles per wall second; CPU/cycle):")
     for kind, cycles in (("can", args.sim_cycles), ("modbus", max(500, args.sim_cycles // 4))):
         for n in (1, 4, 8):
