@@ -5,6 +5,7 @@
 * ``Cia402Device.field_getters`` give the values of ``Cia402Device.snapshot``;
 * the steady-state shortcuts (``apply_controlword`` holding 0x0F in OPERATION ENABLED, the
   statusword decode table, ``next_controlword`` in OPERATION ENABLED) equal the table logic;
+* ``run_periodic``'s early return sends the same periodic frames at the same times;
 * the drives' dispatch skips ``service_error`` only where it has no rule; ``RxGuard.admit``'s
   inlined check keeps exactly the frames ``frame_error`` passes.
 """
@@ -15,6 +16,7 @@ import dataclasses
 import math
 import struct
 
+import can
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -31,6 +33,7 @@ from motionplc.fieldbus.cia402 import (
 )
 from motionplc.fieldbus.fastcan import RxGuard, frame_error, service_error
 from motionplc.fieldbus.plant import PlantParams, PlantState, plant_step, plant_step_powered
+from motionplc.fieldbus.virtual_cia402 import SimulatedTimeNetwork
 from motionplc.fieldbus.virtual_device import Cia402Device, DeviceSnapshot
 
 FINITE = st.floats(-1e7, 1e7, allow_nan=False, allow_infinity=False)
@@ -230,3 +233,75 @@ def test_admit_keeps_exactly_the_frames_frame_error_passes(frames: list[dict]) -
         if kind is not None:
             kinds[kind] = kinds.get(kind, 0) + 1
     assert guard.malformed_frames == kinds
+
+
+class _Reference:
+    """``SimulatedTimeNetwork.run_periodic`` as it was: every task looked at every step."""
+
+    def __init__(self) -> None:
+        self.tasks: list[list] = []  # [can_id, data, period, next_t, active]
+        self.sent: list[tuple[float, int]] = []
+
+    def start(self, now: float, can_id: int, period: float) -> list:
+        task = [can_id, b"", period, now + period, True]
+        self.tasks.append(task)
+        return task
+
+    def run(self, t: float) -> None:
+        self.tasks = [task for task in self.tasks if task[4]]
+        for task in self.tasks:
+            if t + 1e-12 >= task[3]:
+                self.sent.append((t, task[0]))
+                task[3] += task[2]
+                if task[3] <= t:
+                    task[3] = t + task[2]
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    events=st.lists(
+        st.tuples(
+            st.integers(0, 400),
+            st.sampled_from(["start", "stop"]),
+            st.sampled_from([0.001, 0.003, 0.01, 0.05]),
+        ),
+        max_size=8,
+    ),
+    jumps=st.lists(st.integers(0, 400), max_size=3),
+)
+def test_periodic_frames_with_the_early_return_equal_the_plain_loop(
+    events: list[tuple[int, str, float]], jumps: list[int]
+) -> None:
+    """Heartbeats started and stopped at random steps, simulated time jumping ahead at
+    others: the same frames at the same steps as looking at every task every step."""
+    can_bus = can.Bus(interface="virtual", channel=f"lean-periodic-{id(events)}")
+    try:
+        net = SimulatedTimeNetwork(can_bus)
+        sent: list[tuple[float, int]] = []
+        net.send_message = lambda can_id, data, remote=False: sent.append((net.now, can_id))
+        ref = _Reference()
+        tasks: list[tuple[object, list]] = []
+        k_time = 0.0
+        for k in range(420):
+            t = k_time
+            for at, what, period in events:
+                if at != k:
+                    continue
+                if what == "start":
+                    can_id = 0x701 + len(tasks)
+                    tasks.append(
+                        (
+                            net.send_periodic(can_id, b"\x05", period),
+                            ref.start(net.now, can_id, period),
+                        )
+                    )
+                elif tasks:
+                    real, mirror = tasks[len(tasks) // 2]
+                    real.stop()
+                    mirror[4] = False
+            net.run_periodic(t)
+            ref.run(t)
+            k_time += 0.05 if k in jumps else 0.001
+        assert sent == ref.sent
+    finally:
+        can_bus.shutdown()
