@@ -191,6 +191,8 @@ def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> 
         frame = data
     elif type(data) is bytes:
         frame = bytearray(data)
+    elif type(data) is list and all(type(x) is int and 0 <= x <= 255 for x in data):
+        frame = bytearray(data)  # canopen's SYNC sends a list: python-can's conversion
     else:  # anything else: python-can's own conversion (and its error)
         return FastMessage(
             arbitration_id=can_id,

@@ -305,3 +305,22 @@ def test_periodic_frames_with_the_early_return_equal_the_plain_loop(
         assert sent == ref.sent
     finally:
         can_bus.shutdown()
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    data=st.lists(st.one_of(st.integers(-2, 300), st.booleans(), st.just("x")), max_size=9),
+    can_id=st.sampled_from([0x080, 0x181, 0x7FF]),
+)
+def test_make_message_of_a_list_equals_the_constructor(data: list, can_id: int) -> None:
+    """canopen's SYNC sends ``[]`` (or ``[counter]``): built directly, the same frame as
+    ``can.Message``; a list it cannot convert raises python-can's own error."""
+    try:
+        want = can.Message(arbitration_id=can_id, is_extended_id=False, data=data)
+    except (TypeError, ValueError) as exc:
+        with pytest.raises(type(exc)):
+            fastcan.make_message(can_id, data)
+        return
+    got = fastcan.make_message(can_id, data)
+    assert got.equals(want, timestamp_delta=None)
+    assert type(got.data) is bytearray and got.dlc == want.dlc
