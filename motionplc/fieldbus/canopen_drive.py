@@ -140,13 +140,14 @@ from motionplc.fieldbus.canopen_startup import (
     startup_script,
 )
 from motionplc.fieldbus.cia402 import (
+    CONTROLWORD_OE_HOLD,
+    STATE_OF_BITS,
     SW_HOMING_ATTAINED,
     SW_HOMING_ERROR,
     SW_TARGET_REACHED,
     Cia402State,
     HomingSpec,
     OperationMode,
-    decode_statusword,
     next_controlword,
 )
 from motionplc.fieldbus.fastcan import (
@@ -192,6 +193,7 @@ NMT_PRE_OPERATIONAL = 0x7F
 NMT_OPERATIONAL = 0x05  # canopen's NmtBase._state of "OPERATIONAL"
 _HB_OK = (True, "")
 _OE = Cia402State.OPERATION_ENABLED
+_UNKNOWN = Cia402State.UNKNOWN
 _FAULTY = (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
 
 # attribute of CanopenDrive each TPDO object is decoded into
@@ -1278,7 +1280,8 @@ class CanopenDrive(Drive):
             self._missed += 1
         self._sync_pending = False
 
-        state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
+        # decode_statusword(self.statusword), one index
+        state = STATE_OF_BITS[self.statusword & 0x6F] if self._have_feedback else _UNKNOWN
         fault = state in _FAULTY
         if self._verify_deadline is not None:
             self._verify(t, fresh, state, fault)
@@ -1411,12 +1414,15 @@ class CanopenDrive(Drive):
             self._sync_pending = False  # no PDO exchange with an unconfigured node
             self.master.written(self, t)
             return
-        state = decode_statusword(self.statusword) if self._have_feedback else Cia402State.UNKNOWN
+        state = STATE_OF_BITS[self.statusword & 0x6F] if self._have_feedback else _UNKNOWN
         resetting = self._reset_until is not None or self._verify_deadline is not None
         if resetting and state is not Cia402State.FAULT:
             self.emcy_code = 0  # warnings / communication errors acknowledged
-        target = Cia402State.OPERATION_ENABLED if command.enable else Cia402State.READY_TO_SWITCH_ON
-        cw = next_controlword(state, target, self.controlword, resetting)
+        if state is _OE and command.enable:
+            cw = CONTROLWORD_OE_HOLD  # next_controlword(OE, OE, ...)
+        else:
+            target = _OE if command.enable else Cia402State.READY_TO_SWITCH_ON
+            cw = next_controlword(state, target, self.controlword, resetting)
         if self._hm_cw and state is Cia402State.OPERATION_ENABLED and cw == 0x0F:
             cw |= self._hm_cw  # homing: bit 4 starts the procedure
             hm = self._hm

@@ -20,10 +20,12 @@ from dataclasses import dataclass
 from enum import Enum, IntEnum
 
 __all__ = [
+    "CONTROLWORD_OE_HOLD",
     "CONTROLWORD_VALUE",
     "DEVICE_TRANSITIONS",
     "HOMING_METHODS",
     "MASTER_TABLE",
+    "STATE_OF_BITS",
     "STATUSWORD_PATTERNS",
     "Cia402Command",
     "Cia402State",
@@ -148,12 +150,14 @@ def _decode_state_bits(statusword: int) -> Cia402State:
 
 
 # every mask lies within 0x6F: the state of each value of bits 0..6 (per cycle: one index)
-_DECODED: tuple[Cia402State, ...] = tuple(_decode_state_bits(bits) for bits in range(0x80))
+STATE_OF_BITS: tuple[Cia402State, ...] = tuple(_decode_state_bits(bits) for bits in range(0x80))
+_DECODED = STATE_OF_BITS
 assert all(mask & ~0x6F == 0 for mask, _, _ in STATUSWORD_PATTERNS)
 
 
 def decode_statusword(statusword: int) -> Cia402State:
-    """Power state encoded in a statusword (0x6041); UNKNOWN if no pattern matches."""
+    """Power state encoded in a statusword (0x6041); UNKNOWN if no pattern matches
+    (``STATE_OF_BITS[statusword & 0x6F]``)."""
     return _DECODED[statusword & 0x6F]
 
 
@@ -293,6 +297,8 @@ MASTER_TABLE: dict[tuple[Cia402State, Cia402State], tuple[int, int | None]] = _m
 TARGET_STATES: tuple[Cia402State, ...] = _TARGETS
 _OE = Cia402State.OPERATION_ENABLED
 _OE_HOLD = MASTER_TABLE[(_OE, _OE)][0]
+# next_controlword(OPERATION_ENABLED, OPERATION_ENABLED, ...): the cyclic steady state
+CONTROLWORD_OE_HOLD = _OE_HOLD
 
 
 def next_controlword(
