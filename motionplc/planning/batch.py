@@ -39,14 +39,24 @@ from __future__ import annotations
 import math
 from array import array
 from collections.abc import Sequence
-from itertools import chain
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from motionplc.errors import PlanningError
+from motionplc.planning._batchrow import (
+    ACC,
+    ACC0,
+    ACC1,
+    FIRST,
+    KIND_NAMES,
+    NONE,
+    SECOND,
+    VEL,
+    plan_rows,
+)
 from motionplc.planning.limits import _NEG_RANGE, _RANGE, LIMIT_MAX, LIMIT_MIN, STATE_MAX
-from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
+from motionplc.planning.plan import MAX_DURATION
 from motionplc.planning.profile import Profile, Samples
 from motionplc.planning.state import State
 
@@ -90,7 +100,9 @@ class BatchPlan:
         "end_v",
         "end_a",
         "n_segments",
-        "kind",
+        "_kind",
+        "_kind_codes",
+        "_kind_names",
         "_t_search",
     )
 
@@ -105,8 +117,10 @@ class BatchPlan:
     end_v: np.ndarray
     end_a: np.ndarray
     n_segments: np.ndarray
-    kind: tuple[str, ...]
-    _t_search: np.ndarray
+    _kind: tuple[str, ...] | None
+    _kind_codes: np.ndarray | None
+    _kind_names: Sequence[str]
+    _t_search: np.ndarray | None
 
     def __init__(
         self,
@@ -120,13 +134,11 @@ class BatchPlan:
         duration: np.ndarray,
         end: tuple[np.ndarray, np.ndarray, np.ndarray],
         kind: Sequence[str],
-        search: np.ndarray | None = None,
+        kind_codes: np.ndarray | None = None,
     ) -> None:
-        """Internal: built by :func:`plan_batch` (the arrays are taken over, made read-only;
-        ``search``: ``t`` with inf beyond each row's segments, computed if not given)."""
-        if search is None:
-            cols = np.arange(t.shape[1])
-            search = np.where(cols[None, :] < n_segments[:, None], t, np.inf)
+        """Internal: built by :func:`plan_batch` (the arrays are taken over, made read-only).
+        ``kind``: the N family names, or with ``kind_codes`` (N,) a table of names indexed by
+        them (the tuple of names is then built on first use of :attr:`kind`)."""
         values: dict[str, Any] = {
             "duration": duration,
             "t": t,
@@ -139,12 +151,39 @@ class BatchPlan:
             "end_v": end[1],
             "end_a": end[2],
             "n_segments": n_segments,
-            "_t_search": search,
         }
         for name, arr in values.items():
             arr.flags.writeable = False
             object.__setattr__(self, name, arr)
-        object.__setattr__(self, "kind", tuple(kind))
+        if kind_codes is None:
+            object.__setattr__(self, "_kind", tuple(kind))
+            object.__setattr__(self, "_kind_codes", None)
+            object.__setattr__(self, "_kind_names", ())
+        else:
+            object.__setattr__(self, "_kind", None)
+            object.__setattr__(self, "_kind_codes", kind_codes)
+            object.__setattr__(self, "_kind_names", kind)
+        object.__setattr__(self, "_t_search", None)
+
+    @property
+    def kind(self) -> tuple[str, ...]:
+        """The N family names (a tuple of str, as :attr:`Profile.kind`)."""
+        kind = self._kind
+        if kind is None:
+            names = self._kind_names
+            assert self._kind_codes is not None
+            kind = tuple(map(names.__getitem__, self._kind_codes.tolist()))
+            object.__setattr__(self, "_kind", kind)
+        return kind
+
+    def _search(self) -> np.ndarray:
+        """``t`` with inf beyond each row's segments (the sampler's segment search)."""
+        search = self._t_search
+        if search is None:
+            cols = np.arange(self.t.shape[1])
+            search = np.where(cols[None, :] < self.n_segments[:, None], self.t, np.inf)
+            object.__setattr__(self, "_t_search", search)
+        return search
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError("BatchPlan is immutable")
@@ -173,7 +212,8 @@ class BatchPlan:
             raise IndexError(f"problem index must be an integer in [{-n}, {n - 1}], got {i!r}")
         i = int(i) % n
         m = int(self.n_segments[i])
-        kind = self.kind[i]
+        codes = self._kind_codes
+        kind = self._kind_names[int(codes[i])] if codes is not None else self.kind[i]
         if m == 0:
             p, v, a = float(self.p[i, 0]), float(self.v[i, 0]), float(self.a[i, 0])
             return Profile(State(p, v, a), [(0.0, 0.0, a, v)], kind)
@@ -209,7 +249,7 @@ class BatchPlan:
             )
         T = self.duration[:, None]
         tc = np.clip(tt, 0.0, T)
-        search = self._t_search
+        search = self._search()
         idx = np.zeros(tt.shape, dtype=np.intp)
         for k in range(1, search.shape[1]):
             idx += tc >= search[:, k : k + 1]
@@ -394,17 +434,7 @@ def _validate_arrays(
 
 
 # -- rest to rest in numpy -------------------------------------------------------------------
-# Kind codes of the rows solved in numpy (Profile.kind as plan names them); odd: mirrored
-_KINDS = np.array(
-    [
-        "none-rest", "none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down",
-        "none", "none-down", "acc0", "acc0-down", "acc1", "acc1-down",
-        "second-order", "first-order",
-    ],
-    dtype=object,
-)  # fmt: skip
-_KIND_NAMES: tuple[str, ...] = tuple(_KINDS.tolist())
-_NR, _VEL, _ACC, _NONE, _ACC0, _ACC1, _SECOND, _FIRST = 0, 2, 4, 6, 8, 10, 12, 13
+# Kind codes of the rows solved in numpy: _batchrow.KIND_NAMES (odd: mirrored)
 
 
 class _Rest(NamedTuple):
@@ -412,7 +442,7 @@ class _Rest(NamedTuple):
     durations, j, p, v, a; row 7 the end) and the (m, 7) flat indices into them that give the
     compacted, padded segments of BatchPlan; end state, duration, segment count, kind code."""
 
-    sources: tuple[np.ndarray, ...]
+    sources: tuple[np.ndarray, ...]  # flat: phase c of row i at c * w + i
     order: np.ndarray
     end_p: np.ndarray
     end_v: np.ndarray
@@ -446,8 +476,12 @@ def _rest_to_rest(
     amax: np.ndarray,
     amin: np.ndarray,
     J: np.ndarray,
+    ws: np.ndarray,
+    order_ws: np.ndarray,
 ) -> tuple[np.ndarray, _Rest]:
     """Rest-to-rest rows (finite J, d beyond ``arrived``): (solved mask, their profiles).
+    ``ws`` (6, 8, w >= n) and ``order_ws`` (w, 7) intp: the workspace (reused by every chunk;
+    the result refers to it until the next call).
 
     Every profile is written in one layout of seven phases (up coordinates, mirrored where
     d < 0): ramp T0 up to P, plateau H1 at P, ramp T2 down (to 0, or to Q without a cruise),
@@ -486,22 +520,28 @@ def _rest_to_rest(
             solved[oi] = True
         # Profile's integration in the original coordinates. A phase of no duration changes
         # nothing (x = 0 adds exact zeros) and sets no exact value: _verify drops it.
+        # Phase-major (8, n) rows of the workspace: row c holds the state at the start of
+        # phase c (its duration and jerk), row 7 the end state (the padding of the rows).
+        kt, dur, jerk, kp, kv, ka = (ws[q, :, :n] for q in range(6))
         s = np.where(down, -1.0, 1.0)
-        sj = s * J
-        zj = s * 0.0  # a plateau's jerk: -0.0 mirrored, as _third.mirror gives
-        # knots phase-major (8, n): row c holds the state at the start of phase c, row 7
-        # the end state (the padding of the compacted rows)
-        kt = np.empty((8, n))
-        kp = np.empty((8, n))
-        kv = np.empty((8, n))
-        ka = np.empty((8, n))
+        sj = np.multiply(s, J, out=jerk[0])
+        zj = np.multiply(s, 0.0, out=jerk[1])  # a plateau's jerk: -0.0 mirrored (_third.mirror)
+        nsj = np.negative(sj, out=jerk[2])
+        jerk[3] = zj
+        jerk[4] = nsj
+        jerk[5] = zj
+        jerk[6] = sj
+        jerk[7] = 0.0
+        for c in range(7):
+            dur[c] = cols[c]
+        dur[7] = 0.0
         kt[0] = 0.0
         kp[0] = p0
         kv[0] = 0.0
         ka[0] = 0.0
-        jerks = (sj, None, -sj, None, -sj, None, sj)
+        jerks = (sj, None, nsj, None, nsj, None, sj)
         for c in range(7):
-            x = cols[c]
+            x = dur[c]
             t, p, v, a = kt[c], kp[c], kv[c], ka[c]  # the state at the start of phase c
             if c == 1:
                 np.copyto(a, s * P, where=x > 0.0)
@@ -522,15 +562,21 @@ def _rest_to_rest(
                 np.add(a, xj, out=ka[c + 1])
             np.add(t, x, out=kt[c + 1])
         p, v, a, t = kp[7], kv[7], ka[7], kt[7]
-        dur = np.stack([*cols, zero])
-        jerk = np.stack([sj, zj, -sj, zj, -sj, zj, sj, zero])
     # drop the phases of no duration: the others move left in order, the end fills the rest
-    pattern = np.packbits(dur[:7] > 0.0, axis=0, bitorder="little")[0]
-    sel = np.flatnonzero(solved) if not solved.all() else np.arange(n)
-    pattern = pattern[sel]
-    order = np.take(_ORDER, pattern, axis=0) * n + sel[:, None]
+    pos = (dur[:7] > 0.0).view(np.uint8)
+    pattern = pos[0].copy()
+    for c in range(1, 7):
+        pattern |= pos[c] << c
+    w = ws.shape[2]  # the row stride of the workspace
+    if solved.all():
+        sel = np.arange(n)
+    else:
+        sel = np.flatnonzero(solved)
+        pattern = pattern[sel]
+    order = np.take(_ORDER * w, pattern, axis=0, out=order_ws[: sel.size], mode="clip")
+    np.add(order, sel[:, None], out=order)
     return solved, _Rest(
-        (kt, dur, jerk, kp, kv, ka),
+        tuple(ws.reshape(6, -1)),
         order,
         p[sel],
         v[sel],
@@ -639,7 +685,7 @@ def _families(
         np.where(acc, acc_h2, h2),
         np.where(acc, tC, t5),
     ]
-    code = np.where(acc, _ACC, _VEL)
+    code = np.where(acc, ACC, VEL)
     outP = np.where(acc, Amax, P)
     outQ = np.where(acc, Amin, Q)
     ok = vel | acc
@@ -685,7 +731,7 @@ def _families(
             col[rem] = x
         outP[rem] = np.where(k_acc0, Ar, p1)
         outQ[rem] = np.where(k_acc1, -Br, -q0)
-        code[rem] = np.where(k_none, _NONE, np.where(k_acc0, _ACC0, _ACC1))
+        code[rem] = np.where(k_none, NONE, np.where(k_acc0, ACC0, ACC1))
         ok[rem] = k_none | k_acc0 | k_acc1
     return ok, cols, code, outP, outQ, Vmax
 
@@ -724,7 +770,7 @@ def _lower_rest(
         ova = np.stack([s * A, s * 0.0, s * Am, s * 0.0])
         ova[:, first] = 0.0
         ovv = np.stack([np.where(first, v_first, nan), nan, nan, np.where(first, 0.0, nan)])
-    code = np.where(first, _FIRST, _SECOND)
+    code = np.where(first, FIRST, SECOND)
     return dur, np.zeros((4, m)), ova, ovv, code
 
 
@@ -754,215 +800,6 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 # -- small batches: the same arithmetic on plain floats --------------------------------------
 _SMALL = 64  # at most this many problems: row by row on floats (no numpy fixed cost)
-_NAN = math.nan
-
-
-def _pos(x: float) -> float:
-    """np.maximum(x, 0.0) on a float (NaN stays NaN)."""
-    return 0.0 if x < 0.0 else x
-
-
-def _rest_row(
-    p0: float, d: float, vmax: float, vmin: float, amax: float, amin: float, J: float
-) -> tuple[list[float], float, float, float, int, bool] | None:
-    """One rest-to-rest row (finite J, d beyond ``arrived``) as :func:`_rest_to_rest` and
-    :func:`_families` compute it, operation for operation on floats (the same bits): (the
-    seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
-    form accepts the row (it goes to the core)."""
-    tr = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
-    down = d < 0.0
-    if J * tr <= min(amax, -amin) and J * tr * tr <= min(vmax, -vmin):
-        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, _NR, down
-    if down:
-        D, Vmax, Amax, Amin = -d, -vmin, -amin, -amax
-    else:
-        D, Vmax, Amax, Amin = d, vmax, amax, amin
-    # vel
-    P = math.sqrt(J * Vmax)
-    if P <= Amax:
-        h1 = 0.0
-    else:
-        h1 = _pos((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax)
-        P = Amax
-    Q = -math.sqrt(J * Vmax)
-    if Q >= Amin:
-        h2 = 0.0
-    else:
-        h2 = _pos((-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin)
-        Q = Amin
-    t1 = P / J
-    t5 = -Q / J
-    v1 = t1 * (0.5 * t1 * J)
-    v2 = v1 + h1 * P
-    d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
-    d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
-    v5 = Vmax - 0.5 * t5 * t5 * J
-    v6 = v5 + h2 * Q
-    d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
-    d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
-    cruise = (D - d1 - d2) / Vmax
-    vel = Vmax != _INF and cruise >= -_T_TOL * max(1.0, abs(D / Vmax))
-    cruise = _pos(cruise)
-    t_best = (t1 + h1 + t1 + cruise + t5 + h2 + t5) * _KEEP if vel else _INF
-    # acc0_acc1
-    acc = False
-    if Amax != _INF and (2.0 * Amax - 2.0 * Amin) / J < t_best:
-        ramps = (2.0 * Amax - 2.0 * Amin) / J
-        A2 = Amax * Amax
-        N2 = Amin * Amin
-        JJ = J * J
-        tA = Amax / J
-        tB = (Amax - Amin) / J
-        tC = (0.0 - Amin) / J
-        b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
-        c = (
-            24.0 * JJ * Amax * D
-            - 12.0 * A2 * N2
-            + 24.0 * Amax * Amin**3
-            - 12.0 * N2 * N2
-        ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
-        vhi = Vmax + _LIM_TOL * (Vmax if Vmax > 1.0 else 1.0)
-        # _quadratic_roots(b, c)
-        disc = b * b - 4.0 * c
-        if disc < 0.0:
-            lo = -b / 2.0 if disc > -1e-14 * (b * b + abs(4.0 * c)) else _NAN
-            hi = _NAN
-        else:
-            sq = math.sqrt(disc)
-            q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
-            r2 = c / q if q != 0.0 else q
-            if q != q or r2 != r2:
-                lo = hi = _NAN
-            else:
-                lo, hi = (q, r2) if q <= r2 else (r2, q)
-        for r in (lo, hi):
-            if not r >= -_T_TOL:  # NaN: no root
-                continue
-            r = _pos(r)
-            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
-            if not hh1 >= -_T_TOL:
-                continue
-            hh1 = _pos(hh1)
-            if not ramps + hh1 + r < t_best:
-                continue
-            vz = tA * (0.5 * tA * J)
-            if hh1 > 0.0:
-                az = Amax
-                vz = vz + hh1 * az
-            else:
-                az = tA * J
-            tz = -az / -J
-            vz = vz + tz * (az + 0.5 * tz * -J)
-            if vz > vhi:
-                continue
-            tt = tA + hh1 + tB + r + tC
-            if tt < t_best:
-                acc, acc_h1, acc_h2, t_best = True, hh1, r, tt
-        if acc:
-            return [tA, acc_h1, tB, 0.0, 0.0, acc_h2, tC], Amax, Amin, Vmax, _ACC + down, down
-    if vel:
-        return [t1, h1, t1, cruise, t5, h2, t5], P, Q, Vmax, _VEL + down, down
-    # no cruise, at most one plateau (asymmetric limits)
-    Br = -Amin
-    vtol = Vmax * (1.0 + 1e-12)
-    sJ = math.sqrt(J)
-    if J * tr <= Amax and J * tr <= Br and J * tr * tr <= vtol:
-        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, Vmax, _NONE + down, down
-    bb = Amax / sJ
-    cc = math.sqrt(2.0 * Amax * D)
-    s0 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
-    V0 = s0 * s0
-    q0 = sJ * s0
-    h0 = V0 / Amax - Amax / J
-    if (
-        h0 >= -_T_TOL * max(1.0, Amax / J)
-        and q0 <= Br * (1.0 + 1e-12)
-        and V0 <= vtol
-    ):  # fmt: skip
-        cols = [Amax / J, _pos(h0), (Amax + q0) / J, 0.0, 0.0, 0.0, q0 / J]
-        return cols, Amax, -q0, Vmax, _ACC0 + down, down
-    bb = Br / sJ
-    cc = math.sqrt(2.0 * Br * D)
-    s1 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
-    V1 = s1 * s1
-    p1 = sJ * s1
-    h1r = V1 / Br - Br / J
-    if (
-        h1r >= -_T_TOL * max(1.0, Br / J)
-        and p1 <= Amax * (1.0 + 1e-12)
-        and V1 <= vtol
-    ):  # fmt: skip
-        cols = [p1 / J, 0.0, (p1 + Br) / J, 0.0, 0.0, _pos(h1r), Br / J]
-        return cols, p1, -Br, Vmax, _ACC1 + down, down
-    return None
-
-
-def _rest_segments(
-    p0: float, row: tuple[list[float], float, float, float, int, bool], J: float
-) -> tuple[list[tuple[float, ...]], float, float, float, float]:
-    """:func:`_rest_to_rest`'s integration of one row on floats (the same operations): the
-    segments (start time, duration, jerk, p, v, a, start time again: BatchPlan's search time)
-    of the phases of positive duration, the end state and the duration."""
-    cols, P, Q, VC, _, down = row
-    s = -1.0 if down else 1.0
-    sj = s * J
-    zj = s * 0.0
-    jerks = (sj, zj, -sj, zj, -sj, zj, sj)
-    t = 0.0
-    p = p0
-    v = 0.0
-    a = 0.0
-    segs: list[tuple[float, ...]] = []
-    for c in range(7):
-        x = cols[c]
-        if not x > 0.0:  # no duration: changes nothing, no segment
-            continue
-        if c & 1:  # a plateau: zero jerk, the exact values set
-            if c == 1:
-                a = s * P
-            elif c == 3:
-                a = zj
-                v = s * VC
-            else:
-                a = s * Q
-            segs.append((t, x, zj, p, v, a, t))
-            p = p + x * (v + x * (0.5 * a))
-            v = v + x * a
-        else:
-            jj = jerks[c]
-            segs.append((t, x, jj, p, v, a, t))
-            xj = x * jj
-            p = p + x * (v + x * (0.5 * a + xj / 6.0))
-            v = v + x * (a + 0.5 * xj)
-            a = a + xj
-        t = t + x
-    return segs, p, v, a, t
-
-
-def _phase_segments(
-    p0: float, v0: float, a0: float, phases: Sequence[tuple[float, ...]]
-) -> tuple[list[tuple[float, ...]], float, float, float, float]:
-    """:func:`_integrate_phases` (Profile.__init__) for one phase list on floats."""
-    t = 0.0
-    p = p0
-    v = v0
-    a = a0
-    segs: list[tuple[float, ...]] = []
-    for ph in phases:
-        x = ph[0]
-        jj = ph[1]
-        if len(ph) > 2:
-            a = ph[2]
-            if len(ph) > 3:
-                v = ph[3]
-        if x > 0.0:
-            segs.append((t, x, jj, p, v, a, t))
-            p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
-            v2 = v + x * (a + 0.5 * x * jj)
-            a = a + x * jj
-            v = v2
-            t = t + x
-    return segs, p, v, a, t
 
 
 def _small_valid(
@@ -1024,82 +861,19 @@ def _plan_small(
     AMIN: list[float],
     J: list[float],
 ) -> BatchPlan:
-    """plan_batch for validated inputs as lists, row by row on floats: rest to rest with a
-    finite jerk limit by :func:`_rest_row` (the numpy path's arithmetic), every other row by
-    the core, as the numpy path dispatches them."""
+    """plan_batch for validated inputs as lists, row by row on floats
+    (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
     n = len(P0)
-    eps = 8.0 * _EPS
-    rows: list[tuple[list[tuple[float, ...]], float, float, float, float]] = []
-    kinds: list[str] = []
-    # the first failure of each group, raised in the numpy path's order: closed-form rest to
-    # rest, rest to rest without a jerk limit, then the core's rows
-    errors: list[PlanningError | None] = [None, None, None]
-    for i, (p0, v0, a0, pf, vf, af, vmax, vmin, amax, amin, jm) in enumerate(
-        zip(P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J, strict=True)
-    ):
-        d = pf - p0
-        group = 2
-        if (
-            v0 == 0.0
-            and a0 == 0.0
-            and vf == 0.0
-            and af == 0.0
-            and not abs(d) <= max(1e-15, eps * max(abs(p0), abs(pf)))
-        ):
-            if jm == _INF:
-                group = 1
-            else:
-                rr = _rest_row(p0, d, vmax, vmin, amax, amin, jm)
-                if rr is not None:
-                    res = _rest_segments(p0, rr, jm)
-                    if not res[4] <= MAX_DURATION:
-                        errors[0] = errors[0] or _too_long(i, res[4])
-                        continue
-                    rows.append(res)
-                    kinds.append(_KIND_NAMES[rr[4]])
-                    continue
-        if arrived(p0, v0, a0, pf, vf, af):
-            rows.append(([], p0, vf, af, 0.0))
-            kinds.append("arrived")
-            continue
-        try:
-            T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
-        except (PlanningError, ArithmeticError) as exc:
-            if isinstance(exc, PlanningError):
-                err = PlanningError(f"problem {i}: {exc}")
-            else:
-                err = PlanningError(
-                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                    f"for problem {i} (planner defect: please report these inputs)"
-                )
-            err.__cause__ = exc
-            errors[group] = errors[group] or err
-            continue
-        if not T <= MAX_DURATION:
-            errors[group] = errors[group] or _too_long(i, T)
-            continue
-        rows.append(_phase_segments(p0, v0, a0, phases))
-        kinds.append(kind)
-    for err in errors:
-        if err is not None:
-            raise err
-    width = max(MIN_WIDTH, max((len(r[0]) for r in rows), default=0))
-    flat: list[float] = []
-    nseg: list[int] = []
-    ends: list[float] = []
-    for segs, p, v, a, t in rows:
-        m = len(segs)
-        nseg.append(m)
-        flat.extend(chain.from_iterable(segs))  # the last value: BatchPlan's search time
-        flat.extend((t, 0.0, 0.0, p, v, a, _INF) * (width - m))
-        ends.extend((p, v, a, t))
+    vals, ends, nseg, kinds = plan_rows(
+        None, P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J, MIN_WIDTH
+    )
+    width = len(vals) // (6 * n) if n else MIN_WIDTH
     # array('d') converts the floats at C speed; the fields are strided views (no copy)
-    out = np.frombuffer(array("d", flat), dtype=float).reshape(n, width, 7)
+    out = np.frombuffer(array("d", vals), dtype=float).reshape(n, width, 6)
     e = np.frombuffer(array("d", ends), dtype=float).reshape(n, 4)
     return BatchPlan(
         out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
         np.array(nseg, dtype=np.intp), e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
-        out[:, :, 6],
     )  # fmt: skip
 
 
@@ -1227,10 +1001,15 @@ def plan_batch(
     nseg = np.zeros(n, dtype=np.intp)
     code = np.zeros(n, dtype=np.intp)
     slow = np.ones(n, dtype=bool)
+    if fi.size:  # one workspace for every chunk (fresh pages cost a page fault each)
+        ws = np.empty((6, 8, min(_CHUNK, fi.size)))
+        order_ws = np.empty((ws.shape[2], MIN_WIDTH), dtype=np.intp)
     for start in range(0, fi.size, _CHUNK):  # chunks that stay in the CPU cache
         stop = min(start + _CHUNK, fi.size)
         ci = slice(start, stop) if every else fi[start:stop]
-        solved, rest = _rest_to_rest(P0[ci], d[ci], VMAX[ci], VMIN[ci], AMAX[ci], AMIN[ci], J[ci])
+        solved, rest = _rest_to_rest(
+            P0[ci], d[ci], VMAX[ci], VMIN[ci], AMAX[ci], AMIN[ci], J[ci], ws, order_ws
+        )
         r = ci if every and solved.all() else np.arange(n)[ci][solved]
         too_long = ~(rest.total <= MAX_DURATION)
         if too_long.any():
@@ -1258,39 +1037,18 @@ def plan_batch(
             raise _too_long(int(lo[k]), float(lower[9][k]))
         slow[lo] = False
         code[lo] = code_lo
-    # -- every other row through the core, per row --------------------------------------------
+    # -- every other row through the core, per row (_batchrow: compiled with the core) ------
     si = np.flatnonzero(slow)
-    slow_kinds: list[str] = []
-    slow_phases: list[Sequence[tuple[float, ...]]] = []
-    slow_rows: tuple[np.ndarray, ...] | None = None
+    names: Sequence[str] = KIND_NAMES
+    width = MIN_WIDTH
     if si.size:
-        args = [x[si].tolist() for x in (V0, A0, d, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        for i, v0i, a0i, di, vfi, afi, vmax, vmin, amax, amin, jm, p0i, pfi in zip(
-            si.tolist(), *args, P0[si].tolist(), PF[si].tolist(), strict=True
-        ):
-            if arrived(p0i, v0i, a0i, pfi, vfi, afi):
-                slow_phases.append([(0.0, 0.0, afi, vfi)])
-                slow_kinds.append("arrived")
-                continue
-            try:
-                T, phases, kind = position_phases(
-                    v0i, a0i, di, vfi, afi, vmax, vmin, amax, amin, jm
-                )
-            except PlanningError as exc:
-                raise PlanningError(f"problem {i}: {exc}") from exc
-            except ArithmeticError as exc:
-                raise PlanningError(
-                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                    f"for problem {i} (planner defect: please report these inputs)"
-                ) from exc
-            if not T <= MAX_DURATION:
-                raise _too_long(i, T)
-            slow_phases.append(phases)
-            slow_kinds.append(kind)
-        slow_rows = _integrate_phases(P0[si], V0[si], A0[si], slow_phases)
-        width = max(MIN_WIDTH, slow_rows[0].shape[1])
-    else:
-        width = MIN_WIDTH
+        args = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
+        vals, ends, cnt, slow_kinds = plan_rows(si.tolist(), *args, MIN_WIDTH)
+        width = len(vals) // (6 * si.size)
+        seg = np.frombuffer(array("d", vals), dtype=float).reshape(si.size, width, 6)
+        e = np.frombuffer(array("d", ends), dtype=float).reshape(si.size, 4)
+        names = KIND_NAMES + tuple(slow_kinds)
+        code[si] = np.arange(len(KIND_NAMES), len(names))
     # -- assemble -----------------------------------------------------------------------------
     if width == MIN_WIDTH:
         out = fo
@@ -1301,60 +1059,30 @@ def plan_batch(
         out[0, fr, MIN_WIDTH:] = total[fr, None]
         for q in range(3):
             out[3 + q, fr, MIN_WIDTH:] = end[q, fr, None]
-    kinds = _KINDS[code]
-    for rows, res in ((lo, lower), (si, slow_rows)):
-        if res is None:
-            continue
-        kt, kd, kj, kp, kv, ka, pe, ve, ae, te, cnt = res
+    if lower is not None:
+        kt, kd, kj, kp, kv, ka, pe, ve, ae, te, cnt_lo = lower
         w = kt.shape[1]
         for q, x in enumerate((kt, kd, kj, kp, kv, ka)):
-            out[q, rows, :w] = x
+            out[q, lo, :w] = x
         if w < width:  # padding: start time = duration, no duration or jerk, end state
-            out[0, rows, w:] = te[:, None]
-            out[1, rows, w:] = 0.0
-            out[2, rows, w:] = 0.0
-            out[3, rows, w:] = pe[:, None]
-            out[4, rows, w:] = ve[:, None]
-            out[5, rows, w:] = ae[:, None]
-        nseg[rows] = cnt
-        total[rows] = te
-        end[0, rows], end[1, rows], end[2, rows] = pe, ve, ae
+            out[0, lo, w:] = te[:, None]
+            out[1, lo, w:] = 0.0
+            out[2, lo, w:] = 0.0
+            out[3, lo, w:] = pe[:, None]
+            out[4, lo, w:] = ve[:, None]
+            out[5, lo, w:] = ae[:, None]
+        nseg[lo] = cnt_lo
+        total[lo] = te
+        end[0, lo], end[1, lo], end[2, lo] = pe, ve, ae
     if si.size:
-        kinds[si] = slow_kinds
+        out[:, si, :] = seg.transpose(2, 0, 1)
+        nseg[si] = cnt
+        total[si] = e[:, 3]
+        end[:, si] = e[:, :3].T
     return BatchPlan(
         out[0], out[1], out[2], out[3], out[4], out[5], nseg, total, (end[0], end[1], end[2]),
-        kinds.tolist(),
+        names, code,
     )  # fmt: skip
-
-
-def _integrate_phases(
-    p0: np.ndarray, v0: np.ndarray, a0: np.ndarray, rows: Sequence[Sequence[tuple[float, ...]]]
-) -> tuple[np.ndarray, ...]:
-    """Profile.__init__ for many phase lists at once (the same operations, so the same bits).
-
-    A phase is (duration, jerk[, acceleration at its start[, velocity at its start]]); the
-    exact values are set even by a phase of no duration (a jump at the end of a second-order
-    profile), which adds no segment. Returns (m, w) arrays of the segments (start time,
-    duration, jerk, p, v, a; w >= 1 the most segments of a row; padding: the end state and the
-    duration as start time, as BatchPlan), the end state, the durations and the counts. A row
-    without segments has its (possibly jumped) start state in column 0, as Profile keeps it.
-    """
-    m = len(rows)
-    counts = np.fromiter((len(r) for r in rows), dtype=np.intp, count=m)
-    L = int(counts.max()) if m else 0
-    flat = [ph for r in rows for ph in r]
-    col = np.arange(len(flat)) - np.repeat(np.cumsum(counts) - counts, counts)
-    row = np.repeat(np.arange(m), counts)
-    nan = math.nan
-    dur = np.zeros((L, m))
-    jerk = np.zeros((L, m))
-    ova = np.full((L, m), nan)
-    ovv = np.full((L, m), nan)
-    dur[col, row] = [ph[0] for ph in flat]
-    jerk[col, row] = [ph[1] for ph in flat]
-    ova[col, row] = [ph[2] if len(ph) > 2 else nan for ph in flat]
-    ovv[col, row] = [ph[3] if len(ph) > 3 else nan for ph in flat]
-    return _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
 
 
 def _integrate_arrays(

@@ -1,0 +1,404 @@
+"""plan_batch row by row on plain floats (compiled with mypyc together with the planning core).
+
+:func:`plan_rows` plans a list of problems one row at a time: rest to rest with a finite jerk
+limit by :func:`rest_row` (the closed forms of ``batch._rest_to_rest`` / ``batch._families``,
+operation for operation on floats, so the same bits as the numpy path), every other row by the
+core (``plan.position_phases``, called directly in C when compiled), and integrates each
+profile as ``Profile.__init__`` does (the same operations: the same bits as :func:`plan`). It
+never touches numpy: :mod:`motionplc.planning.batch` turns the flat float lists into arrays.
+
+Compiled, a row costs a few hundred nanoseconds beyond the core's own solver time (no State,
+Profile or phase-array objects per row); as plain Python the same code runs unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Final
+
+from motionplc.errors import PlanningError
+from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
+
+_INF: Final = math.inf
+_NAN: Final = math.nan
+_EPS: Final = 2.220446049250313e-16
+_KEEP: Final = 1.0 - 1e-12  # time_optimal: a later family must be faster by more than rounding
+_T_TOL: Final = 1e-12  # _third._T_TOL
+_LIM_TOL: Final = 1e-12  # _third._LIM_TOL
+
+# Kind codes of the rest-to-rest rows solved in closed form (Profile.kind as plan names them);
+# code + 1: mirrored (d < 0)
+KIND_NAMES: Final = (
+    "none-rest", "none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down",
+    "none", "none-down", "acc0", "acc0-down", "acc1", "acc1-down",
+    "second-order", "first-order",
+)  # fmt: skip
+NR: Final = 0
+VEL: Final = 2
+ACC: Final = 4
+NONE: Final = 6
+ACC0: Final = 8
+ACC1: Final = 10
+SECOND: Final = 12
+FIRST: Final = 13
+
+
+def _pos(x: float) -> float:
+    """np.maximum(x, 0.0) on a float (NaN stays NaN)."""
+    return 0.0 if x < 0.0 else x
+
+
+def rest_row(
+    p0: float, d: float, vmax: float, vmin: float, amax: float, amin: float, J: float
+) -> tuple[list[float], float, float, float, int, bool] | None:
+    """One rest-to-rest row (finite J, d beyond ``arrived``) as ``batch._rest_to_rest`` and
+    ``batch._families`` compute it, operation for operation on floats (the same bits): (the
+    seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
+    form accepts the row (it goes to the core)."""
+    tr = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+    down = d < 0.0
+    if J * tr <= min(amax, -amin) and J * tr * tr <= min(vmax, -vmin):
+        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, NR, down
+    if down:
+        D, Vmax, Amax, Amin = -d, -vmin, -amin, -amax
+    else:
+        D, Vmax, Amax, Amin = d, vmax, amax, amin
+    # vel
+    P = math.sqrt(J * Vmax)
+    if P <= Amax:
+        h1 = 0.0
+    else:
+        h1 = _pos((Vmax - 2.0 * Amax * Amax / (2.0 * J)) / Amax)
+        P = Amax
+    Q = -math.sqrt(J * Vmax)
+    if Q >= Amin:
+        h2 = 0.0
+    else:
+        h2 = _pos((-Vmax - (0.0 - 2.0 * Amin * Amin) / (2.0 * J)) / Amin)
+        Q = Amin
+    t1 = P / J
+    t5 = -Q / J
+    v1 = t1 * (0.5 * t1 * J)
+    v2 = v1 + h1 * P
+    d1 = t1 * (t1 * (t1 * J / 6.0)) + h1 * (v1 + 0.5 * h1 * P)
+    d1 = d1 + t1 * (v2 + t1 * (0.5 * P - t1 * J / 6.0))
+    v5 = Vmax - 0.5 * t5 * t5 * J
+    v6 = v5 + h2 * Q
+    d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
+    d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
+    cruise = (D - d1 - d2) / Vmax
+    vel = Vmax != _INF and cruise >= -_T_TOL * max(1.0, abs(D / Vmax))
+    cruise = _pos(cruise)
+    t_best = (t1 + h1 + t1 + cruise + t5 + h2 + t5) * _KEEP if vel else _INF
+    # acc0_acc1
+    acc = False
+    acc_h1 = 0.0
+    acc_h2 = 0.0
+    if Amax != _INF and (2.0 * Amax - 2.0 * Amin) / J < t_best:
+        ramps = (2.0 * Amax - 2.0 * Amin) / J
+        A2 = Amax * Amax
+        N2 = Amin * Amin
+        JJ = J * J
+        tA = Amax / J
+        tB = (Amax - Amin) / J
+        tC = (0.0 - Amin) / J
+        b = -(0.0 - Amax * Amin + 2.0 * N2) / (J * Amin)
+        c = (
+            24.0 * JJ * Amax * D
+            - 12.0 * A2 * N2
+            + 24.0 * Amax * Amin**3
+            - 12.0 * N2 * N2
+        ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
+        vhi = Vmax + _LIM_TOL * (Vmax if Vmax > 1.0 else 1.0)
+        # batch._quadratic_roots(b, c)
+        disc = b * b - 4.0 * c
+        if disc < 0.0:
+            lo = -b / 2.0 if disc > -1e-14 * (b * b + abs(4.0 * c)) else _NAN
+            hi = _NAN
+        else:
+            sq = math.sqrt(disc)
+            q = -0.5 * (b + sq) if b >= 0.0 else -0.5 * (b - sq)
+            r2 = c / q if q != 0.0 else q
+            if q != q or r2 != r2:
+                lo = hi = _NAN
+            else:
+                lo, hi = (q, r2) if q <= r2 else (r2, q)
+        for r in (lo, hi):
+            if not r >= -_T_TOL:  # NaN: no root
+                continue
+            r = _pos(r)
+            hh1 = (0.0 - 2.0 * A2 + 2.0 * N2 - 2.0 * J * Amin * r) / (2.0 * J * Amax)
+            if not hh1 >= -_T_TOL:
+                continue
+            hh1 = _pos(hh1)
+            if not ramps + hh1 + r < t_best:
+                continue
+            vz = tA * (0.5 * tA * J)
+            if hh1 > 0.0:
+                az = Amax
+                vz = vz + hh1 * az
+            else:
+                az = tA * J
+            tz = -az / -J
+            vz = vz + tz * (az + 0.5 * tz * -J)
+            if vz > vhi:
+                continue
+            tt = tA + hh1 + tB + r + tC
+            if tt < t_best:
+                acc, acc_h1, acc_h2, t_best = True, hh1, r, tt
+        if acc:
+            return [tA, acc_h1, tB, 0.0, 0.0, acc_h2, tC], Amax, Amin, Vmax, ACC + down, down
+    if vel:
+        return [t1, h1, t1, cruise, t5, h2, t5], P, Q, Vmax, VEL + down, down
+    # no cruise, at most one plateau (asymmetric limits)
+    Br = -Amin
+    vtol = Vmax * (1.0 + 1e-12)
+    sJ = math.sqrt(J)
+    if J * tr <= Amax and J * tr <= Br and J * tr * tr <= vtol:
+        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, Vmax, NONE + down, down
+    bb = Amax / sJ
+    cc = math.sqrt(2.0 * Amax * D)
+    s0 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
+    V0 = s0 * s0
+    q0 = sJ * s0
+    h0 = V0 / Amax - Amax / J
+    if (
+        h0 >= -_T_TOL * max(1.0, Amax / J)
+        and q0 <= Br * (1.0 + 1e-12)
+        and V0 <= vtol
+    ):  # fmt: skip
+        cols = [Amax / J, _pos(h0), (Amax + q0) / J, 0.0, 0.0, 0.0, q0 / J]
+        return cols, Amax, -q0, Vmax, ACC0 + down, down
+    bb = Br / sJ
+    cc = math.sqrt(2.0 * Br * D)
+    s1 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
+    V1 = s1 * s1
+    p1 = sJ * s1
+    h1r = V1 / Br - Br / J
+    if (
+        h1r >= -_T_TOL * max(1.0, Br / J)
+        and p1 <= Amax * (1.0 + 1e-12)
+        and V1 <= vtol
+    ):  # fmt: skip
+        cols = [p1 / J, 0.0, (p1 + Br) / J, 0.0, 0.0, _pos(h1r), Br / J]
+        return cols, p1, -Br, Vmax, ACC1 + down, down
+    return None
+
+
+def rest_segments(
+    p0: float,
+    cols: list[float],
+    P: float,
+    Q: float,
+    VC: float,
+    down: bool,
+    J: float,
+    out: list[float],
+) -> tuple[int, float, float, float, float]:
+    """``batch._rest_to_rest``'s integration of one row on floats (the same operations): the
+    segments (start time, duration, jerk, p, v, a) of the phases of positive duration appended
+    to ``out``; returns (their count, the end state, the duration)."""
+    s = -1.0 if down else 1.0
+    sj = s * J
+    zj = s * 0.0
+    t = 0.0
+    p = p0
+    v = 0.0
+    a = 0.0
+    m = 0
+    for c in range(7):
+        x = cols[c]
+        if not x > 0.0:  # no duration: changes nothing, no segment
+            continue
+        m += 1
+        if c & 1:  # a plateau: zero jerk, the exact values set
+            if c == 1:
+                a = s * P
+            elif c == 3:
+                a = zj
+                v = s * VC
+            else:
+                a = s * Q
+            out.extend((t, x, zj, p, v, a))
+            p = p + x * (v + x * (0.5 * a))
+            v = v + x * a
+        else:
+            jj = sj if c == 0 or c == 6 else -sj
+            out.extend((t, x, jj, p, v, a))
+            xj = x * jj
+            p = p + x * (v + x * (0.5 * a + xj / 6.0))
+            v = v + x * (a + 0.5 * xj)
+            a = a + xj
+        t = t + x
+    return m, p, v, a, t
+
+
+def phase_segments(
+    p0: float, v0: float, a0: float, phases: list[tuple[float, ...]], out: list[float]
+) -> tuple[int, float, float, float, float]:
+    """``batch._integrate_phases`` (Profile.__init__) for one phase list on floats: the
+    segments appended to ``out``; returns (their count, the end state, the duration)."""
+    t = 0.0
+    p = p0
+    v = v0
+    a = a0
+    m = 0
+    for ph in phases:
+        x = ph[0]
+        jj = ph[1]
+        if len(ph) > 2:
+            a = ph[2]
+            if len(ph) > 3:
+                v = ph[3]
+        if x > 0.0:
+            m += 1
+            out.extend((t, x, jj, p, v, a))
+            p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
+            v2 = v + x * (a + 0.5 * x * jj)
+            a = a + x * jj
+            v = v2
+            t = t + x
+    return m, p, v, a, t
+
+
+def _too_long(i: int, T: float) -> PlanningError:
+    return PlanningError(
+        f"problem {i}: the profile would last {T:.6g} s, beyond the supported "
+        f"{MAX_DURATION:g} s (limits far too small for the states: double precision cannot keep "
+        "its end state and continuity)"
+    )
+
+
+def plan_rows(
+    index: list[int] | None,
+    P0: list[float],
+    V0: list[float],
+    A0: list[float],
+    PF: list[float],
+    VF: list[float],
+    AF: list[float],
+    VMAX: list[float],
+    VMIN: list[float],
+    AMAX: list[float],
+    AMIN: list[float],
+    J: list[float],
+    width: int,
+) -> tuple[list[float], list[float], list[int], list[str]]:
+    """Validated problems, row by row: (segments, ends, segment counts, kinds).
+
+    ``segments`` holds ``width`` segments of six floats (start time, duration, jerk, p, v, a)
+    per row, padded after a row's own with (duration, 0, 0, end state); ``ends`` four floats
+    (p, v, a, duration) per row. ``width`` is widened if a row has more segments. Rest to rest
+    with a finite jerk limit: :func:`rest_row` (the numpy path's arithmetic); every other row
+    by the core, as the numpy path dispatches them. ``index[k]``: the problem number of row
+    ``k`` in error messages (None: k). Raises the first failure of the numpy path's order:
+    closed-form rest to rest, rest to rest without a jerk limit, then the core's rows.
+    """
+    n = len(P0)
+    eps = 8.0 * _EPS
+    vals: list[float] = []
+    ends: list[float] = []
+    nseg: list[int] = []
+    kinds: list[str] = []
+    starts: list[int] = []
+    wide = width
+    errors: list[PlanningError | None] = [None, None, None]
+    for k in range(n):
+        p0 = P0[k]
+        v0 = V0[k]
+        a0 = A0[k]
+        pf = PF[k]
+        vf = VF[k]
+        af = AF[k]
+        vmax = VMAX[k]
+        vmin = VMIN[k]
+        amax = AMAX[k]
+        amin = AMIN[k]
+        jm = J[k]
+        i = k if index is None else index[k]
+        d = pf - p0
+        group = 2
+        start = len(vals)
+        if (
+            v0 == 0.0
+            and a0 == 0.0
+            and vf == 0.0
+            and af == 0.0
+            and not abs(d) <= max(1e-15, eps * max(abs(p0), abs(pf)))
+        ):
+            if jm == _INF:
+                group = 1
+            else:
+                rr = rest_row(p0, d, vmax, vmin, amax, amin, jm)
+                if rr is not None:
+                    cols, P, Q, VC, code, down = rr
+                    m, pe, ve, ae, te = rest_segments(p0, cols, P, Q, VC, down, jm, vals)
+                    if not te <= MAX_DURATION:
+                        if errors[0] is None:
+                            errors[0] = _too_long(i, te)
+                        del vals[start:]
+                        continue
+                    starts.append(start)
+                    nseg.append(m)
+                    ends.extend((pe, ve, ae, te))
+                    kinds.append(KIND_NAMES[code])
+                    if m > wide:
+                        wide = m
+                    elif m < width:
+                        vals.extend((te, 0.0, 0.0, pe, ve, ae) * (width - m))
+                    continue
+        if arrived(p0, v0, a0, pf, vf, af):
+            starts.append(start)
+            nseg.append(0)
+            ends.extend((p0, vf, af, 0.0))
+            kinds.append("arrived")
+            vals.extend((0.0, 0.0, 0.0, p0, vf, af) * width)
+            continue
+        try:
+            T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
+        except (PlanningError, ArithmeticError) as exc:
+            if isinstance(exc, PlanningError):
+                err = PlanningError(f"problem {i}: {exc}")
+            else:
+                err = PlanningError(
+                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                    f"for problem {i} (planner defect: please report these inputs)"
+                )
+            err.__cause__ = exc
+            if errors[group] is None:
+                errors[group] = err
+            continue
+        if not T <= MAX_DURATION:
+            if errors[group] is None:
+                errors[group] = _too_long(i, T)
+            continue
+        m, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, vals)
+        starts.append(start)
+        nseg.append(m)
+        ends.extend((pe, ve, ae, te))
+        kinds.append(kind)
+        if m > wide:
+            wide = m
+        elif m < width:
+            vals.extend((te, 0.0, 0.0, pe, ve, ae) * (width - m))
+    for e in errors:
+        if e is not None:
+            raise e
+    if wide > width:  # a row longer than width: lay every row out again at the new width
+        vals = _relayout(vals, starts, nseg, ends, width, wide)
+    return vals, ends, nseg, kinds
+
+
+def _relayout(
+    vals: list[float], starts: list[int], nseg: list[int], ends: list[float], width: int, wide: int
+) -> list[float]:
+    """The rows of ``vals`` (row k from ``starts[k]``: its ``nseg[k]`` segments, padded to
+    ``width`` if shorter) padded to ``wide`` segments."""
+    out: list[float] = []
+    for k in range(len(starts)):
+        s = starts[k]
+        m = nseg[k]
+        out.extend(vals[s : s + 6 * m])
+        e = 4 * k
+        out.extend((ends[e + 3], 0.0, 0.0, ends[e], ends[e + 1], ends[e + 2]) * (wide - m))
+    return out
