@@ -18,7 +18,9 @@ or asymmetric limits, which plan solves by quartic roots and plan_batch in close
 
     python tools/bench_batch.py --repeat 5
 
-Batches of at most 64 problems take plan_batch's plain-float path, larger ones numpy. Each
+``--touch`` adds the first use of ``BatchPlan.kind`` (its tuple of N names is built lazily; every
+array is built by the call). Batches of at most ``batch._SMALL`` problems (192 with the
+compiled core, 64 as plain Python) take plan_batch's row-by-row path, larger ones numpy. Each
 timing is one call, so it includes the cold caches left by the loops before it: a size timed
 after others can differ by ~20 % from the same size timed alone (compare before/after runs
 with the same ``--sizes``).
@@ -66,6 +68,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         help="at most this many cases in the plan loop per N (per-plan mean; 20000)",
     )
     ap.add_argument("--check", action="store_true", help="assert batch durations == plan's")
+    ap.add_argument(
+        "--touch",
+        action="store_true",
+        help="the batch timing also builds the kind tuple (built on first use of .kind)",
+    )
     return ap.parse_args(argv)
 
 
@@ -126,7 +133,10 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, flo
         otg = rk.Ruckig(1)
         traj = rk.Trajectory(1)
     for _ in range(args.repeat):
-        res["batch"].append(timed(lambda: plan_batch(*cols)) / n)
+        if args.touch:
+            res["batch"].append(timed(lambda: plan_batch(*cols).kind) / n)
+        else:
+            res["batch"].append(timed(lambda: plan_batch(*cols)) / n)
         if rk is not None:
 
             def loop_rk() -> None:

@@ -17,6 +17,7 @@ import math
 from typing import Final
 
 from motionplc.errors import PlanningError
+from motionplc.planning.limits import LIMIT_MAX, LIMIT_MIN, STATE_MAX
 from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
 
 _INF: Final = math.inf
@@ -43,6 +44,16 @@ SECOND: Final = 12
 FIRST: Final = 13
 
 
+def _min(a: float, b: float) -> float:
+    """min(a, b) on floats (the first unless the second is smaller), without boxing."""
+    return b if b < a else a
+
+
+def _max(a: float, b: float) -> float:
+    """max(a, b) on floats (the first unless the second is larger), without boxing."""
+    return b if b > a else a
+
+
 def _pos(x: float) -> float:
     """np.maximum(x, 0.0) on a float (NaN stays NaN)."""
     return 0.0 if x < 0.0 else x
@@ -55,9 +66,9 @@ def rest_row(
     ``batch._families`` compute it, operation for operation on floats (the same bits): (the
     seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
     form accepts the row (it goes to the core)."""
-    tr = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+    tr = math.pow(abs(d) / (2.0 * J), 1.0 / 3.0)  # float ** (1/3): C pow, the same bits
     down = d < 0.0
-    if J * tr <= min(amax, -amin) and J * tr * tr <= min(vmax, -vmin):
+    if J * tr <= _min(amax, -amin) and J * tr * tr <= _min(vmax, -vmin):
         return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, NR, down
     if down:
         D, Vmax, Amax, Amin = -d, -vmin, -amin, -amax
@@ -87,7 +98,7 @@ def rest_row(
     d2 = t5 * (Vmax - t5 * t5 * J / 6.0) + h2 * (v5 + 0.5 * h2 * Q)
     d2 = d2 + t5 * (v6 + t5 * (0.5 * Q + t5 * J / 6.0))
     cruise = (D - d1 - d2) / Vmax
-    vel = Vmax != _INF and cruise >= -_T_TOL * max(1.0, abs(D / Vmax))
+    vel = Vmax != _INF and cruise >= -_T_TOL * _max(1.0, abs(D / Vmax))
     cruise = _pos(cruise)
     t_best = (t1 + h1 + t1 + cruise + t5 + h2 + t5) * _KEEP if vel else _INF
     # acc0_acc1
@@ -106,7 +117,7 @@ def rest_row(
         c = (
             24.0 * JJ * Amax * D
             - 12.0 * A2 * N2
-            + 24.0 * Amax * Amin**3
+            + 24.0 * Amax * math.pow(Amin, 3.0)
             - 12.0 * N2 * N2
         ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
         vhi = Vmax + _LIM_TOL * (Vmax if Vmax > 1.0 else 1.0)
@@ -163,7 +174,7 @@ def rest_row(
     q0 = sJ * s0
     h0 = V0 / Amax - Amax / J
     if (
-        h0 >= -_T_TOL * max(1.0, Amax / J)
+        h0 >= -_T_TOL * _max(1.0, Amax / J)
         and q0 <= Br * (1.0 + 1e-12)
         and V0 <= vtol
     ):  # fmt: skip
@@ -176,7 +187,7 @@ def rest_row(
     p1 = sJ * s1
     h1r = V1 / Br - Br / J
     if (
-        h1r >= -_T_TOL * max(1.0, Br / J)
+        h1r >= -_T_TOL * _max(1.0, Br / J)
         and p1 <= Amax * (1.0 + 1e-12)
         and V1 <= vtol
     ):  # fmt: skip
@@ -219,12 +230,22 @@ def rest_segments(
                 v = s * VC
             else:
                 a = s * Q
-            out.extend((t, x, zj, p, v, a))
+            out.append(t)
+            out.append(x)
+            out.append(zj)
+            out.append(p)
+            out.append(v)
+            out.append(a)
             p = p + x * (v + x * (0.5 * a))
             v = v + x * a
         else:
             jj = sj if c == 0 or c == 6 else -sj
-            out.extend((t, x, jj, p, v, a))
+            out.append(t)
+            out.append(x)
+            out.append(jj)
+            out.append(p)
+            out.append(v)
+            out.append(a)
             xj = x * jj
             p = p + x * (v + x * (0.5 * a + xj / 6.0))
             v = v + x * (a + 0.5 * xj)
@@ -252,7 +273,12 @@ def phase_segments(
                 v = ph[3]
         if x > 0.0:
             m += 1
-            out.extend((t, x, jj, p, v, a))
+            out.append(t)
+            out.append(x)
+            out.append(jj)
+            out.append(p)
+            out.append(v)
+            out.append(a)
             p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
             v2 = v + x * (a + 0.5 * x * jj)
             a = a + x * jj
@@ -324,7 +350,7 @@ def plan_rows(
             and a0 == 0.0
             and vf == 0.0
             and af == 0.0
-            and not abs(d) <= max(1e-15, eps * max(abs(p0), abs(pf)))
+            and not abs(d) <= _max(1e-15, eps * _max(abs(p0), abs(pf)))
         ):
             if jm == _INF:
                 group = 1
@@ -402,3 +428,47 @@ def _relayout(
         e = 4 * k
         out.extend((ends[e + 3], 0.0, 0.0, ends[e], ends[e + 1], ends[e + 2]) * (wide - m))
     return out
+
+
+def rows_valid(
+    P0: list[float],
+    V0: list[float],
+    A0: list[float],
+    PF: list[float],
+    VF: list[float],
+    AF: list[float],
+    VMAX: list[float],
+    VMIN: list[float],
+    AMAX: list[float],
+    AMIN: list[float],
+    J: list[float],
+) -> bool:
+    """True when every row passes the usual checks (states in [-STATE_MAX, STATE_MAX],
+    targets at rest, v_max and j_max in [LIMIT_MIN, LIMIT_MAX] or inf, v_min likewise
+    negated, a_max and -a_min in range and finite); False (NaN included): let the vectorised
+    checks of plan_batch decide and name the error."""
+    sm = float(STATE_MAX)
+    lo = float(LIMIT_MIN)
+    hi = float(LIMIT_MAX)
+    for k in range(len(P0)):
+        if not (
+            -sm <= P0[k] <= sm
+            and -sm <= V0[k] <= sm
+            and -sm <= A0[k] <= sm
+            and -sm <= PF[k] <= sm
+            and VF[k] == 0.0
+            and AF[k] == 0.0
+            and lo <= AMAX[k] <= hi
+            and -hi <= AMIN[k] <= -lo
+        ):
+            return False
+        x = VMAX[k]
+        if not (lo <= x <= hi or x == _INF):
+            return False
+        x = J[k]
+        if not (lo <= x <= hi or x == _INF):
+            return False
+        x = VMIN[k]
+        if not (-hi <= x <= -lo or x == -_INF):
+            return False
+    return True

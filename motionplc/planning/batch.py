@@ -22,12 +22,17 @@ Dispatch per element:
   holds them to 1e-12) with the same segments and family name.
 * every other element (a non-zero velocity or acceleration, zero distance, and the rare
   rest-to-rest row no closed form accepts) goes through the planning core per
-  element (``plan.position_phases``: compiled when the package is built with mypyc), so it is
-  :func:`plan`'s result bit for bit.
+  element (``plan.position_phases``, called by ``_batchrow.plan_rows``: both compiled when the
+  package is built with mypyc, no Profile per row), so it is :func:`plan`'s result bit for bit.
 
-Batches of at most ``_SMALL`` (64) problems skip numpy's fixed cost per operation: every row
-is planned on plain floats by the same dispatch and the same arithmetic, operation for
-operation (so the same bits as the numpy path; tests/planning/test_batch.py checks it).
+Batches of at most ``_SMALL`` problems (192 with the compiled core, 64 as plain Python) skip
+numpy's fixed cost per operation: every row is planned on plain floats by the same dispatch
+and the same arithmetic, operation for operation (``_batchrow``; so the same bits as the numpy
+path; tests/planning/test_batch.py checks it).
+
+The rest-to-rest chunks share one workspace (fresh memory costs a page fault per 4 kB page:
+in a VM that was as much as the arithmetic); :attr:`BatchPlan.kind` (a tuple of N names) is
+built from kind codes on first use, the sampler's search array on its first call.
 
 Input validation is vectorised and raises the same :class:`PlanningError` as :func:`plan` and
 :class:`Limits` for the same inputs, naming the field, the index of the first bad element and
@@ -44,6 +49,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from motionplc.errors import PlanningError
+from motionplc.planning import _batchrow
 from motionplc.planning._batchrow import (
     ACC,
     ACC0,
@@ -54,6 +60,7 @@ from motionplc.planning._batchrow import (
     SECOND,
     VEL,
     plan_rows,
+    rows_valid,
 )
 from motionplc.planning.limits import _NEG_RANGE, _RANGE, LIMIT_MAX, LIMIT_MIN, STATE_MAX
 from motionplc.planning.plan import MAX_DURATION
@@ -799,53 +806,10 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 # -- small batches: the same arithmetic on plain floats --------------------------------------
-_SMALL = 64  # at most this many problems: row by row on floats (no numpy fixed cost)
-
-
-def _small_valid(
-    P0: list[float],
-    V0: list[float],
-    A0: list[float],
-    PF: list[float],
-    VF: list[float],
-    AF: list[float],
-    VMAX: list[float],
-    VMIN: list[float],
-    AMAX: list[float],
-    AMIN: list[float],
-    J: list[float],
-) -> bool:
-    """True when the usual case passes every check (states in range, finite acceleration
-    limits, the others in range or infinite, targets at rest); False: let the vectorised
-    checks decide (and name the error)."""
-    sm = STATE_MAX
-    if not P0:
-        return True  # no problems: nothing to check (as the vectorised checks)
-    # min / max / sum run at C speed; a NaN makes the sum NaN (min and max may skip it)
-    for col in (P0, V0, A0, PF):
-        t = sum(col)
-        if not (t == t and -sm <= min(col) and max(col) <= sm):
-            return False
-    for col in (VF, AF):
-        if any(col):  # a target not at rest: the vectorised checks
-            return False
-    lo, hi = LIMIT_MIN, LIMIT_MAX
-    for col in (VMAX, J):  # in range or inf
-        t = sum(col)
-        if not (t == t and lo <= min(col)):
-            return False
-        if max(col) > hi and not all(x <= hi or x == _INF for x in col):
-            return False
-    for col in (AMAX, [-x for x in AMIN]):  # finite, in range
-        t = sum(col)
-        if not (t == t and lo <= min(col) and max(col) <= hi):
-            return False
-    t = sum(VMIN)
-    if not (t == t and max(VMIN) <= -lo):
-        return False
-    if min(VMIN) < -hi and not all(x >= -hi or x == -_INF for x in VMIN):
-        return False
-    return True
+# at most this many problems: row by row on floats (no numpy fixed cost per operation); the
+# compiled rows (_batchrow) beat the numpy path up to ~200 problems, as plain Python up to ~64
+_COMPILED_ROWS = not str(getattr(_batchrow, "__file__", "")).endswith(".py")
+_SMALL = 192 if _COMPILED_ROWS else 64
 
 
 def _plan_small(
@@ -941,7 +905,7 @@ def plan_batch(
         (p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min)
     )  # fmt: skip
     if small is not None:
-        if not _small_valid(*small):  # let the vectorised checks name the error
+        if not rows_valid(*small):  # let the vectorised checks name the error
             arrs = [np.atleast_1d(np.asarray(x, dtype=float)) for x in small]
             arrs = arrs[:7] + [arrs[8], arrs[10], arrs[7], arrs[9]]
             _validate_arrays(arrs, True, True)
@@ -979,7 +943,7 @@ def plan_batch(
         lv = ls.pop(9) if v_min is not None else [-x for x in ls[6]]
         la = ls.pop(9) if a_min is not None else [-x for x in ls[7]]
         lists = (*ls[:7], lv, ls[7], la, ls[8])
-        if not _small_valid(*lists):
+        if not rows_valid(*lists):
             _validate_arrays(arrs, v_min is not None, a_min is not None)
         return _plan_small(*lists)
     VMIN, AMIN = _validate_arrays(arrs, v_min is not None, a_min is not None)
