@@ -959,11 +959,14 @@ def plan_batch(
     # -- rest to rest in numpy ----------------------------------------------------------------
     fi = np.flatnonzero(at_rest & ~here & np.isfinite(J))
     every = fi.size == n  # every row at rest: chunks are slices, no gather or scatter
-    fo = _block(6 * n * MIN_WIDTH).reshape(6, n, MIN_WIDTH)  # t, durations, j, p, v, a
-    total = np.zeros(n)
-    end = np.zeros((3, n))
-    nseg = np.zeros(n, dtype=np.intp)
-    code = np.zeros(n, dtype=np.intp)
+    # one block for every result (every row is written below): the segments' t, durations,
+    # j, p, v, a; the duration and end state; the segment count and kind code (int64 views)
+    block = _block(6 * n * MIN_WIDTH + 6 * n)
+    fo = block[: 6 * n * MIN_WIDTH].reshape(6, n, MIN_WIDTH)
+    total = block[6 * n * MIN_WIDTH :][:n]
+    end = block[6 * n * MIN_WIDTH + n :][: 3 * n].reshape(3, n)
+    nseg = block[6 * n * MIN_WIDTH + 4 * n :][:n].view(np.int64)
+    code = block[6 * n * MIN_WIDTH + 5 * n :].view(np.int64)
     slow = np.ones(n, dtype=bool)
     if fi.size:  # one workspace for every chunk (fresh pages cost a page fault each)
         ws = _block(48 * min(_CHUNK, fi.size)).reshape(6, 8, -1)
