@@ -473,6 +473,7 @@ def _compaction_orders() -> tuple[np.ndarray, np.ndarray]:
 
 
 _ORDER, _COUNT = _compaction_orders()
+_JERK_SIGNS = np.array([1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0])[:, None]  # phases' jerk / (s J)
 
 
 def _rest_to_rest(
@@ -504,11 +505,16 @@ def _rest_to_rest(
         tr = (np.abs(d) / (2.0 * J)) ** (1.0 / 3.0)
         nr = (J * tr <= np.minimum(amax, -amin)) & (J * tr * tr <= np.minimum(vmax, -vmin))
         down = d < 0.0
-        zero = np.zeros(n)
-        cols = [tr, zero, 2.0 * tr, zero, zero, zero, tr]
-        P = zero
-        Q = zero
-        VC = zero
+        # Phase-major (8, n) rows of the workspace: row c holds the state at the start of
+        # phase c (its duration and jerk), row 7 the end state (the padding of the rows).
+        kt, dur, jerk, kp, kv, ka = (ws[q, :, :n] for q in range(6))
+        dur[0] = tr  # none-rest's phases; the other families' rows are written over below
+        dur[1] = 0.0
+        np.multiply(2.0, tr, out=dur[2])
+        dur[3:6] = 0.0
+        dur[6] = tr
+        dur[7] = 0.0
+        P = Q = VC = dur[1]  # read only where a plateau has a duration (not none-rest)
         code = np.zeros(n, dtype=np.intp)
         solved = nr
         o = np.flatnonzero(~nr)
@@ -517,31 +523,23 @@ def _rest_to_rest(
                 d[o], vmax[o], vmin[o], amax[o], amin[o], J[o], tr[o]
             )
             oi = o[ok]
-            cols = [c.copy() for c in cols]
-            for c, x in zip(cols, fc, strict=True):
-                c[oi] = x[ok]
-            P, Q, VC = np.zeros(n), np.zeros(n), np.zeros(n)
+            for c, x in enumerate(fc):
+                dur[c, oi] = x[ok]
+            P, Q, VC = np.empty(n), np.empty(n), np.empty(n)
             P[oi], Q[oi], VC[oi] = fP[ok], fQ[ok], fV[ok]
             code[oi] = fcode[ok] + down[oi]
             solved = nr.copy()
             solved[oi] = True
         # Profile's integration in the original coordinates. A phase of no duration changes
         # nothing (x = 0 adds exact zeros) and sets no exact value: _verify drops it.
-        # Phase-major (8, n) rows of the workspace: row c holds the state at the start of
-        # phase c (its duration and jerk), row 7 the end state (the padding of the rows).
-        kt, dur, jerk, kp, kv, ka = (ws[q, :, :n] for q in range(6))
         s = np.where(down, -1.0, 1.0)
-        sj = np.multiply(s, J, out=jerk[0])
-        zj = np.multiply(s, 0.0, out=jerk[1])  # a plateau's jerk: -0.0 mirrored (_third.mirror)
-        nsj = np.negative(sj, out=jerk[2])
-        jerk[3] = zj
-        jerk[4] = nsj
-        jerk[5] = zj
-        jerk[6] = sj
+        sj = s * J
+        # the jerks +-J and a plateau's s * 0.0 (-0.0 mirrored, as _third.mirror gives) in one
+        # product: (s J) 0.0 has the sign of s (J > 0); row 7, the padding, +0.0
+        np.multiply(sj, _JERK_SIGNS, out=jerk[:7])
         jerk[7] = 0.0
-        for c in range(7):
-            dur[c] = cols[c]
-        dur[7] = 0.0
+        zj = jerk[1]
+        nsj = jerk[2]
         kt[0] = 0.0
         kp[0] = p0
         kv[0] = 0.0
