@@ -312,9 +312,10 @@ def plan_rows(
 ) -> tuple[list[float], list[float], list[int], list[str]]:
     """Validated problems, row by row: (segments, ends, segment counts, kinds).
 
-    ``segments`` holds ``width`` segments of six floats (start time, duration, jerk, p, v, a)
-    per row, padded after a row's own with (duration, 0, 0, end state); ``ends`` four floats
-    (p, v, a, duration) per row. ``width`` is widened if a row has more segments. Rest to rest
+    ``segments`` holds each row's segments, six floats each (start time, duration, jerk, p,
+    v, a); with ``width`` > 0 every row padded to ``width`` segments (widened if a row has
+    more) with (duration, 0, 0, end state), with ``width`` = 0 unpadded. ``ends``: four
+    floats (p, v, a, duration) per row. Rest to rest
     with a finite jerk limit: :func:`rest_row` (the numpy path's arithmetic); every other row
     by the core, as the numpy path dispatches them. ``index[k]``: the problem number of row
     ``k`` in error messages (None: k). Raises the first failure of the numpy path's order:
@@ -410,7 +411,7 @@ def plan_rows(
     for e in errors:
         if e is not None:
             raise e
-    if wide > width:  # a row longer than width: lay every row out again at the new width
+    if width and wide > width:  # a row longer than width: every row laid out again
         vals = _relayout(vals, starts, nseg, ends, width, wide)
     return vals, ends, nseg, kinds
 

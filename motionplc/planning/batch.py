@@ -825,18 +825,42 @@ def _plan_small(
 ) -> BatchPlan:
     """plan_batch for validated inputs as lists, row by row on floats
     (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
-    n = len(P0)
-    vals, ends, nseg, kinds = plan_rows(
-        None, P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J, MIN_WIDTH
-    )
-    width = len(vals) // (6 * n) if n else MIN_WIDTH
-    # array('d') converts the floats at C speed; the fields are strided views (no copy)
-    out = np.frombuffer(array("d", vals), dtype=float).reshape(n, width, 6)
-    e = np.frombuffer(array("d", ends), dtype=float).reshape(n, 4)
+    out, e, cnt, kinds = _rows(None, P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)
     return BatchPlan(
         out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
-        np.array(nseg, dtype=np.intp), e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
+        cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
     )  # fmt: skip
+
+
+_PAD_ROWS = 24  # from this many rows on, numpy pads the rows (fewer floats to convert)
+
+
+def _rows(
+    index: list[int] | None, *cols: list[float]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """:func:`_batchrow.plan_rows` as arrays: (m, width, 6) segments (start time, duration,
+    jerk, p, v, a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH),
+    (m, 4) end state and duration, (m,) segment counts, kinds. The fields of the segments
+    are strided views of one array('d') (converted at C speed, no copy)."""
+    m = len(cols[0])
+    if m < _PAD_ROWS:  # padded as the rows are planned
+        vals, ends, nseg, kinds = plan_rows(index, *cols, MIN_WIDTH)
+        width = len(vals) // (6 * m) if m else MIN_WIDTH
+        out = np.frombuffer(array("d", vals), dtype=float).reshape(m, width, 6)
+        e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
+        return out, e, np.array(nseg, dtype=np.intp), kinds
+    vals, ends, nseg, kinds = plan_rows(index, *cols, 0)
+    e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
+    cnt = np.array(nseg, dtype=np.intp)
+    width = max(MIN_WIDTH, int(cnt.max()))
+    out = np.empty((m, width, 6))
+    out[:, :, 0] = e[:, 3:4]  # padding: start time = duration, no duration or jerk, end
+    out[:, :, 1:3] = 0.0
+    out[:, :, 3:6] = e[:, None, :3]
+    out[np.arange(width) < cnt[:, None]] = np.frombuffer(array("d", vals), dtype=float).reshape(
+        -1, 6
+    )
+    return out, e, cnt, kinds
 
 
 def _small_lists(values: tuple[object, ...]) -> tuple[list[float], ...] | None:
@@ -1008,10 +1032,8 @@ def plan_batch(
     width = MIN_WIDTH
     if si.size:
         args = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        vals, ends, cnt, slow_kinds = plan_rows(si.tolist(), *args, MIN_WIDTH)
-        width = len(vals) // (6 * si.size)
-        seg = np.frombuffer(array("d", vals), dtype=float).reshape(si.size, width, 6)
-        e = np.frombuffer(array("d", ends), dtype=float).reshape(si.size, 4)
+        seg, e, cnt, slow_kinds = _rows(si.tolist(), *args)
+        width = seg.shape[1]
         names = KIND_NAMES + tuple(slow_kinds)
         code[si] = np.arange(len(KIND_NAMES), len(names))
     # -- assemble -----------------------------------------------------------------------------

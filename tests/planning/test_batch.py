@@ -25,6 +25,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motionplc.planning import BatchPlan, Limits, PlanningError, Profile, State, plan, plan_batch
+from motionplc.planning.batch import _PAD_ROWS as PAD_ROWS
 from motionplc.planning.batch import _SMALL as SMALL
 from tests.planning._cases import Case, generate_cases
 from tests.planning._strategies import hsettings
@@ -138,13 +139,13 @@ def _assert_rows_identical(b: BatchPlan, i: int, ref: BatchPlan, k: int) -> None
     assert b.kind[i] == ref.kind[k]
 
 
-def _assert_small_path_is_numpy_path(cases: list[Case]) -> None:
-    """plan_batch on chunks of at most SMALL rows (plain floats) gives the rows of one call
-    on all of them (numpy) bit for bit: the same arithmetic, the same dispatch."""
-    assert len(cases) > SMALL
+def _assert_small_path_is_numpy_path(cases: list[Case], size: int = SMALL) -> None:
+    """plan_batch on chunks of ``size`` <= SMALL rows (plain floats) gives the rows of one
+    call on all of them (numpy) bit for bit: the same arithmetic, the same dispatch."""
+    assert len(cases) > SMALL >= size
     wide = plan_batch(*_columns(cases))
-    for start in range(0, len(cases), SMALL):
-        part = plan_batch(*_columns(cases[start : start + SMALL]))
+    for start in range(0, len(cases), size):
+        part = plan_batch(*_columns(cases[start : start + size]))
         for k in range(len(part)):
             _assert_rows_identical(part, k, wide, start + k)
 
@@ -254,6 +255,18 @@ def test_small_batches_equal_the_numpy_path_bit_for_bit(kind: str) -> None:
                 for k, c in enumerate(cases)
             ]
     _assert_small_path_is_numpy_path(cases)
+
+
+def test_rows_padded_as_planned_or_by_numpy_alike() -> None:
+    """Short row-by-row batches are padded while planned, longer ones by numpy afterwards
+    (batch._PAD_ROWS): both give the numpy path's rows, wider core rows (a brake first)
+    included."""
+    rng = np.random.default_rng(1517)
+    cases = generate_cases(300, 1518) + _rest(rng, 100, True)
+    cases = [cases[k] for k in rng.permutation(len(cases))]
+    assert PAD_ROWS > 7 and plan_batch(*_columns(cases)).t.shape[1] > 7
+    _assert_small_path_is_numpy_path(cases, 7)
+    _assert_small_path_is_numpy_path(cases, PAD_ROWS)
 
 
 @pytest.mark.parametrize("n", [5, 200])
