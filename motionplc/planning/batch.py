@@ -1030,6 +1030,13 @@ def plan_batch(
     si = np.flatnonzero(slow)
     names: Sequence[str] = KIND_NAMES
     width = MIN_WIDTH
+    if si.size == n:  # every row: the rows' arrays are the result (strided views, no copy)
+        args = [x.tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
+        seg, e, cnt, slow_kinds = _rows(None, *args)
+        return BatchPlan(
+            seg[:, :, 0], seg[:, :, 1], seg[:, :, 2], seg[:, :, 3], seg[:, :, 4], seg[:, :, 5],
+            cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), slow_kinds,
+        )  # fmt: skip
     if si.size:
         args = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
         seg, e, cnt, slow_kinds = _rows(si.tolist(), *args)
