@@ -9,7 +9,7 @@ For each N (default 10, 100, 1e3, 1e4, 1e5) and each kind of problem, in one run
 
 Kinds: ``rest`` rest to rest (v0 = a0 = vf = af = 0) with Ruckig's position and limit
 distributions, symmetric limits; ``rest-asym`` the same with asymmetric limits (v_min, a_min
-drawn independently: single-plateau rows go through the core); ``general`` Ruckig's
+drawn independently: one-plateau and no-plateau rows by closed forms); ``general`` Ruckig's
 ``position-random`` distributions (tests/planning/_cases.py). Every timing is repeated
 ``--repeat`` times and the median is printed, with the ratios of the medians (the machine is
 noisy: compare ratios of one run). ``--check`` also asserts that every batch duration equals
@@ -18,9 +18,11 @@ or asymmetric limits, which plan solves by quartic roots and plan_batch in close
 
     python tools/bench_batch.py --repeat 5
 
-``--touch`` adds the first use of ``BatchPlan.kind`` (its tuple of N names is built lazily; every
-array is built by the call). Batches of at most ``batch._SMALL`` problems (192 with the
-compiled core, 64 as plain Python) take plan_batch's row-by-row path, larger ones numpy. Each
+``--cpu`` times by the process' CPU time instead of the wall clock (the figures then leave out
+the time other jobs took the CPU). ``--touch`` adds the first use of ``BatchPlan.kind`` (its
+tuple of N names is built lazily; every array is built by the call). Batches of at most
+``batch._SMALL`` problems (192 with the compiled core, 64 as plain Python) take plan_batch's
+row-by-row path, larger ones numpy. Each
 timing is one call, so it includes the cold caches left by the loops before it: a size timed
 after others can differ by ~20 % from the same size timed alone (compare before/after runs
 with the same ``--sizes``).
@@ -69,6 +71,12 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     )
     ap.add_argument("--check", action="store_true", help="assert batch durations == plan's")
     ap.add_argument(
+        "--cpu",
+        action="store_true",
+        help="time by the process' CPU time (user + system) instead of the wall clock: "
+        "steadier on a machine shared with other jobs",
+    )
+    ap.add_argument(
         "--touch",
         action="store_true",
         help="the batch timing also builds the kind tuple (built on first use of .kind)",
@@ -108,13 +116,13 @@ def columns(cases: list[Case]) -> list[np.ndarray]:
     return cols
 
 
-def timed(fn: Callable[[], object]) -> float:
+def timed(fn: Callable[[], object], clock: Callable[[], int] = time.perf_counter_ns) -> float:
     gc.collect()
     gc.disable()
     try:
-        t0 = time.perf_counter_ns()
+        t0 = clock()
         fn()
-        return float(time.perf_counter_ns() - t0)
+        return float(clock() - t0)
     finally:
         gc.enable()
 
@@ -128,15 +136,16 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, flo
     m = min(n, args.loop_max)
     problems = [(c.start(), c.target(), c.limits()) for c in cases[:m]]
     res: dict[str, list[float]] = {"batch": [], "ruckig": [], "plan": []}
+    clock = time.process_time_ns if args.cpu else time.perf_counter_ns
     inputs = [c.ruckig_input(rk) for c in cases] if rk is not None else []
     if rk is not None:
         otg = rk.Ruckig(1)
         traj = rk.Trajectory(1)
     for _ in range(args.repeat):
         if args.touch:
-            res["batch"].append(timed(lambda: plan_batch(*cols).kind) / n)
+            res["batch"].append(timed(lambda: plan_batch(*cols).kind, clock) / n)
         else:
-            res["batch"].append(timed(lambda: plan_batch(*cols)) / n)
+            res["batch"].append(timed(lambda: plan_batch(*cols), clock) / n)
         if rk is not None:
 
             def loop_rk() -> None:
@@ -144,13 +153,13 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, flo
                 for inp in inputs:
                     calc(inp, traj)
 
-            res["ruckig"].append(timed(loop_rk) / n)
+            res["ruckig"].append(timed(loop_rk, clock) / n)
 
         def loop_plan() -> None:
             for s, t, lim in problems:
                 plan(s, t, lim)
 
-        res["plan"].append(timed(loop_plan) / m)
+        res["plan"].append(timed(loop_plan, clock) / m)
     if args.check:  # bit for bit, but closed-form rest-to-rest rows: within 1e-12
         b = plan_batch(*cols)
         for i, (s, t, lim) in enumerate(problems):
@@ -168,7 +177,8 @@ def main(argv: list[str] | None = None) -> int:
     status = getattr(motionplc, "compiled_core", None)
     print(f"planning core: {status().reason if status is not None else 'pure Python'}")
     print(
-        f"plan_batch per plan [us], medians of {args.repeat}; ruckig: Ruckig(1).calculate loop, "
+        f"plan_batch per plan [us, {'CPU' if args.cpu else 'wall'} time], medians of "
+        f"{args.repeat}; ruckig: Ruckig(1).calculate loop, "
         f"plan: Python loop of plan (at most {args.loop_max} cases)"
     )
     if rk is None:
