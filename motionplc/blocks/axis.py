@@ -53,6 +53,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from motionplc._fastinit import slot_setters
+from motionplc.blocks._axis_core import AxisCore
 from motionplc.blocks.axis_config import (
     AXIS_LIMIT_MAX,
     AXIS_LIMIT_MIN,
@@ -111,7 +112,6 @@ def _plan_velocity(start: State, v_target: float, limits: Limits) -> Profile:
 
 
 _KEY = struct.Struct("<11d")
-_PACK_ROW = struct.Struct("=8d").pack_into  # one axis' trace row part (AXIS_FIELDS)
 _MEMO_SIZE = 64
 
 # the names importable from here before the kernel was split into modules (re-exported)
@@ -183,8 +183,11 @@ def _fault_text(code: int, detail: str) -> str:
     return f"{head}: {detail}" if detail else head
 
 
-class Axis:
-    """AXIS_REF: one axis with its drive, state machine, command queue and set values."""
+class Axis(AxisCore):
+    """AXIS_REF: one axis with its drive, state machine, command queue and set values.
+
+    The per-cycle common case (``read_inputs``, ``step_write``, ``trace_cycle``) and the hot
+    attributes are those of :class:`~motionplc.blocks._axis_core.AxisCore` (compiled)."""
 
     def __init__(self, config: AxisConfig, drive: Drive) -> None:
         self.cfg = config
@@ -365,38 +368,6 @@ class Axis:
         # the state as a plain float: numpy converts an IntEnum member much more slowly
         return (p, self.v, self.a, self.j, ap, self.act_v, self.following_error, float(self.state))
 
-    def trace_cycle(self, buf: Any, offset: int, trace: Trace | None, cycle: int) -> None:
-        """The runtime's per-cycle trace call: :meth:`trace_values` packed as eight float64 into
-        ``buf`` at byte ``offset`` (the trace's staging row; no tuple built on a linear axis),
-        then (``trace`` not None) :meth:`emit_fb_edges` (one call per axis and cycle)."""
-        if self._modulo is None:
-            _PACK_ROW(
-                buf,
-                offset,
-                self.p,
-                self.v,
-                self.a,
-                self.j,
-                self.act_p,
-                self.act_v,
-                self.following_error,
-                self.state,
-            )
-        else:
-            _PACK_ROW(buf, offset, *self.trace_values())
-        if trace is None:
-            return
-        if self._warning_edges:
-            self.emit_fb_edges(trace, cycle)
-            return
-        for fb in self.fbs:  # emit_fb_edges, inline
-            if fb._dirty:
-                bits = fb._get_outputs(fb)
-                if bits != fb._traced_bits:
-                    fb._emit_edges(trace, cycle, bits)
-                else:
-                    fb._dirty = False
-
     def open(self) -> None:
         """Open the drive and take its position as the initial set position."""
         self.drive.open()
@@ -462,58 +433,9 @@ class Axis:
             self._probe_released()
 
     # -- input phase -----------------------------------------------------------------------
-    def read_inputs(self, t: float) -> None:
-        """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
-        d = self._ideal
-        if d is not None and d._feedback is None:
-            # a healthy in-process ideal drive: DriveFeedback(_position, _velocity, _enabled)
-            # (communication good, no fault, fresh, no warning, no reset pending), unbuilt;
-            # the same steps in the same order as for the object below
-            velocity = d._velocity
-            enabled = d._enabled
-            act_p = d._position + self.offset
-            dt_act = t - self._act_t
-            if dt_act > 0.0:  # actual acceleration: backward difference
-                self.act_v_prev = self.act_v
-                self.act_a = (velocity - self.act_v) / dt_act
-                self._act_t = t
-            self.act_p = act_p
-            self.act_v = velocity
-            self.drive_enabled = enabled
-            self.drive_fault = False
-            self.comm_ok = True
-            if self.drive_warning != "":
-                self._drive_warning_changed(t, "")
-            self.following_error = self._sent_p - act_p if enabled else 0.0
-            state = self.state
-            if (
-                not enabled
-                and state is not S.ERROR_STOP
-                and state is not S.DISABLED
-                and self.power_request
-                and self._was_enabled
-            ):
-                self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
-            self._was_enabled = enabled
-            if self._reset_handle is not None and self._reset_sent:
-                self._try_finish_reset(False, True)
-            state = self.state
-            if state is S.DISABLED:
-                if self.power_request and enabled:
-                    state = self.state = next_state(Event.POWER_ON_READY, S.DISABLED)  # T5
-                self._resync()
-            self.img_state = state
-            self.img_p = self.p
-            self.img_v = self.v
-            self.img_a = self.a
-            self.img_act_p = act_p
-            self.img_act_v = velocity
-            self.img_act_a = self.act_a
-            self.img_act_v_prev = self.act_v_prev
-            self.img_error = self.axis_error
-            self.img_enabled = enabled
-            self.img_homed = self.homed
-            return
+    def _read_inputs_general(self, t: float) -> None:
+        """READ INPUTS through a drive's feedback object (``AxisCore.read_inputs`` runs the
+        healthy in-process ideal drive's case itself, with the same steps in the same order)."""
         fb = self.drive.read_inputs(t)
         act_p = fb.position + self.offset
         act_v = fb.velocity
@@ -563,10 +485,6 @@ class Axis:
         self.img_error = self.axis_error
         self.img_enabled = enabled
         self.img_homed = self.homed
-
-    def _resync(self) -> None:
-        self.p = self.act_p
-        self.v = self.a = self.j = 0.0
 
     def _refresh_image(self) -> None:
         self.img_state = self.state
@@ -1664,71 +1582,6 @@ class Axis:
         self.drive.write_outputs(
             t, _drive_command(self.p - self.offset, self.v, self.a, self.power_request, reset)
         )
-
-    def step_write(self, dt: float, t: float) -> None:
-        """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
-        task without axes groups).
-
-        The common cycle (a one-profile move running unscaled and staying inside its profile,
-        nothing submitted, no feed or software-limit checks due, not a velocity or homing job,
-        the axis not Disabled) samples its profile here with the very arithmetic of
-        :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
-        in-process ideal drive the setpoints then go straight into it, with the arithmetic
-        of ``IdealDrive.write_outputs`` (no command object); otherwise through
-        :meth:`write_outputs`."""
-        mq = self.mq
-        job = mq.active
-        ts = self.ts
-        if (
-            job is None
-            or job.single is None
-            or mq.inbox
-            or mq.pending
-            or self._junction_due is not None
-            or self.sup is not None
-            or not self._feed_all
-            or self._sw_check
-            or ts.prof is not None
-            or job.kind == "velocity"
-            or job.kind == "home"
-            or not (job.no_override or ts.f == 1.0)
-            or not job.tau + dt < job.duration
-            or self.state is S.DISABLED
-        ):
-            self.step(dt)
-        else:
-            # step() of a one-profile job that stays inside its profile in this step,
-            # unscaled (no override ramp; factor 1 or a job the override does not scale)
-            try:
-                tau = job.tau = job.tau + dt
-                p, self.v, self.a, self.j = job.single.at(tau)
-                self.p = p + job.shift
-                if self.state is not S.ERROR_STOP:
-                    lim = self._fe_limit
-                    if lim is not None and abs(self.following_error) > lim:
-                        self.raise_axis_error(
-                            "FOLLOWING_ERROR",
-                            f"following error {self.following_error:.6g} exceeds {lim:.6g}",
-                        )
-            except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
-                self._kernel_failed(exc)
-        d = self._ideal
-        if d is None or not d._comm_ok or d._fault:
-            self.write_outputs(t)
-            return
-        if self._reset_pulse:
-            self._reset_pulse = False
-            self._reset_sent = True
-        p = self._sent_p = self.p
-        d.commands_written += 1
-        enable = self.power_request
-        d._enabled = enable and not d._fault
-        if enable:
-            d._position = p - self.offset
-            d._velocity = self.v
-        else:
-            d._velocity = 0.0
-        d._feedback = None
 
     # -- diagnostics -----------------------------------------------------------------------
     def _drive_warning_changed(self, t: float, text: str) -> None:

@@ -1,0 +1,292 @@
+"""The axis kernel's per-cycle common case, as a base class of :class:`~motionplc.blocks.axis.Axis`
+that the build compiles with mypyc (``motionplc/_purepy.py``; the same source runs as plain
+Python otherwise, ``MOTIONPLC_PURE_PYTHON=1`` forces that).
+
+:class:`AxisCore` declares the kernel's hot attributes with exact types (the set and actual
+values, the read FBs' image as ``float``; everything else ``Any``), so that the compiled methods
+read and write them as C fields, and holds the three per-cycle calls of the runtime's fused
+path: :meth:`~AxisCore.read_inputs`, :meth:`~AxisCore.step_write` and
+:meth:`~AxisCore.trace_cycle`. Each runs the common case (a healthy in-process ideal drive, a
+one-profile move inside its profile, a linear axis) with the very arithmetic of the general
+path and hands anything else to the general path in ``axis.py`` (the methods declared here as
+stubs: ``Axis`` defines them), so the traces are bit-identical whichever way the module runs.
+
+A ``float`` attribute stores ``float(x)`` of what is assigned (an ``int`` or a numpy scalar
+is converted; the value is the same), and only an instance of the interpreted subclass
+``Axis`` has further (dynamic) attributes.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from typing import Any, Final
+
+from motionplc.blocks.axis_state import Event, next_state
+from motionplc.blocks.enums import AxisState
+from motionplc.planning.profile import Profile
+
+
+def _no_mypyc_attr(*args: object, **kwargs: object) -> Callable[[Any], Any]:
+    return lambda cls: cls
+
+
+try:  # a build-time dependency only (mypyc reads the decorator; at run time it does nothing)
+    from mypy_extensions import mypyc_attr
+except ImportError:  # pragma: no cover - depends on the environment
+    mypyc_attr = _no_mypyc_attr  # type: ignore[assignment]
+
+_DISABLED: Final = AxisState.DISABLED
+_ERROR_STOP: Final = AxisState.ERROR_STOP
+_POWER_ON_READY_STATE: Final = next_state(Event.POWER_ON_READY, AxisState.DISABLED)  # T5
+_PACK_ROW: Final = struct.Struct("=8d").pack_into  # one axis' trace row part (AXIS_FIELDS)
+
+
+@mypyc_attr(allow_interpreted_subclasses=True)
+class AxisCore:
+    """The hot attributes and per-cycle fast paths of an axis (subclassed by ``Axis``)."""
+
+    # set values (axis coordinates; unwrapped on modulo axes) and the drive offset
+    p: float
+    v: float
+    a: float
+    j: float
+    offset: float
+    # feedback
+    act_p: float
+    act_v: float
+    act_a: float
+    _act_t: float
+    act_v_prev: float
+    following_error: float
+    _sent_p: float
+    # image for the read FBs
+    img_p: float
+    img_v: float
+    img_a: float
+    img_act_p: float
+    img_act_v: float
+    img_act_a: float
+    img_act_v_prev: float
+    # the rest the fast paths touch (typed loosely: written by the general path too)
+    state: Any
+    img_state: Any
+    axis_error: Any
+    img_error: Any
+    drive_enabled: Any
+    drive_fault: Any
+    comm_ok: Any
+    drive_warning: Any
+    power_request: Any
+    _was_enabled: Any
+    _reset_handle: Any
+    _reset_sent: Any
+    _reset_pulse: Any
+    img_enabled: Any
+    img_homed: Any
+    homed: Any
+    _feed_all: Any
+    _sw_check: Any
+    _fe_limit: Any
+    _modulo: Any
+    _ideal: Any
+    mq: Any
+    ts: Any
+    sup: Any
+    _junction_due: Any
+    fbs: Any
+    _warning_edges: Any
+
+    # -- the general path (defined by Axis) ----------------------------------------------------
+    def _read_inputs_general(self, t: float) -> None:
+        raise NotImplementedError
+
+    def step(self, dt: float) -> None:
+        """MOTION KERNEL (Axis)."""
+        raise NotImplementedError
+
+    def write_outputs(self, t: float) -> None:
+        """WRITE OUTPUTS (Axis)."""
+        raise NotImplementedError
+
+    def raise_axis_error(self, kind: str, reason: str) -> None:
+        """T1 (Axis)."""
+        raise NotImplementedError
+
+    def _kernel_failed(self, exc: Exception) -> None:
+        raise NotImplementedError
+
+    def _try_finish_reset(self, fault: bool, comm_ok: bool) -> None:
+        raise NotImplementedError
+
+    def _drive_warning_changed(self, t: float, text: str) -> None:
+        raise NotImplementedError
+
+    def emit_fb_edges(self, trace: Any, cycle: int) -> None:
+        """FB output edges to the trace (Axis)."""
+        raise NotImplementedError
+
+    def trace_values(self) -> tuple[float, ...]:
+        """One trace row part (Axis)."""
+        raise NotImplementedError
+
+    # -- per cycle -------------------------------------------------------------------------
+    def _resync(self) -> None:
+        self.p = self.act_p
+        self.v = self.a = self.j = 0.0
+
+    def read_inputs(self, t: float) -> None:
+        """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
+        d = self._ideal
+        if d is None or d._feedback is not None:
+            self._read_inputs_general(t)
+            return
+        # a healthy in-process ideal drive: DriveFeedback(_position, _velocity, _enabled)
+        # (communication good, no fault, fresh, no warning, no reset pending), unbuilt;
+        # the same steps in the same order as for the object (Axis._read_inputs_general)
+        velocity: float = d._velocity
+        enabled = d._enabled
+        act_p = d._position + self.offset
+        dt_act = t - self._act_t
+        if dt_act > 0.0:  # actual acceleration: backward difference
+            self.act_v_prev = self.act_v
+            self.act_a = (velocity - self.act_v) / dt_act
+            self._act_t = t
+        self.act_p = act_p
+        self.act_v = velocity
+        self.drive_enabled = enabled
+        self.drive_fault = False
+        self.comm_ok = True
+        if self.drive_warning != "":
+            self._drive_warning_changed(t, "")
+        self.following_error = self._sent_p - act_p if enabled else 0.0
+        state = self.state
+        if (
+            not enabled
+            and state is not _ERROR_STOP
+            and state is not _DISABLED
+            and self.power_request
+            and self._was_enabled
+        ):
+            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+        self._was_enabled = enabled
+        if self._reset_handle is not None and self._reset_sent:
+            self._try_finish_reset(False, True)
+        state = self.state
+        if state is _DISABLED:
+            if self.power_request and enabled:
+                state = self.state = _POWER_ON_READY_STATE  # T5
+            self._resync()
+        self.img_state = state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = act_p
+        self.img_act_v = velocity
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
+        self.img_error = self.axis_error
+        self.img_enabled = enabled
+        self.img_homed = self.homed
+
+    def step_write(self, dt: float, t: float) -> None:
+        """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
+        task without axes groups).
+
+        The common cycle (a one-profile move running unscaled and staying inside its profile,
+        nothing submitted, no feed or software-limit checks due, not a velocity or homing job,
+        the axis not Disabled) samples its profile here with the very arithmetic of
+        :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
+        in-process ideal drive the setpoints then go straight into it, with the arithmetic
+        of ``IdealDrive.write_outputs`` (no command object); otherwise through
+        :meth:`write_outputs`."""
+        mq = self.mq
+        job = mq.active
+        ts = self.ts
+        if (
+            job is None
+            or job.single is None
+            or mq.inbox
+            or mq.pending
+            or self._junction_due is not None
+            or self.sup is not None
+            or not self._feed_all
+            or self._sw_check
+            or ts.prof is not None
+            or job.kind == "velocity"
+            or job.kind == "home"
+            or not (job.no_override or ts.f == 1.0)
+            or not job.tau + dt < job.duration
+            or self.state is _DISABLED
+        ):
+            self.step(dt)
+        else:
+            # step() of a one-profile job that stays inside its profile in this step,
+            # unscaled (no override ramp; factor 1 or a job the override does not scale)
+            try:
+                tau: float = job.tau
+                tau = tau + dt
+                job.tau = tau
+                prof: Profile = job.single
+                p, self.v, self.a, self.j = prof.at(tau)
+                shift: float = job.shift
+                self.p = p + shift
+                if self.state is not _ERROR_STOP:
+                    lim = self._fe_limit
+                    if lim is not None and abs(self.following_error) > lim:
+                        self.raise_axis_error(
+                            "FOLLOWING_ERROR",
+                            f"following error {self.following_error:.6g} exceeds {lim:.6g}",
+                        )
+            except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
+                self._kernel_failed(exc)
+        d = self._ideal
+        if d is None or not d._comm_ok or d._fault:
+            self.write_outputs(t)
+            return
+        if self._reset_pulse:
+            self._reset_pulse = False
+            self._reset_sent = True
+        p_set = self.p
+        self._sent_p = p_set
+        d.commands_written += 1
+        enable = self.power_request
+        d._enabled = enable and not d._fault
+        if enable:
+            d._position = p_set - self.offset
+            d._velocity = self.v
+        else:
+            d._velocity = 0.0
+        d._feedback = None
+
+    def trace_cycle(self, buf: Any, offset: int, trace: Any, cycle: int) -> None:
+        """The runtime's per-cycle trace call: :meth:`trace_values` packed as eight float64 into
+        ``buf`` at byte ``offset`` (the trace's staging row; no tuple built on a linear axis),
+        then (``trace`` not None) :meth:`emit_fb_edges` (one call per axis and cycle)."""
+        if self._modulo is None:
+            _PACK_ROW(
+                buf,
+                offset,
+                self.p,
+                self.v,
+                self.a,
+                self.j,
+                self.act_p,
+                self.act_v,
+                self.following_error,
+                self.state,
+            )
+        else:
+            _PACK_ROW(buf, offset, *self.trace_values())
+        if trace is None:
+            return
+        if self._warning_edges:
+            self.emit_fb_edges(trace, cycle)
+            return
+        for fb in self.fbs:  # emit_fb_edges, inline
+            if fb._dirty:
+                bits = fb._get_outputs(fb)
+                if bits != fb._traced_bits:
+                    fb._emit_edges(trace, cycle, bits)
+                else:
+                    fb._dirty = False
