@@ -18,7 +18,10 @@ they change and calls every FB as ``fb()``; ``--calls kw`` passes them as keywor
 (the program as it was). ``--drives can`` puts every axis on a virtual CiA 402 drive behind
 our CANopen master on one in-process python-can ``virtual`` bus (lockstep, one SYNC per
 cycle; positions and limits scaled by 0.01). ``--against REF`` measures each side in its own
-process importing ``motionplc`` from its own tree, ``--repeats`` pairs, and prints the
+process importing ``motionplc`` from its own tree (the worktree of REF gets this build's
+compiled extensions, which its own ``motionplc._purepy`` uses only where its sources are the
+ones they were built from; each side's core is printed; ``MOTIONPLC_PURE_PYTHON=1`` runs
+both sides in pure Python), ``--repeats`` pairs, and prints the
 medians of the cycles per CPU-second and the median ratio (the machine is shared: ratios of
 one run, never absolute figures of different runs). Targets (simulated clock, 8 axes):
 >= 40,000 cycles/s with ideal drives (18,000 before), >= 10,000 with virtual CAN drives.
@@ -234,15 +237,32 @@ def sim_throughput(
         close(rt)
 
 
-def _child(root: Path, n: int, cycles: int, calls: str, drives: str) -> tuple[float, float]:
+def _child(root: Path, n: int, cycles: int, calls: str, drives: str) -> tuple[float, float, str]:
     """One ``sim_throughput`` measurement in a fresh process importing ``motionplc`` from
-    ``root`` (this checkout or a worktree of an older commit)."""
+    ``root`` (this checkout or a worktree of an older commit): (cycles per wall second, per
+    CPU second, which compiled core it ran: ``motionplc._purepy.status()``)."""
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(root)]
     cmd += ["--axes", str(n), "--cycles", str(cycles), "--calls", calls, "--drives", drives]
     env = dict(os.environ, PYTHONPATH=str(root))
     out = subprocess.run(cmd, cwd=root, env=env, check=True, capture_output=True, text=True)
-    wall, cpu = json.loads(out.stdout.strip().splitlines()[-1])
-    return wall, cpu
+    wall, cpu, core = json.loads(out.stdout.strip().splitlines()[-1])
+    return wall, cpu, core
+
+
+def _lend_extensions(here: Path, base: Path) -> None:
+    """Copy this build's compiled extensions and build manifest into the worktree ``base``
+    (a git worktree has none), so that both sides of ``--against`` run the compiled planning
+    core: the base's own ``_purepy`` still uses them only if its sources are the ones they
+    were built from (else it runs pure Python, and the report says so)."""
+    pkg = here / "motionplc"
+    manifest = pkg / "_compiled.json"
+    if not manifest.is_file():
+        return
+    for ext in pkg.rglob("*.so"):
+        dest = base / ext.relative_to(here)
+        if dest.parent.is_dir():
+            shutil.copy2(ext, dest)
+    shutil.copy2(manifest, base / "motionplc" / "_compiled.json")
 
 
 def against(
@@ -268,12 +288,19 @@ def against(
         capture_output=True,
     )
     try:
+        _lend_extensions(here, base)
         for n in axes:
             new_r: list[float] = []
             old_r: list[float] = []
+            cores: set[tuple[str, str]] = set()
             for _ in range(repeats):
-                old_r.append(_child(base, n, cycles, base_calls, drives)[1])
-                new_r.append(_child(here, n, cycles, calls, drives)[1])
+                _, old_cpu, old_core = _child(base, n, cycles, base_calls, drives)
+                _, new_cpu, new_core = _child(here, n, cycles, calls, drives)
+                old_r.append(old_cpu)
+                new_r.append(new_cpu)
+                cores.add((old_core, new_core))
+            for old_core, new_core in sorted(cores):
+                print(f"  core: {ref}: {old_core}; this checkout: {new_core}")
             ratios = [a / b for a, b in zip(new_r, old_r, strict=True)]
             print(
                 f"{drives} drives, {n:2d} axes, {cycles} cycles x {repeats}:"
@@ -482,7 +509,10 @@ def main() -> None:
 
         if not Path(motionplc.__file__).resolve().is_relative_to(args.child.resolve()):
             raise SystemExit(f"motionplc imported from {motionplc.__file__}, not {args.child}")
-        print(json.dumps(sim_throughput(args.axes[0], args.cycles, args.calls, args.drives)))
+        from motionplc._purepy import status
+
+        wall, cpu = sim_throughput(args.axes[0], args.cycles, args.calls, args.drives)
+        print(json.dumps([wall, cpu, status().reason]))
         return
     if args.against is not None:
         against(
