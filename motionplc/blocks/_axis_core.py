@@ -19,6 +19,7 @@ is converted; the value is the same), and only an instance of the interpreted su
 from __future__ import annotations
 
 import struct
+from bisect import bisect_right
 from collections.abc import Callable
 from typing import Any, Final
 
@@ -199,7 +200,12 @@ class AxisCore:
         :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
         in-process ideal drive the setpoints then go straight into it, with the arithmetic
         of ``IdealDrive.write_outputs`` (no command object); otherwise through
-        :meth:`write_outputs`."""
+        :meth:`write_outputs`.
+
+        The profile is sampled as ``Profile.at`` does (the same knot and the same expressions,
+        bit for bit), read from its knots without building the ``Sample`` it returns, for
+        ``0 < tau < duration`` (the fast path runs only while ``tau < job.duration``, which
+        is the profile's duration in a one-profile chain); ``Profile.at`` otherwise."""
         mq = self.mq
         job = mq.active
         ts = self.ts
@@ -228,7 +234,19 @@ class AxisCore:
                 tau = tau + dt
                 job.tau = tau
                 prof: Profile = job.single
-                p, self.v, self.a, self.j = prof.at(tau)
+                if 0.0 < tau < prof.duration:  # Profile.at's own case, without its Sample
+                    knots = prof._t
+                    i = bisect_right(knots, tau) - 1
+                    dt_k = tau - knots[i]
+                    a = prof._a[i]
+                    j = prof._j[i]
+                    v = prof._v[i]
+                    p = prof._p[i] + dt_k * (v + dt_k * (0.5 * a + dt_k * j / 6.0))
+                    self.v = v + dt_k * (a + 0.5 * dt_k * j)
+                    self.a = a + dt_k * j
+                    self.j = j
+                else:
+                    p, self.v, self.a, self.j = prof.at(tau)
                 shift: float = job.shift
                 self.p = p + shift
                 if self.state is not _ERROR_STOP:

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 from motionplc.blocks.axis import OVERRIDE_MIN, POSITION_MAX, Axis, Command, Handle
 from motionplc.blocks.base import (
     EnableFB,
     ExecuteFB,
+    FunctionBlock,
     InputError,
     check_dynamic,
     check_execution_mode,
@@ -35,6 +36,39 @@ class MC_Power(EnableFB):
         self.status = False
         self._powered: Axis | None = None
         super().__init__(name, **inputs)
+
+    # the steady scan runs in __call__ (a subclass that changes _scan or _update: never)
+    _power_inline: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        cls._power_inline = cls._scan is MC_Power._scan and cls._update is MC_Power._update
+
+    def __call__(self, **inputs: Any) -> Any:
+        """One scan (see :meth:`FunctionBlock.__call__`). The steady scan of a long-lived FB
+        (its axis registered, enabled and valid without error) runs :meth:`_scan`'s steps for
+        that case here: the power request, then ``status`` from the axis image."""
+        if inputs:
+            self._set_inputs(inputs)
+        axis = self.axis
+        if (
+            axis is not self._registered
+            or axis is None
+            or not self._power_inline
+            or not self.enable
+            or not self.valid
+            or self.error
+        ):
+            return FunctionBlock.__call__(self)
+        try:
+            axis.set_power(True, bool(self.enable_positive), bool(self.enable_negative))
+            status = axis.img_enabled
+            if status != self.status:
+                self.status = status
+                self._dirty = True
+        except Exception as exc:  # noqa: BLE001 - no exception of an FB body escapes the cycle
+            self._scan_failed(exc)
+        return self
 
     def _scan(self) -> None:
         axis = self.axis
