@@ -22,6 +22,7 @@ random cases as JSON: that is the pure side of the comparison.
 from __future__ import annotations
 
 import ast
+import importlib
 import json
 import math
 import os
@@ -129,7 +130,7 @@ def test_module_lists_agree() -> None:
 
 def test_status_matches_the_loaded_modules(summary: Callable[[str], None]) -> None:
     for name in _purepy.COMPILED_MODULES:
-        file = sys.modules[name].__file__ or ""
+        file = importlib.import_module(name).__file__ or ""  # not only planning modules
         assert file.endswith(".py") != STATUS.compiled, (name, file, STATUS)
     assert COMPILED is STATUS.compiled
     summary(f"planning core: {STATUS.reason}")
@@ -150,10 +151,11 @@ def test_ci_uses_the_compiled_core() -> None:
 
 def test_switch_loads_the_sources() -> None:
     code = (
-        "import sys, motionplc\n"
+        "import importlib, motionplc\n"
         "from motionplc.planning import plan\n"
         "s = motionplc.compiled_core()\n"
-        "files = [sys.modules[m].__file__ for m in motionplc._purepy.COMPILED_MODULES]\n"
+        "mods = motionplc._purepy.COMPILED_MODULES\n"
+        "files = [importlib.import_module(m).__file__ for m in mods]\n"
         "print(s.compiled, all(f.endswith('.py') for f in files), s.reason)\n"
     )
     res = subprocess.run(
@@ -167,12 +169,14 @@ def test_switch_loads_the_sources() -> None:
 def _fake_build(tmp_path: Path, digests: dict[str, str] | None) -> Path:
     """A package tree with empty 'extensions' and a manifest with the given digests."""
     suffix = _purepy.importlib.machinery.EXTENSION_SUFFIXES[0]
-    (tmp_path / "planning").mkdir(parents=True)
+    tmp_path.mkdir(parents=True, exist_ok=True)
     (tmp_path / (_purepy.SHARED_LIB + suffix)).write_bytes(b"")
     for m in _purepy.COMPILED_MODULES:
-        name = m.rpartition(".")[2]
-        (tmp_path / "planning" / (name + ".py")).write_text(f"# {name}\n")
-        (tmp_path / "planning" / (name + suffix)).write_bytes(b"")
+        *pkg, name = m.split(".")[1:]  # its place in the package (planning/, blocks/, ...)
+        where = tmp_path.joinpath(*pkg)
+        where.mkdir(parents=True, exist_ok=True)
+        (where / (name + ".py")).write_text(f"# {name}\n")
+        (where / (name + suffix)).write_bytes(b"")
     if digests is not None:
         (tmp_path / _purepy.MANIFEST).write_text(json.dumps({"modules": digests}))
     return tmp_path
