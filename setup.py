@@ -41,7 +41,7 @@ COMPILED_MODULES = (
     "motionplc.planning._fixed",
     "motionplc.planning.sync",
     "motionplc.planning._batchrow",
-    "motionplc.blocks._axis_core",
+    "motionplc.blocks._axis_core",  # the axis kernel's per-cycle common case (Axis' base)
 )
 GROUP = "motionplc._core"  # the shared library: motionplc/_core__mypyc.<abi>.so
 MANIFEST = "motionplc/_compiled.json"  # source digests of the last successful compile
