@@ -17,6 +17,9 @@ The kernel's parts, each in its own module of ``motionplc.blocks``:
 * ``homing``: the MC_Home procedure. ``sw_limits``: braking distances, stops at a limit.
 * ``planner_guard``: every planner call of the kernels, counted (:func:`planner_calls`).
 * ``axis_state``: the PLCopen state diagram (tables).
+* ``_axis_core``: :class:`~motionplc.blocks._axis_core.AxisCore`, the base class holding the hot
+  values and the per-cycle common case (``read_inputs`` with an ideal drive, ``step_write``,
+  ``trace_cycle``), compiled with mypyc in the build (pure Python otherwise).
 
 Every name importable from this module before the split still is (``__all__``).
 
