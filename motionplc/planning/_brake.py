@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import math
 
+from motionplc.planning._third import time_optimal
+
 Phases = list[tuple[float, float]]
 
 
@@ -135,8 +137,6 @@ def brake_prefix(
     if not out:
         return out, v0, a0, d, 0.0
     if vmin <= v0 <= vmax and amin <= a0 <= amax:
-        from motionplc.planning._third import time_optimal
-
         if time_optimal(v0, a0, d, vf, af, vmax, vmin, amax, amin, J) is not None:
             return [], v0, a0, d, 0.0
     pb = 0.0

@@ -28,6 +28,7 @@ target and stay within the limits. The fastest verified candidate wins.
 from __future__ import annotations
 
 import math
+from typing import Final
 
 from motionplc.planning.roots import quadratic_roots, quartic_roots_in
 
@@ -36,12 +37,24 @@ from motionplc.planning.roots import quadratic_roots, quartic_roots_in
 # passes exact plateau/cruise values so that rounding does not drift over long phases.
 Phases = list[tuple[float, ...]]
 
-_T_TOL = 1e-12  # relative tolerance on a negative phase duration from rounding
-_NEG_TOL = 1e-11  # ... of a phase the verification drops (it checks the end state after it)
-_P_TOL = 1e-8
-_V_TOL = 1e-8
-_A_TOL = 1e-10
-_LIM_TOL = 1e-12  # relative margin on the limits for rounding
+# (Final: a compiled build uses the values, not a lookup of the module's globals per use)
+_T_TOL: Final = 1e-12  # relative tolerance on a negative phase duration from rounding
+_NEG_TOL: Final = 1e-11  # ... of a phase the verification drops (it checks the end state after it)
+_P_TOL: Final = 1e-8
+_V_TOL: Final = 1e-8
+_A_TOL: Final = 1e-10
+_LIM_TOL: Final = 1e-12  # relative margin on the limits for rounding
+
+
+def _cube(x: float) -> float:
+    """``x ** 3`` with the same bits: float's power takes pow of |x| and puts the sign back;
+    ``math.pow`` compiles to a direct call of C's pow (no boxing, no generic power)."""
+    return -math.pow(-x, 3.0) if x < 0.0 else math.pow(x, 3.0)
+
+
+def _fourth(x: float) -> float:
+    """``x ** 4`` with the same bits (see :func:`_cube`)."""
+    return math.pow(-x, 4.0) if x < 0.0 else math.pow(x, 4.0)
 
 
 def _verify(
@@ -289,17 +302,17 @@ def _fam_acc0_acc1(
         - 24.0 * J * amax * af * vf
         - 24.0 * J * N2 * vf
         + 12.0 * J * af * af * vf
-        + 3.0 * a0**4
-        - 8.0 * a0**3 * amax
+        + 3.0 * _fourth(a0)
+        - 8.0 * _cube(a0) * amax
         + 6.0 * a0 * a0 * A2
         - 12.0 * A2 * N2
         + 6.0 * A2 * af * af
-        + 24.0 * amax * amin**3
+        + 24.0 * amax * _cube(amin)
         - 24.0 * amax * amin * af * af
-        + 8.0 * amax * af**3
+        + 8.0 * amax * _cube(af)
         - 12.0 * N2 * N2
         + 12.0 * N2 * af * af
-        - 3.0 * af**4
+        - 3.0 * _fourth(af)
     ) / denom
     best: Candidate | None = None
     for h2 in quadratic_roots(1.0, b, c):
@@ -351,7 +364,7 @@ def _fam_none(
             return None
         s1 = math.sqrt(r1)
         s2 = math.sqrt(r2)
-        u_lo = max(0.0, amax - s1, -amin - s2)
+        u_lo = max(max(0.0, amax - s1), -amin - s2)  # pairwise: the builtin's order
         u_hi = min(amax + s1, -amin + s2)
         u_lo -= 1e-9 * (u_hi + 1.0)
         u_hi += 1e-9 * (u_hi + 1.0)
@@ -435,12 +448,12 @@ def _fam_acc0(
             - 12.0 * J * A2 * (v0 + vf)
             - 24.0 * J * amax * af * vf
             + 12.0 * J * af * af * vf
-            + 3.0 * a0**4
-            - 8.0 * a0**3 * amax
+            + 3.0 * _fourth(a0)
+            - 8.0 * _cube(a0) * amax
             + 6.0 * a0 * a0 * A2
             + 6.0 * A2 * af * af
-            + 8.0 * amax * af**3
-            - 3.0 * af**4
+            + 8.0 * amax * _cube(af)
+            - 3.0 * _fourth(af)
         )
         / 12.0
     )
@@ -497,12 +510,12 @@ def _fam_acc1(
         + 12.0 * J * N2 * (v0 + vf)
         - 24.0 * J * amin * af * vf
         + 12.0 * J * af * af * vf
-        + 3.0 * a0**4
-        - 8.0 * a0**3 * amin
+        + 3.0 * _fourth(a0)
+        - 8.0 * _cube(a0) * amin
         - 6.0 * a0 * a0 * N2
         - 6.0 * N2 * af * af
-        + 8.0 * amin * af**3
-        - 3.0 * af**4
+        + 8.0 * amin * _cube(af)
+        - 3.0 * _fourth(af)
     ) / 12.0
     for P in quartic_roots_in(-2.0 * amin, s2 + N2, -2.0 * amin * s2, c0, p_lo, p_hi):
         h2 = (K - 2.0 * P * P + 2.0 * N2) / (2.0 * J * amin)
@@ -520,6 +533,7 @@ def _fam_acc1(
 
 # Cheapest families first: their durations bound the quartic families from above.
 _FAMILIES = (_fam_vel, _fam_acc0_acc1, _fam_none, _fam_acc0, _fam_acc1)
+_N_FAMILIES: Final = 5  # len(_FAMILIES), a constant for the compiled family loop
 
 
 def _family(
@@ -563,7 +577,7 @@ def single_ramp(
     else:
         j = J if af > a0 else -J
         t = (af - a0) / j
-    if t < 0.0 or not math.isfinite(t):
+    if t < 0.0 or math.isinf(t) or math.isnan(t):  # (not isfinite: compiled without a lookup)
         return None
     p = t * (v0 + t * (0.5 * a0 + t * j / 6.0))
     v = v0 + t * (a0 + 0.5 * t * j)
@@ -571,7 +585,7 @@ def single_ramp(
     # velocity by more is not on it (a looser tolerance accepts a ramp that leaves a real
     # velocity error behind, e.g. 2e-11 m/s next to a limit where the exact answer loops);
     # the position within the verification's tolerance, as the profile that led here
-    v_tol = 1e-12 * max(1.0, abs(v0), abs(vf))
+    v_tol = 1e-12 * max(max(1.0, abs(v0)), abs(vf))
     if abs(p - d) <= _P_TOL * max(1.0, abs(d)) and abs(v - vf) <= v_tol:
         return (t, [(t, j)] if t > 0.0 else [], "ramp")
     return None
@@ -594,7 +608,7 @@ def time_optimal(
     if best is None and v0 == 0.0 and a0 == 0.0 and vf == 0.0 and af == 0.0 and d != 0.0:
         # rest to rest without reaching a limit: four ramps of t = cbrt(|d| / (2J)) -- in
         # closed form, which also serves distances so small that the polynomials underflow
-        t = (abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+        t = math.pow(abs(d) / (2.0 * J), 1.0 / 3.0)  # = ** for a base >= 0, unboxed
         if J * t <= min(amax, -amin) and J * t * t <= min(vmax, -vmin):
             s = J if d > 0.0 else -J
             ph: Phases = [(t, s), (2.0 * t, -s), (t, s)]
@@ -607,7 +621,7 @@ def time_optimal(
     keep = 1.0 - 1e-12
     t_best = best[0] * keep if best is not None else math.inf
     best_down = False
-    for k in range(len(_FAMILIES)):
+    for k in range(_N_FAMILIES):
         c = _family(k, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
         if c is not None:
             best, t_best, best_down = c, c[0] * keep, False
@@ -621,6 +635,13 @@ def time_optimal(
 
 def mirror(ph: tuple[float, ...]) -> tuple[float, ...]:
     """The phase of the mirrored axis (p -> -p): jerk and exact values change sign."""
+    n = len(ph)  # the usual lengths spelled out (a compiled build then makes no generator)
+    if n == 2:
+        return (ph[0], -ph[1])
+    if n == 3:
+        return (ph[0], -ph[1], -ph[2])
+    if n == 4:
+        return (ph[0], -ph[1], -ph[2], -ph[3])
     return (ph[0], *(-x for x in ph[1:]))
 
 

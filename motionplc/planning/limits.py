@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Final
 
 from motionplc.errors import PlanningError
 
@@ -16,9 +17,9 @@ _INF = math.inf
 # and of states at 0, +-1e-12, +-1 and +-1e12 plans or raises PlanningError, see
 # tests/planning/test_degenerate_inputs.py); profiles longer than the supported durations
 # (``plan.MAX_DURATION`` for one axis, ``sync.MAX_SYNC_DURATION`` synchronised) are rejected.
-LIMIT_MIN = 1e-15
-LIMIT_MAX = 1e15
-STATE_MAX = 1e12
+LIMIT_MIN: Final = 1e-15
+LIMIT_MAX: Final = 1e15
+STATE_MAX: Final = 1e12
 _RANGE = f"[{LIMIT_MIN:g}, {LIMIT_MAX:g}] or inf (the supported part of (0, inf])"
 _NEG_RANGE = f"[{-LIMIT_MAX:g}, {-LIMIT_MIN:g}] or -inf (the supported part of [-inf, 0))"
 

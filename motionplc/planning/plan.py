@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from operator import attrgetter
-from typing import SupportsFloat
+from typing import Final, SupportsFloat
 
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _lower, _third, _velocity
@@ -12,12 +12,13 @@ from motionplc.planning.limits import STATE_MAX, Limits
 from motionplc.planning.profile import Profile, new_state
 from motionplc.planning.state import State
 
-_INF = math.inf
-MAX_DURATION = 1e8  # [s] the longest single-axis profile planned (about 3 years)
-_NEG_STATE_MAX = -STATE_MAX
+# (Final: a compiled build keeps these in C variables instead of looking them up per use)
+_INF: Final = math.inf
+MAX_DURATION: Final = 1e8  # [s] the longest single-axis profile planned (about 3 years)
+_NEG_STATE_MAX: Final = -STATE_MAX
 # the state's fields as untyped values, so that a compiled build validates them here (and
 # raises PlanningError) instead of converting them on access (TypeError, or a silent float())
-_STATE_FIELDS = attrgetter("p", "v", "a")
+_STATE_FIELDS: Final = attrgetter("p", "v", "a")
 
 
 def _finite(name: str, value: object) -> float:
@@ -59,6 +60,15 @@ def _check_state(name: str, s: object) -> tuple[float, float, float]:
     if not isinstance(s, State):
         raise PlanningError(f"{name} must be a State(p, v, a), got {type(s).__name__}")
     p, v, a = _STATE_FIELDS(s)
+    if (
+        type(p) is float
+        and type(v) is float
+        and type(a) is float
+        and _NEG_STATE_MAX <= p <= STATE_MAX
+        and _NEG_STATE_MAX <= v <= STATE_MAX
+        and _NEG_STATE_MAX <= a <= STATE_MAX
+    ):
+        return p, v, a  # the usual case, without building the field names
     return _finite(f"{name}.p", p), _finite(f"{name}.v", v), _finite(f"{name}.a", a)
 
 
@@ -71,13 +81,37 @@ def _check_limits(limits: object) -> Limits:
 def _check_target_va(
     vf: float, af: float, lim: Limits, *, check_v: bool = True, name: str = "target"
 ) -> None:
-    vmax, vmin = lim.v_max, lim.v_min
-    amax, amin = lim.a_max, lim.a_min
-    if check_v and not vmin <= vf <= vmax:  # type: ignore[operator]
+    """The target's velocity and acceleration against ``lim`` (see :func:`_check_target`)."""
+    _check_target(
+        vf,
+        af,
+        lim.v_max,
+        float(lim.v_min),  # type: ignore[arg-type]
+        lim.a_max,
+        float(lim.a_min),  # type: ignore[arg-type]
+        lim.j_max,
+        check_v,
+        name,
+    )
+
+
+def _check_target(
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+    J: float,
+    check_v: bool,
+    name: str,
+) -> None:
+    """PlanningError naming ``name`` unless the target (vf, af) lies within the limits (the
+    velocity only with ``check_v``) and can be reached with them."""
+    if check_v and not vmin <= vf <= vmax:
         raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
-    if not amin <= af <= amax:  # type: ignore[operator]
+    if not amin <= af <= amax:
         raise PlanningError(f"{name}.a = {af!r} is outside the allowed range [{amin}, {amax}]")
-    J = lim.j_max
     if J == _INF:
         if af != 0.0:
             raise PlanningError(
@@ -88,12 +122,12 @@ def _check_target_va(
         return
     # A state reached with acceleration af < 0 was approached from a higher velocity (and
     # af > 0 from a lower one): the least extreme velocity on the way is vf -+ af^2/(2 j_max).
-    if af < 0.0 and vf + 0.5 * af * af / J > vmax * (1.0 + 1e-12):  # type: ignore[operator]
+    if af < 0.0 and vf + 0.5 * af * af / J > vmax * (1.0 + 1e-12):
         raise PlanningError(
             f"target state (v={vf!r}, a={af!r}) cannot be reached without exceeding "
             f"v_max={vmax}: it needs v + a^2/(2 j_max) <= v_max"
         )
-    if af > 0.0 and vf - 0.5 * af * af / J < vmin * (1.0 + 1e-12):  # type: ignore[operator]
+    if af > 0.0 and vf - 0.5 * af * af / J < vmin * (1.0 + 1e-12):
         raise PlanningError(
             f"target state (v={vf!r}, a={af!r}) cannot be reached without going below "
             f"v_min={vmin}: it needs v - a^2/(2 j_max) >= v_min"
@@ -116,7 +150,7 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
         raise PlanningError(
             "limits: at least one of v_max, a_max, j_max must be finite for a position move"
         )
-    _check_target_va(vf, af, lim)
+    _check_target(vf, af, vmax, vmin, amax, amin, J, True, "target")
     if arrived(p0, v0, a0, pf, vf, af):
         return Profile(new_state(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     try:

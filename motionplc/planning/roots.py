@@ -13,28 +13,40 @@ vanishes.
 from __future__ import annotations
 
 import math
+from typing import Final
 
-_MAX_ITER = 64
-_EPS = 2.220446049250313e-16
+_MAX_ITER: Final = 64
+_EPS: Final = 2.220446049250313e-16
 
 
-def quadratic_roots(a: float, b: float, c: float) -> list[float]:
-    """Real roots of a*x^2 + b*x + c, ascending (numerically stable form)."""
+def _quadratic(a: float, b: float, c: float) -> tuple[int, float, float]:
+    """:func:`quadratic_roots` as (number of roots, the roots ascending) without a list (a
+    compiled build returns the floats unboxed); unused roots are 0."""
     if a == 0.0:
         if b == 0.0:
-            return []
-        return [-c / b]
+            return 0, 0.0, 0.0
+        return 1, -c / b, 0.0
     disc = b * b - 4.0 * a * c
     if disc < 0.0:
         # a tiny negative discriminant is a rounded double root
         if disc > -1e-14 * (b * b + abs(4.0 * a * c)):
-            return [-b / (2.0 * a)]
-        return []
+            return 1, -b / (2.0 * a), 0.0
+        return 0, 0.0, 0.0
     s = math.sqrt(disc)
     q = -0.5 * (b + s) if b >= 0.0 else -0.5 * (b - s)
     r1 = q / a
     r2 = c / q if q != 0.0 else r1
-    return [r1, r2] if r1 <= r2 else [r2, r1]
+    return (2, r1, r2) if r1 <= r2 else (2, r2, r1)
+
+
+def quadratic_roots(a: float, b: float, c: float) -> list[float]:
+    """Real roots of a*x^2 + b*x + c, ascending (numerically stable form)."""
+    n, r1, r2 = _quadratic(a, b, c)
+    if n == 0:
+        return []
+    if n == 1:
+        return [r1]
+    return [r1, r2]
 
 
 def quartic_roots_in(
@@ -48,30 +60,14 @@ def quartic_roots_in(
     Roots at (or a rounding error beyond) the ends of [lo, hi] and near-double roots at
     critical points are included.
     """
-    bound = 1.0 + max(abs(c3), abs(c2), abs(c1), abs(c0))
+    # (max of two at a time: the builtin's left-to-right order, compiled without boxing)
+    bound = 1.0 + max(max(max(abs(c3), abs(c2)), abs(c1)), abs(c0))
     if lo < -bound:
         lo = -bound
     if hi > bound:
         hi = bound
     if lo > hi:
         return []
-    # inflection points (roots of f'') split [lo, hi] into pieces where f' is monotone; a
-    # piece holds a critical point only where f' changes sign, found by bisection on f'
-    pts = [lo]
-    for x in quadratic_roots(12.0, 6.0 * c3, 2.0 * c2):
-        if lo < x < hi:
-            pts.append(x)
-    pts.append(hi)
-    if len(pts) > 0:
-        with_crit = [lo]
-        d0 = ((4.0 * lo + 3.0 * c3) * lo + 2.0 * c2) * lo + c1
-        for x1 in pts[1:]:
-            d1 = ((4.0 * x1 + 3.0 * c3) * x1 + 2.0 * c2) * x1 + c1
-            if (d0 < 0.0) != (d1 < 0.0) and d0 != 0.0 and d1 != 0.0:
-                with_crit.append(_critical(c3, c2, c1, with_crit[-1], x1, d0))
-            with_crit.append(x1)
-            d0 = d1
-        pts = with_crit
     ac3 = abs(c3)
     ac2 = abs(c2)
     ac1 = abs(c1)
@@ -90,28 +86,72 @@ def quartic_roots_in(
         # away from a boundary gets the boundary profile and not a needless tiny extra phase.
         # The sign is kept, so a genuine root next to it is still bracketed.
         roots.append(x0)
-    n = len(pts)
-    for k in range(1, n):
-        x1 = pts[k]
-        f1 = (((x1 + c3) * x1 + c2) * x1 + c1) * x1 + c0
-        ax = abs(x1)
-        scale = (((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0
-        if abs(f1) <= 1e-13 * scale:
-            # a root at the end, or a (near-)double root at a critical point
-            if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
-                roots.append(x1)
-            f1 = 0.0
+    # The points that split [lo, hi], in order: the inflection points (roots of f'') inside
+    # it, where f' is monotone between them, and before each of them (and before hi) the
+    # critical point where f' changes sign on the way there (bisection on f'); each piece
+    # between consecutive points is scanned for a root as soon as its right end is known.
+    n_infl, q1, q2 = _quadratic(12.0, 6.0 * c3, 2.0 * c2)
+    m = 0
+    p1 = p2 = 0.0
+    if n_infl >= 1 and lo < q1 < hi:
+        p1 = q1
+        m = 1
+    if n_infl == 2 and lo < q2 < hi:
+        if m == 0:
+            p1 = q2
         else:
-            if f0 != 0.0 and (f0 < 0.0) != (f1 < 0.0):
-                r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
-                if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
-                    roots.append(r)
-            if k == n - 1 and abs(f1) <= 1e-7 * scale:
-                if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
-                    roots.append(x1)
+            p2 = q2
+        m += 1
+    prev = lo
+    d0 = ((4.0 * lo + 3.0 * c3) * lo + 2.0 * c2) * lo + c1
+    for i in range(m + 1):
+        x1 = hi if i == m else (p1 if i == 0 else p2)
+        d1 = ((4.0 * x1 + 3.0 * c3) * x1 + 2.0 * c2) * x1 + c1
+        if (d0 < 0.0) != (d1 < 0.0) and d0 != 0.0 and d1 != 0.0:
+            xc = _critical(c3, c2, c1, prev, x1, d0)
+            f0 = _piece(c3, c2, c1, c0, ac3, ac2, ac1, ac0, x0, f0, xc, False, roots)
+            x0 = xc
+        f0 = _piece(c3, c2, c1, c0, ac3, ac2, ac1, ac0, x0, f0, x1, i == m, roots)
         x0 = x1
-        f0 = f1
+        prev = x1
+        d0 = d1
     return roots
+
+
+def _piece(
+    c3: float,
+    c2: float,
+    c1: float,
+    c0: float,
+    ac3: float,
+    ac2: float,
+    ac1: float,
+    ac0: float,
+    x0: float,
+    f0: float,
+    x1: float,
+    last: bool,
+    roots: list[float],
+) -> float:
+    """One monotone piece [x0, x1] of :func:`quartic_roots_in` (f0: the quartic at x0, 0 if a
+    root was taken there): appends its root (or x1 as a root or, at the interval's end
+    ``last``, a near-root) to ``roots``; returns the quartic at x1 (0 if a root was taken)."""
+    f1 = (((x1 + c3) * x1 + c2) * x1 + c1) * x1 + c0
+    ax = abs(x1)
+    scale = (((ax + ac3) * ax + ac2) * ax + ac1) * ax + ac0
+    if abs(f1) <= 1e-13 * scale:
+        # a root at the end, or a (near-)double root at a critical point
+        if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
+            roots.append(x1)
+        return 0.0
+    if f0 != 0.0 and (f0 < 0.0) != (f1 < 0.0):
+        r = _newton_piece(c3, c2, c1, c0, x0, x1, f0)
+        if not roots or r - roots[-1] > 1e-12 * max(1.0, abs(r)):
+            roots.append(r)
+    if last and abs(f1) <= 1e-7 * scale:
+        if not roots or x1 - roots[-1] > 1e-12 * max(1.0, ax):
+            roots.append(x1)
+    return f1
 
 
 def _critical(c3: float, c2: float, c1: float, lo: float, hi: float, dlo: float) -> float:

@@ -56,7 +56,7 @@ from motionplc.planning.limits import Limits
 from motionplc.planning.plan import (
     _check_limits,
     _check_state,
-    _check_target_va,
+    _check_target,
     _internal,
     arrived,
     position_phases,
@@ -136,14 +136,14 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
     if velocity:
         if not vmin <= vf <= vmax:
             raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
-        _check_target_va(vf, af, lim, check_v=False, name=name)
+        _check_target(vf, af, vmax, vmin, amax, amin, J, False, name)
     else:
         if vmax == _INF and amax == _INF and J == _INF:
             raise PlanningError(
                 f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a "
                 "position move"
             )
-        _check_target_va(vf, af, lim, name=name)
+        _check_target(vf, af, vmax, vmin, amax, amin, J, True, name)
     pre: Phases = []
     if arrived(p0, v0, a0, pf, vf, af):
         pf, vf, af = p0, v0, a0  # a target within rounding of the start is the start
