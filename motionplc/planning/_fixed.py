@@ -57,13 +57,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from typing import Final
 
 from motionplc.planning._third import _verify
 from motionplc.planning._velocity import velocity_third
 from motionplc.planning.roots import quadratic_roots, quartic_roots_in
 
 Phases = list[tuple[float, ...]]
-_INF = math.inf
+_INF: Final = math.inf  # (Final: no lookup of the module's globals per use)
 
 
 def _cubic_max_root(b: float, c: float, d: float) -> float:

@@ -9,7 +9,7 @@ from typing import Final, SupportsFloat
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _lower, _third, _velocity
 from motionplc.planning.limits import STATE_MAX, Limits
-from motionplc.planning.profile import Profile, new_state
+from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
 # (Final: a compiled build keeps these in C variables instead of looking them up per use)
@@ -19,6 +19,9 @@ _NEG_STATE_MAX: Final = -STATE_MAX
 # the state's fields as untyped values, so that a compiled build validates them here (and
 # raises PlanningError) instead of converting them on access (TypeError, or a silent float())
 _STATE_FIELDS: Final = attrgetter("p", "v", "a")
+# the classes of the inputs, for isinstance without a lookup of the module's globals
+_STATE_TYPE: Final = State
+_LIMITS_TYPE: Final = Limits
 
 
 def _finite(name: str, value: object) -> float:
@@ -57,7 +60,7 @@ def _check_duration(T: float, inputs: str) -> None:
 
 
 def _check_state(name: str, s: object) -> tuple[float, float, float]:
-    if not isinstance(s, State):
+    if not isinstance(s, _STATE_TYPE):
         raise PlanningError(f"{name} must be a State(p, v, a), got {type(s).__name__}")
     p, v, a = _STATE_FIELDS(s)
     if (
@@ -72,8 +75,29 @@ def _check_state(name: str, s: object) -> tuple[float, float, float]:
     return _finite(f"{name}.p", p), _finite(f"{name}.v", v), _finite(f"{name}.a", a)
 
 
+def _indexed(name: str, i: int) -> str:
+    return name if i < 0 else f"{name}[{i}]"
+
+
+def _check_state_at(kind: str, i: int, s: object) -> tuple[float, float, float]:
+    """:func:`_check_state` for ``kind[i]`` (e.g. ``starts[2]``), the name built only for an
+    error message."""
+    if isinstance(s, _STATE_TYPE):
+        p, v, a = _STATE_FIELDS(s)
+        if (
+            type(p) is float
+            and type(v) is float
+            and type(a) is float
+            and _NEG_STATE_MAX <= p <= STATE_MAX
+            and _NEG_STATE_MAX <= v <= STATE_MAX
+            and _NEG_STATE_MAX <= a <= STATE_MAX
+        ):
+            return p, v, a
+    return _check_state(f"{kind}[{i}]", s)
+
+
 def _check_limits(limits: object) -> Limits:
-    if not isinstance(limits, Limits):
+    if not isinstance(limits, _LIMITS_TYPE):
         raise PlanningError(f"limits must be a Limits(...), got {type(limits).__name__}")
     return limits
 
@@ -105,15 +129,20 @@ def _check_target(
     J: float,
     check_v: bool,
     name: str,
+    i: int = -1,
 ) -> None:
-    """PlanningError naming ``name`` unless the target (vf, af) lies within the limits (the
-    velocity only with ``check_v``) and can be reached with them."""
+    """PlanningError naming ``name`` (``name[i]`` for i >= 0: built only for the message)
+    unless the target (vf, af) lies within the limits (the velocity only with ``check_v``) and
+    can be reached with them."""
     if check_v and not vmin <= vf <= vmax:
+        name = _indexed(name, i)
         raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
     if not amin <= af <= amax:
+        name = _indexed(name, i)
         raise PlanningError(f"{name}.a = {af!r} is outside the allowed range [{amin}, {amax}]")
     if J == _INF:
         if af != 0.0:
+            name = _indexed(name, i)
             raise PlanningError(
                 f"{name}.a = {af!r} must be 0 when j_max is infinite (second-order profile)"
             )
@@ -152,14 +181,14 @@ def plan(start: State, target: State, limits: Limits) -> Profile:
         )
     _check_target(vf, af, vmax, vmin, amax, amin, J, True, "target")
     if arrived(p0, v0, a0, pf, vf, af):
-        return Profile(new_state(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
+        return Profile((p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     try:
         T, phases, kind = position_phases(v0, a0, pf - p0, vf, af, vmax, vmin, amax, amin, J)
     except ArithmeticError as exc:
         raise _internal("plan", exc, f"start={start!r}, target={target!r}, {lim!r}") from exc
     if not T <= MAX_DURATION:
         _check_duration(T, f"start={start!r}, target={target!r}, {lim!r}")
-    return Profile(new_state(p0, v0, a0), phases, kind)
+    return Profile((p0, v0, a0), phases, kind)
 
 
 def arrived(p0: float, v0: float, a0: float, pf: float, vf: float, af: float) -> bool:
@@ -250,7 +279,7 @@ def plan_velocity(
         raise PlanningError(f"a_target = {af!r} is outside the allowed range [{amin}, {amax}]")
     J = lim.j_max
     if arrived(0.0, v0, a0, 0.0, vf, af):
-        return Profile(new_state(p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
+        return Profile((p0, v0, a0), [(0.0, 0.0, af, vf)], "arrived")
     if J == _INF and af != 0.0:
         raise PlanningError(
             f"a_target = {af!r} must be 0 when j_max is infinite (second-order profile)"
@@ -263,7 +292,7 @@ def plan_velocity(
         ) from exc
     if not T <= MAX_DURATION:
         _check_duration(T, f"start={start!r}, v_target={vf!r}, {lim!r}")
-    prof = Profile(new_state(p0, v0, a0), phases, kind)
+    prof = Profile((p0, v0, a0), phases, kind)
     if not -_INF < prof.end.p < _INF:
         raise PlanningError(
             f"plan_velocity: the end position {prof.end.p!r} is not finite for start={start!r}, "

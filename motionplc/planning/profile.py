@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from bisect import bisect_right
 from collections.abc import Iterable, Sequence
-from typing import NamedTuple
+from typing import Final, NamedTuple
 
 import numpy as np
 
-from motionplc._fastinit import Setter, slot_setters
+from motionplc._fastinit import slot_setters
 from motionplc.planning.state import State
 
 
@@ -54,27 +54,31 @@ class Knot(NamedTuple):
     j: float
 
 
-def _state_setters() -> tuple[Setter, ...]:
+def _plain_state() -> bool:
     try:
-        return slot_setters(State, ("p", "v", "a"))[0]
+        slot_setters(State, ("p", "v", "a"))
     except TypeError:  # State is no longer a plain slotted (p, v, a): use its constructor
-        return ()
+        return False
+    return True
 
 
-_STATE_SETTERS = _state_setters()
+# (Final: a compiled build keeps them in C variables, no lookup of the module's globals)
+_PLAIN_STATE: Final = _plain_state()
+_NEW_OBJECT: Final = object.__new__
+_STATE: Final = State
 
 
 def new_state(p: float, v: float, a: float) -> State:
     """``State(p, v, a)``: an equal instance built without the dataclass ``__init__`` (State
-    has no validation to skip), at about half the cost; the constructor itself if State's
-    fields ever change (``motionplc._fastinit``)."""
-    setters = _STATE_SETTERS
-    if not setters:
+    has no validation to skip), storing the fields with ``object.__setattr__`` as that
+    ``__init__`` does (a compiled build calls the generic attribute store directly); the
+    constructor itself if State's fields ever change (``motionplc._fastinit``)."""
+    if not _PLAIN_STATE:
         return State(p, v, a)
-    s = object.__new__(State)
-    setters[0](s, p)
-    setters[1](s, v)
-    setters[2](s, a)
+    s: State = _NEW_OBJECT(_STATE)
+    object.__setattr__(s, "p", p)
+    object.__setattr__(s, "v", v)
+    object.__setattr__(s, "a", a)
     return s
 
 
@@ -86,7 +90,9 @@ Phase = tuple[float, ...]
 class Profile:
     """A planned motion of one axis from ``start`` over ``duration`` seconds.
 
-    Immutable: every attribute is fixed at construction.
+    ``start`` is a :class:`State`, or its values as a tuple ``(p, v, a)`` of floats (what the
+    planners pass: no State object to build and read back). Immutable: every attribute is
+    fixed at construction.
     """
 
     __slots__ = ("_t", "_p", "_v", "_a", "_j", "_d", "_end", "_kind", "duration")
@@ -101,10 +107,15 @@ class Profile:
     _kind: str
     duration: float
 
-    def __init__(self, start: State, phases: Iterable[Phase], kind: str = "") -> None:
-        p = float(start.p)
-        v = float(start.v)
-        a = float(start.a)
+    def __init__(
+        self, start: State | tuple[float, float, float], phases: Iterable[Phase], kind: str = ""
+    ) -> None:
+        if type(start) is tuple:
+            p, v, a = start
+        else:
+            p = float(start.p)  # type: ignore[union-attr]
+            v = float(start.v)  # type: ignore[union-attr]
+            a = float(start.a)  # type: ignore[union-attr]
         ts: list[float] = []
         ps: list[float] = []
         vs: list[float] = []
@@ -112,7 +123,9 @@ class Profile:
         js: list[float] = []
         ds: list[float] = []
         t = 0.0
-        for ph in phases:
+        # (a list as such: a compiled build then walks it by index, not by the iterator protocol)
+        todo: list[Phase] = phases if type(phases) is list else list(phases)
+        for ph in todo:
             dur = ph[0]
             n = len(ph)
             if n > 2:  # exact (or jumped) acceleration / velocity at the phase start

@@ -158,7 +158,7 @@ def _critical(c3: float, c2: float, c1: float, lo: float, hi: float, dlo: float)
     """The root of f' in (lo, hi), where f' is monotone and changes sign (Newton in a bracket)."""
     neg_lo = dlo < 0.0
     x = 0.5 * (lo + hi)
-    for _ in range(_MAX_ITER):
+    for _it in range(_MAX_ITER):  # (not '_': typed object, boxed per step)
         d = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
         if d == 0.0:
             return x
@@ -187,7 +187,7 @@ def _newton_piece(
     a = lo
     b = hi
     x = lo - flo * (hi - lo) / (fhi - flo) if fhi != flo else 0.5 * (lo + hi)
-    for _ in range(_MAX_ITER):
+    for _it in range(_MAX_ITER):  # (not '_': typed object, boxed per step)
         f = (((x + c3) * x + c2) * x + c1) * x + c0
         if f == 0.0:
             return x

@@ -48,14 +48,14 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import NamedTuple
+from typing import Final
 
 from motionplc.errors import PlanningError
 from motionplc.planning import _brake, _fixed, _third, _velocity
 from motionplc.planning.limits import Limits
 from motionplc.planning.plan import (
     _check_limits,
-    _check_state,
+    _check_state_at,
     _check_target,
     _internal,
     arrived,
@@ -66,17 +66,18 @@ from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 from motionplc.planning.trajectory import Trajectory
 
-_INF = math.inf
-_SYNC_TOL = 2e-10  # target accuracy of a synchronised duration [s] (scaled up for T > 5e4 s)
+# (Final: a compiled build keeps these in C variables, not looked up per use)
+_INF: Final = math.inf
+_SYNC_TOL: Final = 2e-10  # target accuracy of a synchronised duration [s] (scaled up for T > 5e4 s)
 Phases = list[tuple[float, ...]]
 
 
 # Longest synchronised duration planned (Ruckig stops at about 7.6e3 s): beyond it double
 # precision no longer keeps the axes' end times within 1e-9 s of each other.
-MAX_SYNC_DURATION = 1e4
+MAX_SYNC_DURATION: Final = 1e4
 
 
-DT_MIN = 1e-9  # [s] the shortest cycle time accepted (a nanosecond)
+DT_MIN: Final = 1e-9  # [s] the shortest cycle time accepted (a nanosecond)
 
 
 def check_dt(dt: object, name: str = "dt") -> float:
@@ -92,6 +93,8 @@ def check_dt(dt: object, name: str = "dt") -> float:
 
 def _sequence(name: str, value: object) -> Sequence:  # type: ignore[type-arg]
     """``value`` as a list if it is a sequence (list, tuple, ...), else PlanningError."""
+    if type(value) is list or type(value) is tuple:
+        return list(value)  # the usual case, without the abstract-base-class check
     if isinstance(value, (str, bytes)) or not isinstance(value, Sequence):
         raise PlanningError(
             f"{name} must be a sequence (list or tuple), got {type(value).__name__}"
@@ -105,8 +108,11 @@ def _dur_tol(T: float) -> float:
     return max(_SYNC_TOL, 1e-13 * T)
 
 
-class _Axis(NamedTuple):
-    """One axis' problem after validation (and after any brake for position axes)."""
+class _Axis:
+    """One axis' problem after validation (and after any brake for position axes).
+
+    A plain class, not a NamedTuple: a compiled build makes it a native class (its fields C
+    struct members, its constructor compiled; a NamedTuple's stays interpreted Python)."""
 
     velocity: bool  # velocity interface
     p0: float
@@ -123,28 +129,68 @@ class _Axis(NamedTuple):
     pre: tuple[tuple[float, ...], ...]  # brake phases (position) or acceleration return
     t_pre: float
     start: State  # the original start state
+    origin: tuple[float, float, float]  # its validated (p, v, a): the profiles' start
+
+    def __init__(
+        self,
+        velocity: bool,
+        p0: float,
+        v0: float,
+        a0: float,
+        d: float,
+        vf: float,
+        af: float,
+        vmax: float,
+        vmin: float,
+        amax: float,
+        amin: float,
+        J: float,
+        pre: tuple[tuple[float, ...], ...],
+        t_pre: float,
+        start: State,
+        origin: tuple[float, float, float],
+    ) -> None:
+        self.velocity = velocity
+        self.p0 = p0
+        self.v0 = v0
+        self.a0 = a0
+        self.d = d
+        self.vf = vf
+        self.af = af
+        self.vmax = vmax
+        self.vmin = vmin
+        self.amax = amax
+        self.amin = amin
+        self.J = J
+        self.pre = pre
+        self.t_pre = t_pre
+        self.start = start
+        self.origin = origin
 
 
 def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int) -> _Axis:
-    p0, v0, a0 = _check_state(f"starts[{i}]", start)
-    pf, vf, af = _check_state(f"targets[{i}]", target)
+    p0, v0, a0 = _check_state_at("starts", i, start)
+    origin = (p0, v0, a0)  # = float(start.p), ... (validated): what Profile would read
+    pf, vf, af = _check_state_at("targets", i, target)
     lim = _check_limits(lim)
     vmax, vmin = lim.v_max, float(lim.v_min)  # type: ignore[arg-type]
     amax, amin = lim.a_max, float(lim.a_min)  # type: ignore[arg-type]
     J = lim.j_max
-    name = f"targets[{i}]"
     if velocity:
         if not vmin <= vf <= vmax:
-            raise PlanningError(f"{name}.v = {vf!r} is outside the allowed range [{vmin}, {vmax}]")
-        _check_target(vf, af, vmax, vmin, amax, amin, J, False, name)
+            raise PlanningError(
+                f"targets[{i}].v = {vf!r} is outside the allowed range [{vmin}, {vmax}]"
+            )
+        _check_target(vf, af, vmax, vmin, amax, amin, J, False, "targets", i)
     else:
         if vmax == _INF and amax == _INF and J == _INF:
             raise PlanningError(
                 f"limits[{i}]: at least one of v_max, a_max, j_max must be finite for a "
                 "position move"
             )
-        _check_target(vf, af, vmax, vmin, amax, amin, J, True, name)
+        _check_target(vf, af, vmax, vmin, amax, amin, J, True, "targets", i)
     pre: Phases = []
+    t_pre = 0.0
     if arrived(p0, v0, a0, pf, vf, af):
         pf, vf, af = p0, v0, a0  # a target within rounding of the start is the start
         if abs(v0) <= 1e-15 and abs(a0) <= 1e-15:
@@ -158,9 +204,25 @@ def _make_axis(start: State, target: State, lim: Limits, velocity: bool, i: int)
         else:
             pre3, v0, a0, d, _ = _brake.brake_prefix(v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
             pre.extend(pre3)
-    t_pre = sum(x[0] for x in pre)
+        for x in pre:  # sum(x[0] for x in pre): the same additions, no generator
+            t_pre += x[0]
     return _Axis(
-        velocity, p0, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, tuple(pre), t_pre, start
+        velocity,
+        p0,
+        v0,
+        a0,
+        d,
+        vf,
+        af,
+        vmax,
+        vmin,
+        amax,
+        amin,
+        J,
+        tuple(pre),
+        t_pre,
+        start,
+        origin,
     )
 
 
@@ -205,7 +267,7 @@ def _blocking_width(durations: Sequence[float], T: float) -> float:
 # A blocked interval narrower than this (relative to the duration) comes from a target within
 # rounding distance of a limit, where the extremal profiles are too close to tell the feasible
 # durations apart: there the duration is tried instead of skipped.
-_NARROW_BLOCK = 1e-6
+_NARROW_BLOCK: Final = 1e-6
 
 
 def _scale_floor(ax: _Axis, what: str, lim_hi: float, lim_lo: float) -> float:
@@ -968,12 +1030,18 @@ def _scaled_rest(
     k2 = k * k
     scaled: Phases = []
     for x in ph:
-        y: tuple[float, ...] = (x[0] * k, x[1] / (k2 * k))
-        if len(x) > 2:
-            y += (x[2] / k2,)
-            if len(x) > 3:
-                y += (x[3] / k,)
-        scaled.append(y)
+        n = len(x)  # each length spelled out: no tuple concatenation
+        if n == 2:
+            scaled.append((x[0] * k, x[1] / (k2 * k)))
+        elif n == 3:
+            scaled.append((x[0] * k, x[1] / (k2 * k), x[2] / k2))
+        else:
+            y: tuple[float, ...] = (x[0] * k, x[1] / (k2 * k))
+            if n > 2:
+                y += (x[2] / k2,)
+                if n > 3:
+                    y += (x[3] / k,)
+            scaled.append(y)
     return scaled, kind + "+scaled"
 
 
@@ -985,23 +1053,34 @@ def _round_up(T: float, dt: float | None) -> float:
 
 
 def _profile(ax: _Axis, phases: Phases, kind: str) -> Profile:
+    # the start as its validated values (no State read back); without a prefix the phases
+    # as they are (Profile only reads them)
+    if not ax.pre:
+        return Profile(ax.origin, phases, kind)
     ph = list(phases)
-    if ax.pre and ph:
+    if ph:
         first = ph[0]
         if len(first) < 4:
             ph[0] = (first[0], first[1], ax.a0, ax.v0)
-    return Profile(ax.start, [*ax.pre, *ph], kind)
+    return Profile(ax.origin, [*ax.pre, *ph], kind)
 
 
 def _time_sync(
     axes: list[_Axis], dt: float | None, method: str = "direct"
 ) -> tuple[list[Profile], tuple[float, ...]] | None:
+    # (index loops, not zip(..., strict=True): the lists have one entry per axis, and a
+    # compiled build then makes no generic call)
+    n = len(axes)
     exts = [_extremals(ax) for ax in axes]
-    tmins = [ax.t_pre + e[0][0] for ax, e in zip(axes, exts, strict=True)]
-    t_lim = max(tmins)
+    tmins = [axes[k].t_pre + exts[k][0][0] for k in range(n)]
+    t_lim = tmins[0]
+    for t in tmins:  # max(tmins): the same comparisons, no call of the builtin
+        if t > t_lim:
+            t_lim = t
     cands = {t_lim}
-    for ax, e in zip(axes, exts, strict=True):
-        for t, _, _ in e[1:]:
+    for k in range(n):
+        ax = axes[k]
+        for t, _, _ in exts[k][1:]:
             if ax.t_pre + t > t_lim:
                 cands.add(ax.t_pre + t)
     ordered = sorted({_round_up(t, dt) for t in cands})
@@ -1018,7 +1097,9 @@ def _time_sync(
                 "to loop to wait for the others)"
             )
         profiles: list[Profile] = []
-        for ax, e in zip(axes, exts, strict=True):
+        for k in range(n):
+            ax = axes[k]
+            e = exts[k]
             durs = [t for t, _, _ in e]
             width = _blocking_width(durs, T - ax.t_pre)
             if width > _NARROW_BLOCK * max(1.0, T):
@@ -1192,14 +1273,19 @@ def plan_sync(
     if not isinstance(method, str) or method not in ("direct", "bisection"):
         raise PlanningError(f"method must be 'direct' or 'bisection', got {method!r}")
     cycle = None if dt is None else check_dt(dt)
-    given = list(_sequence("interface", interface)) if interface is not None else ["position"] * n
-    if len(given) != n:
-        raise PlanningError(f"interface must have {n} entries, got {len(given)}")
     ifaces: list[str] = []
-    for i, kind in enumerate(given):
-        if not isinstance(kind, str) or kind not in ("position", "velocity"):
-            raise PlanningError(f"interface[{i}] must be 'position' or 'velocity', got {kind!r}")
-        ifaces.append(kind)
+    if interface is None:
+        ifaces = ["position"] * n
+    else:
+        given = list(_sequence("interface", interface))
+        if len(given) != n:
+            raise PlanningError(f"interface must have {n} entries, got {len(given)}")
+        for i, kind in enumerate(given):
+            if not isinstance(kind, str) or kind not in ("position", "velocity"):
+                raise PlanningError(
+                    f"interface[{i}] must be 'position' or 'velocity', got {kind!r}"
+                )
+            ifaces.append(kind)
     try:
         return _plan_sync(starts, targets, limits, sync, cycle, ifaces, method)
     except ArithmeticError as exc:
