@@ -549,17 +549,18 @@ def _family(
     amin: float,
     J: float,
     t_best: float,
+    out: list[Candidate] | None = None,
 ) -> Candidate | None:
     """``_FAMILIES[k](...)`` as direct calls (a compiled build then passes the floats unboxed)."""
     if k == 0:
-        return _fam_vel(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+        return _fam_vel(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best, out)
     if k == 1:
-        return _fam_acc0_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+        return _fam_acc0_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best, out)
     if k == 2:
-        return _fam_none(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+        return _fam_none(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best, out)
     if k == 3:
-        return _fam_acc0(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
-    return _fam_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best)
+        return _fam_acc0(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best, out)
+    return _fam_acc1(v0, a0, d, vf, af, vmax, vmin, amax, amin, J, t_best, out)
 
 
 def single_ramp(
@@ -671,12 +672,10 @@ def extremal_profiles(
     # stays only when it is the only profile (a start that is already on the target's path).
     if sr is not None and (not sr[1] or sr[1][0][1] != 0.0):
         cands.append(sr)
-    up = (v0, a0, d, vf, af, vmax, vmin, amax, amin, J)
-    down = (-v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J)
-    for fam in _FAMILIES:
-        fam(*up, math.inf, cands)
+    for k in range(_N_FAMILIES):  # each family up, then down (direct calls, see _family)
+        _family(k, v0, a0, d, vf, af, vmax, vmin, amax, amin, J, math.inf, cands)
         mirrored: list[Candidate] = []
-        fam(*down, math.inf, mirrored)
+        _family(k, -v0, -a0, -d, -vf, -af, -vmin, -vmax, -amin, -amax, J, math.inf, mirrored)
         for t, ph, name in mirrored:
             cands.append((t, [mirror(x) for x in ph], name + "-down"))
     if not cands and sr is not None:

@@ -1077,16 +1077,24 @@ def _time_sync(
     for t in tmins:  # max(tmins): the same comparisons, no call of the builtin
         if t > t_lim:
             t_lim = t
-    cands = {t_lim}
+    single = True  # every axis has one extremal (e.g. rest to rest): no blocked durations
     for k in range(n):
-        ax = axes[k]
-        for t, _, _ in exts[k][1:]:
-            if ax.t_pre + t > t_lim:
-                cands.add(ax.t_pre + t)
-    ordered = sorted({_round_up(t, dt) for t in cands})
-    if dt is not None:
-        # a rounded candidate may be blocked; the next cycles are candidates too
-        ordered = sorted(set(ordered) | {ordered[0] + k * dt for k in range(1, 4)})
+        if len(exts[k]) > 1:
+            single = False
+            break
+    if single and dt is None:
+        ordered = [t_lim]  # what the candidate set below comes to then
+    else:
+        cands = {t_lim}
+        for k in range(n):
+            ax = axes[k]
+            for t, _, _ in exts[k][1:]:
+                if ax.t_pre + t > t_lim:
+                    cands.add(ax.t_pre + t)
+        ordered = sorted({_round_up(t, dt) for t in cands})
+        if dt is not None:
+            # a rounded candidate may be blocked; the next cycles are candidates too
+            ordered = sorted(set(ordered) | {ordered[0] + k * dt for k in range(1, 4)})
     for T in ordered:
         if T < t_lim - _SYNC_TOL:
             continue
@@ -1100,10 +1108,11 @@ def _time_sync(
         for k in range(n):
             ax = axes[k]
             e = exts[k]
-            durs = [t for t, _, _ in e]
-            width = _blocking_width(durs, T - ax.t_pre)
-            if width > _NARROW_BLOCK * max(1.0, T):
-                break
+            if len(e) > 2:  # (fewer extremals block nothing: the width would be 0)
+                durs = [t for t, _, _ in e]
+                width = _blocking_width(durs, T - ax.t_pre)
+                if width > _NARROW_BLOCK * max(1.0, T):
+                    break
             r = _solve_for(ax, T - ax.t_pre, e, method)
             if r is None:
                 break
