@@ -44,8 +44,10 @@ class Trajectory:
         independent_min_durations: Sequence[float] = (),
     ) -> None:
         setattr_ = object.__setattr__
-        setattr_(self, "profiles", tuple(profiles))
-        setattr_(self, "duration", max((p.duration for p in profiles), default=0.0))
+        profiles = tuple(profiles)
+        setattr_(self, "profiles", profiles)
+        # a list, not a generator (plan_sync builds one per call: ~5 % of a 3-axis plan)
+        setattr_(self, "duration", max([p.duration for p in profiles], default=0.0))
         setattr_(self, "sync", sync)
         setattr_(self, "note", note)
         setattr_(self, "independent_min_durations", tuple(independent_min_durations))
