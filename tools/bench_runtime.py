@@ -258,11 +258,33 @@ def _lend_extensions(here: Path, base: Path) -> None:
     manifest = pkg / "_compiled.json"
     if not manifest.is_file():
         return
+    # only the shared library and the modules the base itself compiles: an extension of a
+    # module the base has as plain Python would shadow its source (an extension wins the import)
+    listed = _compiled_modules(base / "motionplc" / "_purepy.py")
     for ext in pkg.rglob("*.so"):
-        dest = base / ext.relative_to(here)
+        rel = ext.relative_to(here)
+        module = ".".join((*rel.parent.parts, rel.name.split(".")[0]))
+        if "__mypyc" not in rel.name and module not in listed:
+            continue
+        dest = base / rel
         if dest.parent.is_dir():
             shutil.copy2(ext, dest)
     shutil.copy2(manifest, base / "motionplc" / "_compiled.json")
+
+
+def _compiled_modules(purepy: Path) -> set[str]:
+    """COMPILED_MODULES of a tree's ``motionplc/_purepy.py`` (read, not imported); empty
+    when it has none."""
+    import ast
+
+    if not purepy.is_file():
+        return set()
+    for node in ast.parse(purepy.read_text()).body:
+        if isinstance(node, ast.Assign) and any(
+            isinstance(t, ast.Name) and t.id == "COMPILED_MODULES" for t in node.targets
+        ):
+            return {str(v) for v in ast.literal_eval(node.value)}
+    return set()
 
 
 def against(
