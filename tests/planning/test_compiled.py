@@ -264,6 +264,34 @@ def test_planning_suite_in_pure_python(summary: Callable[[str], None]) -> None:
     summary(f"pure-Python planning suite: {res.stdout.strip().splitlines()[-1]}")
 
 
+@needs_compiled
+def test_kernel_traces_compiled_equal_pure(tmp_path: Path, summary: Callable[[str], None]) -> None:
+    """The compiled axis kernel (blocks._axis_core) and planning core run the cycle bit for bit
+    as their sources do: tools/kernel_digests.py's random FB sequences and its 8-axis virtual
+    CAN scenarios (the trace of every cycle, the FB outputs, the frames) in both modes."""
+    digests = []
+    for mode, env in (("compiled", dict(os.environ)), ("pure", _pure_env())):
+        got = {}
+        for only, n_random in (("random", "24"), ("can:", "0")):
+            out = tmp_path / f"{mode}-{only.strip(':')}.json"
+            res = subprocess.run(
+                [sys.executable, str(ROOT / "tools" / "kernel_digests.py"), "--random", n_random]
+                + ["--only", only, "--json", str(out)],
+                env=dict(env, PYTHONPATH=str(ROOT), PYTHONHASHSEED="0"),
+                capture_output=True,
+                text=True,
+                cwd=ROOT,
+            )
+            assert res.returncode == 0, res.stderr[-2000:]
+            got.update(json.loads(out.read_text()))
+        digests.append(got)
+    compiled, pure = digests
+    assert len(compiled) == 26 and not any(v.startswith("EXCEPTION") for v in compiled.values())
+    differ = sorted(k for k in compiled if compiled[k] != pure.get(k))
+    assert not differ, f"compiled and pure kernels differ in {differ}"
+    summary(f"kernel digests compiled == pure on {len(compiled)} scenarios (24 random, 2 CAN)")
+
+
 # -- error behaviour and immutability on the core in use -----------------------------------------
 LIM = Limits(v_max=1.8, a_max=1.2, j_max=1.0)
 BAD_VALUES = [
