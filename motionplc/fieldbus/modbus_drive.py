@@ -715,7 +715,7 @@ class ModbusDrive(Drive):
         requests (parked until a later simulated time); True then, False when ``timeout`` (at
         least ``_LOCKSTEP_WALL``) of wall time per request has passed without either."""
         cfg = self.config
-        bound = max(cfg.timeout, _LOCKSTEP_WALL)
+        bound = self._wall_bound()
         for _ in range(len(self.codec.requests) * max(1, math.ceil(bound / _POLL))):
             ex = self._exchange
             if ex is None or not self.link.connected:

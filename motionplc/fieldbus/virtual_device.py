@@ -710,19 +710,8 @@ class Cia402Device:
         if not powered:
             self.demand_velocity = 0.0
         self._monitor_following_error(dt)
-        if stopped and self.state in POWERED_STATES:
-            # standstill reached: the power stage holds the axis, residual creep is zeroed
-            self.actual = PlantState(self.actual.position, 0.0, 0.0)
-        if stopped and self.state is Cia402State.FAULT_REACTION_ACTIVE:
-            self.state = Cia402State.FAULT  # 14
-            self.last_transition = 14
-        elif (
-            stopped
-            and self.state is Cia402State.QUICK_STOP_ACTIVE
-            and not 5 <= self.quick_stop_option <= 8
-        ):
-            self.state = Cia402State.SWITCH_ON_DISABLED  # 12 after the stop (options 0..4)
-            self.last_transition = 12
+        if stopped:
+            self._stopped()
 
     def _monitor_following_error(self, dt: float) -> None:
         if not self.following or self.following_error_window == 0xFFFFFFFF:
