@@ -46,6 +46,7 @@ COMPILED_MODULES = (
     "motionplc.planning.sync",
     "motionplc.planning._batchrow",
     "motionplc.blocks._axis_core",  # the axis kernel's per-cycle common case (Axis' base)
+    "motionplc.fieldbus._ideal_core",  # the ideal drive's per-cycle fields (IdealDrive's base)
 )
 SHARED_LIB = "_core__mypyc"  # mypyc's group library, inside the motionplc package
 MANIFEST = "_compiled.json"  # written by the build: the sources' SHA-256 digests

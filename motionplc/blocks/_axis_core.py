@@ -21,11 +21,13 @@ from __future__ import annotations
 import struct
 from bisect import bisect_right
 from collections.abc import Callable
-from typing import Any, Final
+from typing import Any, ClassVar, Final
 
 from motionplc.blocks.axis_state import Event, next_state
 from motionplc.blocks.enums import AxisState
+from motionplc.fieldbus._ideal_core import IdealCore
 from motionplc.planning.profile import Profile
+from motionplc.planning.state import State
 
 
 def _no_mypyc_attr(*args: object, **kwargs: object) -> Callable[[Any], Any]:
@@ -41,6 +43,103 @@ _DISABLED: Final = AxisState.DISABLED
 _ERROR_STOP: Final = AxisState.ERROR_STOP
 _POWER_ON_READY_STATE: Final = next_state(Event.POWER_ON_READY, AxisState.DISABLED)  # T5
 _PACK_ROW: Final = struct.Struct("=8d").pack_into  # one axis' trace row part (AXIS_FIELDS)
+
+
+# kinds the override does not scale (stops, homing, the ErrorStop ramp)
+NO_OVERRIDE: Final = frozenset({"halt", "stop", "home", "estop"})
+
+
+@mypyc_attr(allow_interpreted_subclasses=True)
+class AxisJob:
+    """A command being executed or waiting in the queue (mutable, axis-internal)."""
+
+    # a master/slave coupling (sync_job.SyncJob samples its master, not a chain)
+    sync: ClassVar[bool] = False
+
+    # the fields (native: C fields when compiled; the fast path reads tau, duration, shift,
+    # single, kind, no_override; a subclass adds its own with __slots__)
+    cmd: Any
+    handle: Any
+    kind: str
+    target: Any  # float | None
+    chain: Any  # list[Profile]
+    offsets: Any  # list[float]
+    duration: float
+    tau: float
+    shift: float
+    home_phase: Any
+    no_override: bool
+    waiting: Any
+    single: Any  # Profile | None: the profile of a one-profile chain
+    base: Any  # float | None
+    dir: Any
+    rest_target: Any  # float | None
+
+    def __init__(self, cmd: Any, handle: Any) -> None:
+        self.cmd = cmd
+        self.handle = handle
+        self.kind = cmd.kind
+        self.target = None
+        self.chain = []
+        self.offsets = []
+        self.duration = 0.0
+        self.tau = 0.0
+        self.shift = 0.0
+        self.home_phase = 0
+        self.no_override = cmd.kind in NO_OVERRIDE
+        self.waiting = False  # queued behind other motion at submission
+        self.single = None
+        self.base = None  # position a discrete move's target was resolved from
+        self.dir = 0.0  # direction of the motion while running (+1 / -1, 0 = none)
+        self.rest_target = None  # the chain ends at rest here (_prepare_move)
+
+    def set_chain(self, chain: list[Profile]) -> None:
+        """Run ``chain`` (profiles back to back) from its start: trajectory time 0, no shift."""
+        self.chain = chain
+        self.single = chain[0] if len(chain) == 1 else None
+        offs = []
+        t = 0.0
+        for prof in chain:
+            offs.append(t)
+            t += prof.duration
+        self.offsets = offs
+        self.duration = t
+        self.tau = 0.0
+        self.shift = 0.0
+        self.rest_target = None
+
+    def sample(self, tau: float) -> tuple[float, float, float, float]:
+        """(p, v, a, j) at trajectory time ``tau`` (past the end: the end velocity goes on)."""
+        chain = self.chain
+        if tau >= self.duration:
+            e = chain[-1].end
+            # continuous motion keeps its end velocity (MoveVelocity after InVelocity)
+            return (e.p + e.v * (tau - self.duration) + self.shift, e.v, 0.0, 0.0)
+        if len(chain) == 1:
+            p, v, a, j = chain[0].at(tau)
+            return (p + self.shift, v, a, j)
+        i = len(chain) - 1
+        offs = self.offsets
+        while i > 0 and offs[i] > tau:
+            i -= 1
+        s = chain[i].at(tau - offs[i])
+        return (s.p + self.shift, s.v, s.a, s.j)
+
+    def end_state(self) -> State:
+        """The state at the end of the chain (shifted; exactly the target if planned to rest)."""
+        e = self.chain[-1].end
+        t = self.rest_target
+        if (
+            t is not None
+            and self.shift == 0.0
+            and abs(e.p - t) <= 1e-12 * (1.0 + abs(t))
+            and abs(e.v) <= 1e-12
+            and abs(e.a) <= 1e-12
+        ):
+            # a move planned to rest at its target ends there exactly (the profile's end is
+            # integrated, a few ulp off)
+            return State(t, 0.0, 0.0)
+        return State(e.p + self.shift, e.v, e.a)
 
 
 @mypyc_attr(allow_interpreted_subclasses=True)
@@ -138,8 +237,12 @@ class AxisCore:
 
     def read_inputs(self, t: float) -> None:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
-        d = self._ideal
-        if d is None or d._feedback is not None:
+        ideal = self._ideal
+        if ideal is None:
+            self._read_inputs_general(t)
+            return
+        d: IdealCore = ideal
+        if d._feedback is not None:
             self._read_inputs_general(t)
             return
         # a healthy in-process ideal drive: DriveFeedback(_position, _velocity, _enabled)
@@ -207,24 +310,27 @@ class AxisCore:
         ``0 < tau < duration`` (the fast path runs only while ``tau < job.duration``, which
         is the profile's duration in a one-profile chain); ``Profile.at`` otherwise."""
         mq = self.mq
-        job = mq.active
-        ts = self.ts
-        if (
-            job is None
-            or job.single is None
-            or mq.inbox
-            or mq.pending
-            or self._junction_due is not None
-            or self.sup is not None
-            or not self._feed_all
-            or self._sw_check
-            or ts.prof is not None
-            or job.kind == "velocity"
-            or job.kind == "home"
-            or not (job.no_override or ts.f == 1.0)
-            or not job.tau + dt < job.duration
-            or self.state is _DISABLED
-        ):
+        active = mq.active
+        fast = False
+        if active is not None:
+            job: AxisJob = active  # (a C-field view of the job when compiled)
+            ts = self.ts
+            fast = not (
+                job.single is None
+                or mq.inbox
+                or mq.pending
+                or self._junction_due is not None
+                or self.sup is not None
+                or not self._feed_all
+                or self._sw_check
+                or ts.prof is not None
+                or job.kind == "velocity"
+                or job.kind == "home"
+                or not (job.no_override or ts.f == 1.0)
+                or not job.tau + dt < job.duration
+                or self.state is _DISABLED
+            )
+        if not fast:
             self.step(dt)
         else:
             # step() of a one-profile job that stays inside its profile in this step,
@@ -258,8 +364,12 @@ class AxisCore:
                         )
             except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
                 self._kernel_failed(exc)
-        d = self._ideal
-        if d is None or not d._comm_ok or d._fault:
+        ideal = self._ideal
+        if ideal is None:
+            self.write_outputs(t)
+            return
+        d: IdealCore = ideal
+        if not d._comm_ok or d._fault:
             self.write_outputs(t)
             return
         if self._reset_pulse:

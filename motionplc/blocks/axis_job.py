@@ -7,10 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from motionplc.blocks._axis_core import NO_OVERRIDE as _NO_OVERRIDE
+from motionplc.blocks._axis_core import AxisJob
 from motionplc.blocks.axis_state import Event
 from motionplc.blocks.enums import BufferMode, Direction
-from motionplc.blocks.motion_queue import Handle
-from motionplc.planning import Profile, State
 
 __all__ = ["EVENTS", "NO_OVERRIDE", "AxisJob", "Command", "sign"]
 
@@ -57,95 +57,6 @@ EVENTS = {
     "syncout": Event.SYNC_OUT,
 }
 # kinds the override does not scale (stops, homing, the ErrorStop ramp)
-NO_OVERRIDE = frozenset({"halt", "stop", "home", "estop"})
-
-
-class AxisJob:
-    """A command being executed or waiting in the queue (mutable, axis-internal)."""
-
-    sync = False  # a master/slave coupling (sync_job.SyncJob samples its master, not a chain)
-
-    __slots__ = (
-        "cmd",
-        "handle",
-        "kind",
-        "target",
-        "chain",
-        "offsets",
-        "duration",
-        "tau",
-        "shift",
-        "home_phase",
-        "no_override",
-        "waiting",
-        "single",
-        "base",
-        "dir",
-        "rest_target",
-    )
-
-    def __init__(self, cmd: Command, handle: Handle) -> None:
-        self.cmd = cmd
-        self.handle = handle
-        self.kind = cmd.kind
-        self.target: float | None = None
-        self.chain: list[Profile] = []
-        self.offsets: list[float] = []
-        self.duration = 0.0
-        self.tau = 0.0
-        self.shift = 0.0
-        self.home_phase = 0
-        self.no_override = cmd.kind in NO_OVERRIDE
-        self.waiting = False  # queued behind other motion at submission
-        self.single: Profile | None = None  # the profile of a one-profile chain
-        self.base: float | None = None  # position a discrete move's target was resolved from
-        self.dir = 0.0  # direction of the motion while running (+1 / -1, 0 = none)
-        self.rest_target: float | None = None  # the chain ends at rest here (_prepare_move)
-
-    def set_chain(self, chain: list[Profile]) -> None:
-        """Run ``chain`` (profiles back to back) from its start: trajectory time 0, no shift."""
-        self.chain = chain
-        self.single = chain[0] if len(chain) == 1 else None
-        offs = []
-        t = 0.0
-        for prof in chain:
-            offs.append(t)
-            t += prof.duration
-        self.offsets = offs
-        self.duration = t
-        self.tau = 0.0
-        self.shift = 0.0
-        self.rest_target = None
-
-    def sample(self, tau: float) -> tuple[float, float, float, float]:
-        """(p, v, a, j) at trajectory time ``tau`` (past the end: the end velocity goes on)."""
-        chain = self.chain
-        if tau >= self.duration:
-            e = chain[-1].end
-            # continuous motion keeps its end velocity (MoveVelocity after InVelocity)
-            return (e.p + e.v * (tau - self.duration) + self.shift, e.v, 0.0, 0.0)
-        if len(chain) == 1:
-            p, v, a, j = chain[0].at(tau)
-            return (p + self.shift, v, a, j)
-        i = len(chain) - 1
-        offs = self.offsets
-        while i > 0 and offs[i] > tau:
-            i -= 1
-        s = chain[i].at(tau - offs[i])
-        return (s.p + self.shift, s.v, s.a, s.j)
-
-    def end_state(self) -> State:
-        """The state at the end of the chain (shifted; exactly the target if planned to rest)."""
-        e = self.chain[-1].end
-        t = self.rest_target
-        if (
-            t is not None
-            and self.shift == 0.0
-            and abs(e.p - t) <= 1e-12 * (1.0 + abs(t))
-            and abs(e.v) <= 1e-12
-            and abs(e.a) <= 1e-12
-        ):
-            # a move planned to rest at its target ends there exactly (the profile's end is
-            # integrated, a few ulp off)
-            return State(t, 0.0, 0.0)
-        return State(e.p + self.shift, e.v, e.a)
+# AxisJob and NO_OVERRIDE are defined with the axis kernel (compiled: its fast path reads the
+# job's fields as C fields) and exported from here
+NO_OVERRIDE = _NO_OVERRIDE

@@ -29,6 +29,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from motionplc._fastinit import slot_setters
+from motionplc.fieldbus._ideal_core import IdealCore
 from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback, ProbeResult
 from motionplc.fieldbus.plant import ProbeInput, ProbeSensor
 
@@ -78,8 +79,11 @@ except TypeError:  # DriveFeedback changed: the normal constructor (slower, same
         return DriveFeedback(position, velocity, enabled)
 
 
-class IdealDrive(Drive):
-    """Perfect follower: actual position/velocity = commanded position/velocity."""
+class IdealDrive(Drive, IdealCore):
+    """Perfect follower: actual position/velocity = commanded position/velocity.
+
+    The fields the axis kernel reads and writes per cycle are declared by its base
+    :class:`~motionplc.fieldbus._ideal_core.IdealCore` (C fields when compiled)."""
 
     probe_inputs = 2
 
