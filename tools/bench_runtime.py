@@ -12,6 +12,8 @@
                                   # before/after in one run: a worktree of the commit
                                   # (keyword FB calls, the program before issue 15) and
                                   # this checkout (attribute calls), alternately
+    python tools/bench_runtime.py --against 09895dc --base-build --axes 8 --no-rt
+                                  # the same, the worktree compiled with its own sources
 
 Issue 15 (a leaner cycle): ``--calls attr`` (default) sets the FB inputs as attributes when
 they change and calls every FB as ``fb()``; ``--calls kw`` passes them as keywords every scan
@@ -272,6 +274,18 @@ def _lend_extensions(here: Path, base: Path) -> None:
     shutil.copy2(manifest, base / "motionplc" / "_compiled.json")
 
 
+def _build_extensions(base: Path) -> None:
+    """Compile the worktree ``base``'s own extensions in place (its setup.py, this Python)."""
+    res = subprocess.run(
+        [sys.executable, "setup.py", "-q", "build_ext", "--inplace"],
+        cwd=base,
+        capture_output=True,
+        text=True,
+    )
+    if res.returncode != 0:
+        raise SystemExit(f"building the extensions of {base} failed:\n{res.stderr[-2000:]}")
+
+
 def _compiled_modules(purepy: Path) -> set[str]:
     """COMPILED_MODULES of a tree's ``motionplc/_purepy.py`` (read, not imported); empty
     when it has none."""
@@ -295,11 +309,15 @@ def against(
     calls: str,
     drives: str,
     base_calls: str | None = None,
+    base_build: bool = False,
 ) -> None:
     """Before/after in one run: alternately this checkout and a temporary detached worktree
     of ``ref``, each measurement in its own process; medians of the CPU-second rates and the
     median of the per-pair ratios. ``base_calls``: the FB call style of the ``ref`` side
-    (default: ``calls``; ``kw`` is the benchmark's program as it was before issue 15)."""
+    (default: ``calls``; ``kw`` is the benchmark's program as it was before issue 15).
+    ``base_build``: compile the worktree's own extensions (``setup.py build_ext --inplace``,
+    about a minute) instead of lending it this build's (needed when the compiled modules
+    changed since ``ref``: lent extensions of other sources are not used)."""
     base_calls = base_calls or calls
     here = Path(__file__).resolve().parent.parent
     tmp = Path(tempfile.mkdtemp(prefix="bench-runtime-"))
@@ -310,7 +328,10 @@ def against(
         capture_output=True,
     )
     try:
-        _lend_extensions(here, base)
+        if base_build:
+            _build_extensions(base)
+        else:
+            _lend_extensions(here, base)
         for n in axes:
             new_r: list[float] = []
             old_r: list[float] = []
@@ -524,6 +545,12 @@ def main() -> None:
         default=None,
         help="FB call style of the --against side (default: --calls)",
     )
+    ap.add_argument(
+        "--base-build",
+        action="store_true",
+        help="compile the --against worktree's own extensions (~1 min; when compiled modules"
+        " changed since REF) instead of lending it this build's",
+    )
     ap.add_argument("--child", type=Path, default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child is not None:  # one measurement for --against (motionplc from --child)
@@ -545,6 +572,7 @@ def main() -> None:
             args.calls,
             args.drives,
             args.base_calls,
+            args.base_build,
         )
         return
     print(f"cpus: {os.cpu_count()}, load average: {os.getloadavg()}")
