@@ -45,6 +45,30 @@ _POWER_ON_READY_STATE: Final = next_state(Event.POWER_ON_READY, AxisState.DISABL
 _PACK_ROW: Final = struct.Struct("=8d").pack_into  # one axis' trace row part (AXIS_FIELDS)
 
 
+@mypyc_attr(allow_interpreted_subclasses=True)
+class QueueCore:
+    """The fields of a motion queue (``motion_queue.MotionQueue`` subclasses it): native, so
+    the compiled fast path reads them as C fields."""
+
+    inbox: Any
+    active: Any
+    queue: Any
+    stops: Any
+    pending: Any
+
+
+@mypyc_attr(allow_interpreted_subclasses=True)
+class ScaleCore:
+    """The fields of the override's time scale (``override.TimeScale`` subclasses it)."""
+
+    f: Any
+    fd: Any
+    fdd: Any
+    prof: Any
+    t: Any
+    target: Any
+
+
 # kinds the override does not scale (stops, homing, the ErrorStop ramp)
 NO_OVERRIDE: Final = frozenset({"halt", "stop", "home", "estop"})
 
@@ -309,12 +333,12 @@ class AxisCore:
         bit for bit), read from its knots without building the ``Sample`` it returns, for
         ``0 < tau < duration`` (the fast path runs only while ``tau < job.duration``, which
         is the profile's duration in a one-profile chain); ``Profile.at`` otherwise."""
-        mq = self.mq
+        mq: QueueCore = self.mq
         active = mq.active
         fast = False
         if active is not None:
             job: AxisJob = active  # (a C-field view of the job when compiled)
-            ts = self.ts
+            ts: ScaleCore = self.ts
             fast = not (
                 job.single is None
                 or mq.inbox

@@ -29,6 +29,7 @@ from collections.abc import Callable
 from enum import IntEnum
 from typing import Any, Generic, Protocol, TypeVar
 
+from motionplc.blocks._axis_core import QueueCore
 from motionplc.blocks.enums import BufferMode, ErrorID
 
 __all__ = [
@@ -124,7 +125,7 @@ class QueuedJob(Protocol):
 J = TypeVar("J", bound=QueuedJob)
 
 
-class MotionQueue(Generic[J]):
+class MotionQueue(QueueCore, Generic[J]):
     """The commands of one axis or group: the inbox (submitted in this cycle's program phase),
     the active job, the queue behind it, MC_Stop handles and pending ContinuousUpdate values.
 
@@ -132,7 +133,7 @@ class MotionQueue(Generic[J]):
     are read and written directly on the hot path (``q.active``, ``q.queue``, ``q.inbox``).
     """
 
-    __slots__ = ("inbox", "active", "queue", "stops", "pending")
+    # the fields are declared by QueueCore (C fields when compiled: the axis kernel's fast path)
 
     def __init__(self) -> None:
         self.inbox: list[J] = []  # submitted, not yet taken by the kernel

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 
+from motionplc.blocks._axis_core import ScaleCore
 from motionplc.blocks.planner_guard import guarded
 from motionplc.planning import Limits, Profile, State, plan_velocity
 
@@ -34,7 +35,7 @@ def ramp_limits(v_top: float, a_low: float, j_max: float) -> tuple[float, float]
     return a_low / v_top, j_max / v_top
 
 
-class TimeScale:
+class TimeScale(ScaleCore):
     """The override factor ``f`` (with ``f'``, ``f''``) along its ramp, and the transforms
     between real time and a scaled job's trajectory time (mutable, owned by one axis/group).
 
@@ -42,7 +43,7 @@ class TimeScale:
     plain attributes, read directly on the per-cycle path.
     """
 
-    __slots__ = ("f", "fd", "fdd", "prof", "t", "target")
+    # the fields are declared by ScaleCore (C fields when compiled: the axis kernel's fast path)
 
     def __init__(self) -> None:
         self.f = 1.0  # factor
