@@ -8,7 +8,6 @@ from motionplc.blocks.axis import OVERRIDE_MIN, POSITION_MAX, Axis, Command, Han
 from motionplc.blocks.base import (
     EnableFB,
     ExecuteFB,
-    FunctionBlock,
     InputError,
     check_dynamic,
     check_execution_mode,
@@ -41,27 +40,33 @@ class MC_Power(EnableFB):
     _power_inline: ClassVar[bool] = True
 
     def __init_subclass__(cls, **kw: Any) -> None:
-        super().__init_subclass__(**kw)
+        # before EnableFB's, which asks _steady_allowed
         cls._power_inline = cls._scan is MC_Power._scan and cls._update is MC_Power._update
+        super().__init_subclass__(**kw)
+
+    @classmethod
+    def _steady_allowed(cls) -> bool:
+        return cls._power_inline
 
     def __call__(self, **inputs: Any) -> Any:
         """One scan (see :meth:`FunctionBlock.__call__`). The steady scan of a long-lived FB
-        (its axis registered, enabled and valid without error) runs :meth:`_scan`'s steps for
-        that case here: the power request, then ``status`` from the axis image."""
+        (its axis registered, enabled and valid without error: ``_steady`` is its axis) runs
+        :meth:`_scan`'s steps for that case here: the power request (``Axis.set_power``; with
+        both directions enabled not called when the axis holds that very request already: it
+        would change nothing), then ``status`` from the axis image."""
         if inputs:
             self._set_inputs(inputs)
         axis = self.axis
-        if (
-            axis is not self._registered
-            or axis is None
-            or not self._power_inline
-            or not self.enable
-            or not self.valid
-            or self.error
-        ):
-            return FunctionBlock.__call__(self)
+        if axis is not self._steady or not self.enable:
+            return self._call_general()
         try:
-            axis.set_power(True, bool(self.enable_positive), bool(self.enable_negative))
+            if self.enable_positive is True and self.enable_negative is True:
+                # Axis.set_power is the only writer of these: power_request True and both
+                # directions enabled (_feed_all) means the axis holds this very request
+                if axis.power_request is not True or axis._feed_all is not True:
+                    axis.set_power(True, True, True)
+            else:
+                axis.set_power(True, bool(self.enable_positive), bool(self.enable_negative))
             status = axis.img_enabled
             if status != self.status:
                 self.status = status
@@ -190,6 +195,28 @@ class MC_ReadStatus(EnableFB):
         for f in self._FLAGS.values():
             setattr(self, f, False)
         super().__init__(name, **inputs)
+
+    # the unchanged-state scan runs in __call__ (a subclass that changes _update: never)
+    _status_inline: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        # before EnableFB's, which asks _steady_allowed
+        cls._status_inline = cls._update is MC_ReadStatus._update
+        super().__init_subclass__(**kw)
+
+    @classmethod
+    def _steady_allowed(cls) -> bool:
+        return cls._inline_scan and cls._status_inline and not cls._values_traced
+
+    def __call__(self, **inputs: Any) -> Any:
+        """One scan (see :meth:`FunctionBlock.__call__`). The steady scan of a long-lived FB
+        whose axis is still in the state it shows returns here: nothing to write."""
+        if inputs:
+            self._set_inputs(inputs)
+        axis = self.axis
+        if axis is self._steady and self.enable and axis.img_state is self.state:
+            return self
+        return EnableFB.__call__(self)
 
     def _update(self, axis: Axis) -> None:
         st = axis.img_state

@@ -259,16 +259,18 @@ class ExecuteFB(FunctionBlock):
         if self.axis is not self._registered or not self._inline_scan:
             return FunctionBlock.__call__(self)
         try:
-            ex = bool(self.execute)
-            if ex is self._prev_execute:
+            ex = self.execute
+            prev = self._prev_execute  # a bool
+            # no Execute edge (bool(execute) called only for a value that is not a bool)
+            if ex is prev or (ex is not True and ex is not False and bool(ex) is prev):
                 h = self._handle
                 if h is None:
                     if self._hook_before:
-                        self._before_outputs(ex)
+                        self._before_outputs(prev)
                     return self
                 if h.status is self._busy_status:
                     if self._hook_before:
-                        self._before_outputs(ex)
+                        self._before_outputs(prev)
                     if self._hook_busy:
                         self._busy_outputs(h)
                         if self._busy_traced:
@@ -370,6 +372,11 @@ class MotionFB(ExecuteFB):
     OUTPUTS = ("busy", "active", "done", "command_aborted", "error")
 
 
+# ``EnableFB._steady`` when the steady path is off (never an axis input: a bad ``axis`` such as
+# ``False`` must still reach the general path's type check)
+_NOT_STEADY: Any = object()
+
+
 class EnableFB(FunctionBlock):
     """Enable/Valid FBs: valid, busy, error, error_id."""
 
@@ -383,6 +390,8 @@ class EnableFB(FunctionBlock):
         self.enable = False
         self.valid = False
         self.busy = False
+        # the axis while the next scan may take the steady path (set after a general scan)
+        self._steady: Any = _NOT_STEADY
         super().__init__(name, **inputs)
 
     def __init_subclass__(cls, **kw: Any) -> None:
@@ -390,29 +399,32 @@ class EnableFB(FunctionBlock):
         extra = not set(cls.OUTPUTS) <= {"valid", "busy", "error"}
         cls._values_traced = extra and not cls._UPDATE_MARKS_DIRTY
         cls._inline_scan = cls._scan is EnableFB._scan
+        cls._steady_ok = cls._steady_allowed()
 
     _inline_scan: ClassVar[bool] = True
+    # whether this class' scans may take the steady path of its ``__call__``
+    _steady_ok: ClassVar[bool] = True
+
+    @classmethod
+    def _steady_allowed(cls) -> bool:
+        """Whether the steady path of ``__call__`` gives this class' scan (subclasses with a
+        steady path of their own refine it)."""
+        return cls._inline_scan
 
     def __call__(self, **inputs: Any) -> Any:
         """One scan (see :meth:`FunctionBlock.__call__`). The steady scan of a long-lived FB
-        (its axis registered, enabled and valid without error) runs the path of
-        :meth:`_scan` for that case here, one call less per scan."""
+        (its axis registered, enabled and valid without error: ``_steady`` is its axis) runs
+        the path of :meth:`_scan` for that case here, one call less per scan."""
         if inputs:
             self._set_inputs(inputs)
         axis = self.axis
-        if (
-            axis is not self._registered
-            or not self._inline_scan
-            or axis is None
-            or not self.enable
-            or not self.valid
-            or self.error
-        ):
-            return FunctionBlock.__call__(self)
+        if axis is not self._steady or not self.enable:
+            return self._call_general()
         try:
             try:
                 self._update(axis)
             except InputError as exc:
+                self._steady = _NOT_STEADY
                 self._dirty = True
                 self.busy = True
                 self.valid = False
@@ -432,6 +444,24 @@ class EnableFB(FunctionBlock):
                 self._dirty = True
         except Exception as exc:  # noqa: BLE001 - no exception of an FB body escapes the cycle
             self._scan_failed(exc)
+        return self
+
+    def _call_general(self) -> Any:
+        """One scan through :meth:`FunctionBlock.__call__` (registration, :meth:`_scan`), then
+        ``_steady``: the axis if the next scan may take the steady path (the class allows it,
+        the axis is registered, valid without error), else ``_NOT_STEADY``."""
+        FunctionBlock.__call__(self)
+        axis = self.axis
+        if (
+            self._steady_ok
+            and axis is self._registered
+            and axis is not None
+            and self.valid
+            and not self.error
+        ):
+            self._steady = axis
+        else:
+            self._steady = _NOT_STEADY
         return self
 
     def _scan(self) -> None:
@@ -467,6 +497,7 @@ class EnableFB(FunctionBlock):
             self._dirty = True
 
     def _scan_failed(self, exc: Exception) -> None:
+        self._steady = _NOT_STEADY
         super()._scan_failed(exc)
         self.valid = False
         self.busy = bool(self.enable)

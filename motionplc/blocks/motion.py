@@ -53,7 +53,7 @@ from typing import Any, ClassVar
 
 from motionplc.blocks.axis import POSITION_MAX, VELOCITY_RATIO_MIN, Axis, Command, Handle
 from motionplc.blocks.axis_config import AxisConfig
-from motionplc.blocks.base import InputError, MotionFB, check_dynamic, check_number
+from motionplc.blocks.base import ExecuteFB, InputError, MotionFB, check_dynamic, check_number
 from motionplc.blocks.enums import BufferMode, Direction, ErrorID
 
 
@@ -191,6 +191,43 @@ class _MoveFB(_ContinuousUpdate):
         self.buffer_mode = BufferMode.ABORTING
         self.end_velocity = 0.0  # effective velocity at the end position (blending)
         super().__init__(name, **inputs)
+
+    # the fast paths with _busy_outputs inline in __call__ (a subclass that changes the scan or
+    # its hooks: ExecuteFB's)
+    _move_inline: ClassVar[bool] = True
+
+    def __init_subclass__(cls, **kw: Any) -> None:
+        super().__init_subclass__(**kw)
+        cls._move_inline = (
+            cls._inline_scan
+            and not cls._hook_before
+            and cls._busy_outputs is _MoveFB._busy_outputs
+            and not cls._busy_traced
+        )
+
+    def __call__(self, **inputs: Any) -> Any:
+        """One scan (see :meth:`ExecuteFB.__call__`): its fast paths (no Execute edge; idle, or
+        still in the same busy state), with :meth:`_busy_outputs` inline."""
+        if inputs:
+            self._set_inputs(inputs)
+        if self.axis is not self._registered or not self._move_inline:
+            return ExecuteFB.__call__(self)
+        try:
+            ex = self.execute
+            prev = self._prev_execute  # a bool
+            if ex is prev or (ex is not True and ex is not False and bool(ex) is prev):
+                h = self._handle
+                if h is None:
+                    return self
+                if h.status is self._busy_status:
+                    if self._cu:
+                        self._continuous_update(h)
+                    self.end_velocity = h.end_velocity
+                    return self
+            self._scan()
+        except Exception as exc:  # noqa: BLE001 - no exception of an FB body escapes the cycle
+            self._scan_failed(exc)
+        return self
 
     def _terminal_outputs(self, h: Handle) -> None:
         self.end_velocity = h.end_velocity
