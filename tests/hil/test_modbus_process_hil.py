@@ -133,18 +133,26 @@ def test_killed_drive_process_20_times(tmp_path: Path) -> None:
             busy_at_kill: list[bool] = []
 
             def killer(
-                delay: float,
+                at_tick: int,
                 proc: DrivesProcess = drives,
                 mv: MC_MoveAbsolute = move,
                 kill_at: list[int] = kill_at,
                 busy_at_kill: list[bool] = busy_at_kill,
             ) -> None:
-                threading.Event().wait(delay)  # a random moment of the move (the runtime runs)
+                # a random cycle of the move, and inside it whatever moment the runtime is at
+                # (between cycles or in the middle of a request): the cycle is drawn in
+                # simulated time, so the kill falls during the move however fast the host runs
+                pause = threading.Event()
+                for _ in range(100_000):  # bounded: <= ~20 s of wall clock
+                    if rt.tick >= at_tick:
+                        break
+                    pause.wait(0.0002)
                 kill_at.append(rt.tick)
                 busy_at_kill.append(mv.busy)
                 proc.kill()
 
-            th = threading.Thread(target=killer, args=(rnd.uniform(0.0, 0.08),))
+            # the move lasts ~312 cycles of 4 ms (100 at 100/s, 400/s^2)
+            th = threading.Thread(target=killer, args=(rt.tick + rnd.randint(1, 280),))
             th.start()
             errored = rt.run_until(lambda: ax.state is AxisState.ERROR_STOP, 60.0)
             th.join(10.0)
@@ -153,6 +161,7 @@ def test_killed_drive_process_20_times(tmp_path: Path) -> None:
             error_ticks.append(rt.tick - 1)
             assert rt.tick - 1 - kill_at[0] <= 2, (i, kill_at, rt.tick)
             during_motion += busy_at_kill[0]
+            assert busy_at_kill[0], (i, kill_at)
             assert ax.axis_error is ErrorID.COMMUNICATION_LOST, ax.axis_error
             assert read_error.axis_error_id is ErrorID.COMMUNICATION_LOST
             assert "closed" in ax.axis_error_reason or "reset" in ax.axis_error_reason
@@ -176,7 +185,7 @@ def test_killed_drive_process_20_times(tmp_path: Path) -> None:
             assert rt.run_until(lambda: ax.state is AxisState.STANDSTILL, 2.0), ax
             assert ax.axis_error is ErrorID.OK
         assert len(error_ticks) == 20
-        assert during_motion >= 10  # the kills fell at random moments of the moves (20/20 here)
+        assert during_motion == 20  # every kill fell during its move
         # a last move completes on the restarted drive
         again = MC_MoveRelative(
             axis=ax, distance=2.0, velocity=20.0, acceleration=400.0, deceleration=400.0
