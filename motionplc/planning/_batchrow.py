@@ -19,6 +19,7 @@ from typing import Final
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import LIMIT_MAX, LIMIT_MIN, STATE_MAX
 from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
+from motionplc.planning.roots import cbrt
 
 _INF: Final = math.inf
 _NAN: Final = math.nan
@@ -66,7 +67,7 @@ def rest_row(
     ``batch._families`` compute it, operation for operation on floats (the same bits): (the
     seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
     form accepts the row (it goes to the core)."""
-    tr = math.pow(abs(d) / (2.0 * J), 1.0 / 3.0)  # float ** (1/3): C pow, the same bits
+    tr = cbrt(abs(d) / (2.0 * J))  # _third.time_optimal's and batch's cube root
     down = d < 0.0
     if J * tr <= _min(amax, -amin) and J * tr * tr <= _min(vmax, -vmin):
         return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, NR, down
@@ -117,7 +118,7 @@ def rest_row(
         c = (
             24.0 * JJ * Amax * D
             - 12.0 * A2 * N2
-            + 24.0 * Amax * math.pow(Amin, 3.0)
+            + 24.0 * Amax * (Amin * Amin * Amin)
             - 12.0 * N2 * N2
         ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
         vhi = Vmax + _LIM_TOL * (Vmax if Vmax > 1.0 else 1.0)

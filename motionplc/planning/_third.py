@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 from typing import Final
 
-from motionplc.planning.roots import quadratic_roots, quartic_roots_in
+from motionplc.planning.roots import cbrt, quadratic_roots, quartic_roots_in
 
 # A candidate is (duration, phases) with phases a list of (duration, jerk).
 # (duration, jerk[, exact acceleration at the phase start[, exact velocity]]): the planner
@@ -307,7 +307,7 @@ def _fam_acc0_acc1(
         + 6.0 * a0 * a0 * A2
         - 12.0 * A2 * N2
         + 6.0 * A2 * af * af
-        + 24.0 * amax * _cube(amin)
+        + 24.0 * amax * (amin * amin * amin)  # as batch's numpy (no pow: platform-free)
         - 24.0 * amax * amin * af * af
         + 8.0 * amax * _cube(af)
         - 12.0 * N2 * N2
@@ -609,7 +609,7 @@ def time_optimal(
     if best is None and v0 == 0.0 and a0 == 0.0 and vf == 0.0 and af == 0.0 and d != 0.0:
         # rest to rest without reaching a limit: four ramps of t = cbrt(|d| / (2J)) -- in
         # closed form, which also serves distances so small that the polynomials underflow
-        t = math.pow(abs(d) / (2.0 * J), 1.0 / 3.0)  # = ** for a base >= 0, unboxed
+        t = cbrt(abs(d) / (2.0 * J))  # the same bits as batch's numpy (not pow's)
         if J * t <= min(amax, -amin) and J * t * t <= min(vmax, -vmin):
             s = J if d > 0.0 else -J
             ph: Phases = [(t, s), (2.0 * t, -s), (t, s)]

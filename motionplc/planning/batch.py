@@ -71,6 +71,7 @@ __all__ = ["BatchPlan", "plan_batch"]
 
 _INF = math.inf
 _EPS = 2.220446049250313e-16
+_SPLIT = 134217729.0  # roots._SPLIT
 _KEEP = 1.0 - 1e-12  # time_optimal: a later family must be faster by more than rounding
 _T_TOL = 1e-12  # _third._T_TOL
 _LIM_TOL = 1e-12  # _third._LIM_TOL
@@ -473,6 +474,43 @@ def _compaction_orders() -> tuple[np.ndarray, np.ndarray]:
 
 
 _ORDER, _COUNT = _compaction_orders()
+
+
+def _cube_residual_array(y: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``roots._cube_residual`` on arrays: the same operations in the same order."""
+    c = _SPLIT * y
+    yh = c - (c - y)
+    yl = y - yh
+    ph = y * y
+    pl = ((yh * yh - ph) + yh * yl + yl * yh) + yl * yl
+    c = _SPLIT * ph
+    phh = c - (c - ph)
+    phl = ph - phh
+    th = ph * y
+    tl = ((phh * yh - th) + phh * yl + phl * yh) + phl * yl
+    return (th - u) + (tl + pl * y)
+
+
+def cbrt_array(x: np.ndarray) -> np.ndarray:
+    """:func:`motionplc.planning.roots.cbrt` elementwise (``x >= 0``, NaN allowed): the same
+    bits whatever numpy's ``power`` computes for the first estimate."""
+    with np.errstate(all="ignore"):
+        ok = (x > 0.0) & (x < _INF)
+        m, e = np.frexp(np.where(ok, x, 1.0))
+        q = e // 3
+        u = np.ldexp(m, e - 3 * q)  # [0.5, 4)
+        y = u ** (1.0 / 3.0)
+        y = y - _cube_residual_array(y, u) / (3.0 * y * y)
+        lo = np.nextafter(y, 0.0)
+        hi = np.nextafter(y, _INF)
+        r = np.abs(_cube_residual_array(lo, u))
+        r0 = np.abs(_cube_residual_array(y, u))
+        best = np.where(r0 < r, y, lo)
+        r = np.minimum(r, r0)  # the one chosen: r0 where r0 < r
+        best = np.where(np.abs(_cube_residual_array(hi, u)) < r, hi, best)
+        return np.where(ok, np.ldexp(best, q), x)
+
+
 _JERK_SIGNS = np.array([1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0])[:, None]  # phases' jerk / (s J)
 
 
@@ -502,7 +540,7 @@ def _rest_to_rest(
     n = d.shape[0]
     with np.errstate(all="ignore"):
         # none-rest: _third.time_optimal's closed form, tried before any family
-        tr = (np.abs(d) / (2.0 * J)) ** (1.0 / 3.0)
+        tr = cbrt_array(np.abs(d) / (2.0 * J))
         nr = (J * tr <= np.minimum(amax, -amin)) & (J * tr * tr <= np.minimum(vmax, -vmin))
         down = d < 0.0
         # Phase-major (8, n) rows of the workspace: row c holds the state at the start of
@@ -650,7 +688,7 @@ def _families(
         c = (
             24.0 * JJ * Amax * D
             - 12.0 * A2 * N2
-            + 24.0 * Amax * Amin**3
+            + 24.0 * Amax * (Amin * Amin * Amin)
             - 12.0 * N2 * N2
         ) / (12.0 * JJ * Amin * (Amax - Amin))  # fmt: skip
         vhi = Vmax + _LIM_TOL * np.where(Vmax > 1.0, Vmax, 1.0)
