@@ -417,6 +417,86 @@ def plan_rows(
     return vals, ends, nseg, kinds
 
 
+# the missing exact values of a phase (NaN): lists of boxed floats, extended without boxing
+_NO_AV: Final[list[float]] = [math.nan, math.nan]
+_NO_V: Final[list[float]] = [math.nan]
+
+
+def core_phases(
+    index: list[int] | None,
+    P0: list[float],
+    V0: list[float],
+    A0: list[float],
+    PF: list[float],
+    VF: list[float],
+    AF: list[float],
+    VMAX: list[float],
+    VMIN: list[float],
+    AMAX: list[float],
+    AMIN: list[float],
+    J: list[float],
+) -> tuple[list[float], list[int], list[str]]:
+    """The numpy path's rows for the core (validated; none that the rest-to-rest closed forms
+    solve), planned as :func:`plan_rows` plans them, returned as phases for
+    ``batch._integrate_arrays`` instead of integrated segments: (four floats per phase:
+    duration, jerk, the exact acceleration and velocity it starts with or NaN; the number of
+    phases per row; the kinds). An arrived row is one phase of no duration setting (af, vf)
+    (:func:`plan_rows`' end state for it). Raises the first row's failure."""
+    n = len(P0)
+    vals: list[float] = []
+    nph: list[int] = []
+    kinds: list[str] = []
+    error: PlanningError | None = None
+    for k in range(n):
+        p0 = P0[k]
+        v0 = V0[k]
+        a0 = A0[k]
+        pf = PF[k]
+        vf = VF[k]
+        af = AF[k]
+        d = pf - p0
+        if arrived(p0, v0, a0, pf, vf, af):
+            vals.extend((0.0, 0.0, af, vf))
+            nph.append(1)
+            kinds.append("arrived")
+            continue
+        i = k if index is None else index[k]
+        try:
+            T, phases, kind = position_phases(
+                v0, a0, d, vf, af, VMAX[k], VMIN[k], AMAX[k], AMIN[k], J[k]
+            )
+        except (PlanningError, ArithmeticError) as exc:
+            if error is None:
+                if isinstance(exc, PlanningError):
+                    error = PlanningError(f"problem {i}: {exc}")
+                else:
+                    error = PlanningError(
+                        f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+                        f"for problem {i} (planner defect: please report these inputs)"
+                    )
+                error.__cause__ = exc
+            continue
+        if not T <= MAX_DURATION:
+            if error is None:
+                error = _too_long(i, T)
+            continue
+        for ph in phases:  # the phase's own float objects (no new ones), NaN for none
+            m = len(ph)
+            if m == 2:
+                vals.extend(ph)
+                vals.extend(_NO_AV)
+            elif m == 3:
+                vals.extend(ph)
+                vals.extend(_NO_V)
+            else:  # (duration, jerk, a, v): what phase_segments reads of a phase
+                vals.extend(ph[:4])
+        nph.append(len(phases))
+        kinds.append(kind)
+    if error is not None:
+        raise error
+    return vals, nph, kinds
+
+
 def _relayout(
     vals: list[float], starts: list[int], nseg: list[int], ends: list[float], width: int, wide: int
 ) -> list[float]:

@@ -59,6 +59,7 @@ from motionplc.planning._batchrow import (
     NONE,
     SECOND,
     VEL,
+    core_phases,
     plan_rows,
     rows_valid,
 )
@@ -1070,15 +1071,12 @@ def plan_batch(
     width = MIN_WIDTH
     if si.size == n:  # every row: the rows' arrays are the result (strided views, no copy)
         args = [x.tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        seg, e, cnt, slow_kinds = _rows(None, *args)
-        return BatchPlan(
-            seg[:, :, 0], seg[:, :, 1], seg[:, :, 2], seg[:, :, 3], seg[:, :, 4], seg[:, :, 5],
-            cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), slow_kinds,
-        )  # fmt: skip
+        segs, e3, t_core, cnt, slow_kinds = _core_rows(None, *args)
+        return BatchPlan(*segs, cnt, t_core, (e3[0], e3[1], e3[2]), slow_kinds)
     if si.size:
         args = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        seg, e, cnt, slow_kinds = _rows(si.tolist(), *args)
-        width = seg.shape[1]
+        segs, e3, t_core, cnt, slow_kinds = _core_rows(si.tolist(), *args)
+        width = segs[0].shape[1]
         names = KIND_NAMES + tuple(slow_kinds)
         code[si] = np.arange(len(KIND_NAMES), len(names))
     # -- assemble -----------------------------------------------------------------------------
@@ -1107,14 +1105,51 @@ def plan_batch(
         total[lo] = te
         end[0, lo], end[1, lo], end[2, lo] = pe, ve, ae
     if si.size:
-        out[:, si, :] = seg.transpose(2, 0, 1)
+        for q, x in enumerate(segs):
+            out[q, si, :] = x
         nseg[si] = cnt
-        total[si] = e[:, 3]
-        end[:, si] = e[:, :3].T
+        total[si] = t_core
+        end[:, si] = e3
     return BatchPlan(
         out[0], out[1], out[2], out[3], out[4], out[5], nseg, total, (end[0], end[1], end[2]),
         names, code,
     )  # fmt: skip
+
+
+def _core_rows(
+    index: list[int] | None, *cols: list[float]
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """The numpy path's rows for the core (none that the rest-to-rest closed forms solve):
+    phases per row by the core (:func:`_batchrow.core_phases`, compiled with it), integrated
+    here in numpy for all rows at once (:func:`_integrate_arrays`: ``Profile``'s arithmetic,
+    the same bits as :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m,
+    width) segment arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,)
+    duration, the segment counts, the kinds)."""
+    vals, nph, kinds = core_phases(index, *cols)
+    m = len(nph)
+    counts = np.array(nph, dtype=np.intp)
+    L = max(int(counts.max()) if m else 0, 1)
+    ph = np.zeros((L, m, 4))
+    ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
+    flat = np.frombuffer(array("d", vals), dtype=float).reshape(-1, 4)
+    # phase-major: phase c of row k at ph[c, k] (row-major order of the mask = (row, phase))
+    ph.transpose(1, 0, 2)[np.arange(L) < counts[:, None]] = flat
+    p0 = np.array(cols[0])
+    v0 = np.array(cols[1])
+    a0 = np.array(cols[2])
+    with np.errstate(all="ignore"):
+        *segs, pe, ve, ae, te, cnt = _integrate_arrays(
+            p0, v0, a0, ph[:, :, 0], ph[:, :, 1], ph[:, :, 2], ph[:, :, 3]
+        )
+    w = segs[0].shape[1]
+    if w < MIN_WIDTH:  # padding: start time = duration, no duration or jerk, end state
+        pad = MIN_WIDTH - w
+        fill = (te, None, None, pe, ve, ae)
+        segs = [
+            np.hstack([x, np.zeros((m, pad)) if f is None else np.repeat(f[:, None], pad, 1)])
+            for x, f in zip(segs, fill, strict=True)
+        ]
+    return tuple(segs), np.array([pe, ve, ae]), te, cnt, kinds
 
 
 def _integrate_arrays(
