@@ -1121,7 +1121,7 @@ def _core_rows(
 ) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """The numpy path's rows for the core (none that the rest-to-rest closed forms solve):
     phases per row by the core (:func:`_batchrow.core_phases`, compiled with it), integrated
-    here in numpy for all rows at once (:func:`_integrate_arrays`: ``Profile``'s arithmetic,
+    here in numpy for all rows at once (:func:`_integrate_rows`: ``Profile``'s arithmetic,
     the same bits as :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m,
     width) segment arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,)
     duration, the segment counts, the kinds)."""
@@ -1129,27 +1129,98 @@ def _core_rows(
     m = len(nph)
     counts = np.array(nph, dtype=np.intp)
     L = max(int(counts.max()) if m else 0, 1)
-    ph = np.zeros((L, m, 4))
+    ph = np.zeros((m, L, 4))
     ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
-    flat = np.frombuffer(array("d", vals), dtype=float).reshape(-1, 4)
-    # phase-major: phase c of row k at ph[c, k] (row-major order of the mask = (row, phase))
-    ph.transpose(1, 0, 2)[np.arange(L) < counts[:, None]] = flat
-    p0 = np.array(cols[0])
-    v0 = np.array(cols[1])
-    a0 = np.array(cols[2])
+    ph[np.arange(L) < counts[:, None]] = np.frombuffer(array("d", vals), dtype=float).reshape(-1, 4)
+    dur, jerk, ova, ovv = np.ascontiguousarray(ph.transpose(2, 1, 0))  # (L, m) each
     with np.errstate(all="ignore"):
-        *segs, pe, ve, ae, te, cnt = _integrate_arrays(
-            p0, v0, a0, ph[:, :, 0], ph[:, :, 1], ph[:, :, 2], ph[:, :, 3]
-        )
-    w = segs[0].shape[1]
-    if w < MIN_WIDTH:  # padding: start time = duration, no duration or jerk, end state
-        pad = MIN_WIDTH - w
-        fill = (te, None, None, pe, ve, ae)
-        segs = [
-            np.hstack([x, np.zeros((m, pad)) if f is None else np.repeat(f[:, None], pad, 1)])
-            for x, f in zip(segs, fill, strict=True)
-        ]
-    return tuple(segs), np.array([pe, ve, ae]), te, cnt, kinds
+        return _integrate_rows(np.array(cols[0]), np.array(cols[1]), np.array(cols[2]),
+                               dur, jerk, ova, ovv, kinds)  # fmt: skip
+
+
+def _integrate_rows(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    dur: np.ndarray,
+    jerk: np.ndarray,
+    ova: np.ndarray,
+    ovv: np.ndarray,
+    kinds: list[str],
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """:func:`_integrate_arrays` for (L, m) phases whose positive durations come first in
+    every row (the core's phase lists: no phase of no duration before a moving one), with the
+    result as :func:`_core_rows` returns it: in place, without a copy per operation or the
+    compaction of the segments (a phase is its segment); the same operations in the same
+    order, so the same bits. Other phase tables go through :func:`_integrate_arrays`."""
+    L, m = dur.shape
+    pos = dur > 0.0
+    cnt = pos.sum(axis=0)
+    if not (pos == (np.arange(L)[:, None] < cnt)).all():  # a gap: compaction needed
+        *segs, pe, ve, ae, te, cnt = _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
+        w = segs[0].shape[1]
+        if w < MIN_WIDTH:  # padding: start time = duration, no duration or jerk, end state
+            pad = MIN_WIDTH - w
+            fill = (te, None, None, pe, ve, ae)
+            segs = [
+                np.hstack([x, np.zeros((m, pad)) if f is None else np.repeat(f[:, None], pad, 1)])
+                for x, f in zip(segs, fill, strict=True)
+            ]
+        return tuple(segs), np.array([pe, ve, ae]), te, cnt, kinds
+    W = max(MIN_WIDTH, int(cnt.max()) if m else 0)
+    rec = np.empty((6, W, m))  # phase-major: (t, duration, jerk, p, v, a) at each phase start
+    kt, kd, kj, kp, kv, ka = rec
+    t = np.zeros(m)
+    p = p0.copy()
+    v = v0.copy()
+    a = a0.copy()
+    has_a = ~np.isnan(ova)
+    has_v = ~np.isnan(ovv)
+    set_a = has_a.any(axis=1)
+    set_v = has_v.any(axis=1)
+    u = np.empty(m)
+    w = np.empty(m)
+    for c in range(L):
+        x = dur[c]
+        jj = jerk[c]
+        if set_a[c]:
+            np.copyto(a, ova[c], where=has_a[c])
+        if set_v[c]:
+            np.copyto(v, ovv[c], where=has_v[c])
+        if c < W:
+            kt[c] = t
+            kd[c] = x
+            kj[c] = jj
+            kp[c] = p
+            kv[c] = v
+            ka[c] = a
+        g = pos[c]
+        # p + x * (v + x * (0.5 * a + x * jj / 6.0))
+        np.multiply(x, jj, out=u)
+        np.divide(u, 6.0, out=w)
+        np.add(np.multiply(0.5, a), w, out=w)
+        np.multiply(x, w, out=w)
+        np.add(v, w, out=w)
+        np.multiply(x, w, out=w)
+        np.add(p, w, out=p, where=g)
+        # v + x * (a + 0.5 * x * jj)
+        np.multiply(0.5, x, out=w)
+        np.multiply(w, jj, out=w)
+        np.add(a, w, out=w)
+        np.multiply(x, w, out=w)
+        np.add(v, w, out=v, where=g)
+        # a + x * jj, t + x
+        np.add(a, u, out=a, where=g)
+        np.add(t, x, out=t, where=g)
+    # padding (every column from the row's segment count on): start time = duration, no
+    # duration or jerk, the end state -- as _integrate_arrays takes it from its end row
+    pad = np.arange(W)[:, None] >= cnt
+    if pad.any():
+        for q, fill in ((0, t), (3, p), (4, v), (5, a)):
+            np.copyto(rec[q], fill, where=pad)
+        np.copyto(kd, 0.0, where=pad)
+        np.copyto(kj, 0.0, where=pad)
+    return (kt.T, kd.T, kj.T, kp.T, kv.T, ka.T), np.array([p, v, a]), t, cnt, kinds
 
 
 def _integrate_arrays(
