@@ -14,7 +14,7 @@ Profile or phase-array objects per row); as plain Python the same code runs unch
 from __future__ import annotations
 
 import math
-from typing import Final
+from typing import Any, Final
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import LIMIT_MAX, LIMIT_MIN, STATE_MAX
@@ -417,9 +417,8 @@ def plan_rows(
     return vals, ends, nseg, kinds
 
 
-# the missing exact values of a phase (NaN): lists of boxed floats, extended without boxing
-_NO_AV: Final[list[float]] = [math.nan, math.nan]
-_NO_V: Final[list[float]] = [math.nan]
+# a missing exact value of a phase: one NaN object (appended without boxing a new float)
+_NAN_OBJ: Final[object] = math.nan
 
 
 def core_phases(
@@ -443,7 +442,7 @@ def core_phases(
     phases per row; the kinds). An arrived row is one phase of no duration setting (af, vf)
     (:func:`plan_rows`' end state for it). Raises the first row's failure."""
     n = len(P0)
-    vals: list[float] = []
+    vals: list[Any] = []
     nph: list[int] = []
     kinds: list[str] = []
     error: PlanningError | None = None
@@ -480,16 +479,17 @@ def core_phases(
             if error is None:
                 error = _too_long(i, T)
             continue
-        for ph in phases:  # the phase's own float objects (no new ones), NaN for none
+        for phase in phases:  # the phase's own float objects (no new ones), NaN for none
+            ph: Any = phase  # (items taken as objects: a compiled build neither unboxes nor boxes)
             m = len(ph)
+            vals.append(ph[0])
+            vals.append(ph[1])
             if m == 2:
-                vals.extend(ph)
-                vals.extend(_NO_AV)
-            elif m == 3:
-                vals.extend(ph)
-                vals.extend(_NO_V)
-            else:  # (duration, jerk, a, v): what phase_segments reads of a phase
-                vals.extend(ph[:4])
+                vals.append(_NAN_OBJ)
+                vals.append(_NAN_OBJ)
+            else:  # (duration, jerk, a[, v]): what phase_segments reads of a phase
+                vals.append(ph[2])
+                vals.append(ph[3] if m > 3 else _NAN_OBJ)
         nph.append(len(phases))
         kinds.append(kind)
     if error is not None:

@@ -47,14 +47,15 @@ _LIM_TOL: Final = 1e-12  # relative margin on the limits for rounding
 
 
 def _cube(x: float) -> float:
-    """``x ** 3`` with the same bits: float's power takes pow of |x| and puts the sign back;
-    ``math.pow`` compiles to a direct call of C's pow (no boxing, no generic power)."""
-    return -math.pow(-x, 3.0) if x < 0.0 else math.pow(x, 3.0)
+    """``x ** 3`` as two products (odd in ``x`` bit for bit, as the mirrored problem needs;
+    no call of C's pow, which costs ~250 instructions and whose last bit is the platform's)."""
+    return x * x * x
 
 
 def _fourth(x: float) -> float:
-    """``x ** 4`` with the same bits (see :func:`_cube`)."""
-    return math.pow(-x, 4.0) if x < 0.0 else math.pow(x, 4.0)
+    """``x ** 4`` as ``(x x)(x x)`` (even in ``x`` bit for bit; see :func:`_cube`)."""
+    s = x * x
+    return s * s
 
 
 def _verify(

@@ -254,7 +254,9 @@ def position_phases(
         # continue exactly from the state the brake was designed to reach
         first = phases[0]
         phases = [(first[0], first[1], a, v), *phases[1:]] if len(first) < 4 else phases
-    return t + t_brake, pre3 + phases, ("brake+" if pre3 else "") + family
+    if not pre3:
+        return t + t_brake, phases, family
+    return t + t_brake, pre3 + phases, "brake+" + family
 
 
 def plan_velocity(
