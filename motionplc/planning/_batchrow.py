@@ -526,31 +526,48 @@ def rows_valid(
     J: list[float],
 ) -> bool:
     """True when every row passes the usual checks (states in [-STATE_MAX, STATE_MAX],
-    targets at rest, v_max and j_max in [LIMIT_MIN, LIMIT_MAX] or inf, v_min likewise
-    negated, a_max and -a_min in range and finite); False (NaN included): let the vectorised
-    checks of plan_batch decide and name the error."""
+    v_max and j_max in [LIMIT_MIN, LIMIT_MAX] or inf, v_min likewise negated, a_max and -a_min
+    in range and finite; a target in motion inside the limits and reachable: ``batch._validate``
+    with its arithmetic); False (NaN included): let the vectorised checks of plan_batch decide
+    and name the error. Never True where those checks would raise."""
     sm = float(STATE_MAX)
     lo = float(LIMIT_MIN)
     hi = float(LIMIT_MAX)
     for k in range(len(P0)):
+        amax = AMAX[k]
+        amin = AMIN[k]
         if not (
             -sm <= P0[k] <= sm
             and -sm <= V0[k] <= sm
             and -sm <= A0[k] <= sm
             and -sm <= PF[k] <= sm
-            and VF[k] == 0.0
-            and AF[k] == 0.0
-            and lo <= AMAX[k] <= hi
-            and -hi <= AMIN[k] <= -lo
+            and lo <= amax <= hi
+            and -hi <= amin <= -lo
         ):
             return False
-        x = VMAX[k]
-        if not (lo <= x <= hi or x == _INF):
+        vmax = VMAX[k]
+        if not (lo <= vmax <= hi or vmax == _INF):
             return False
-        x = J[k]
-        if not (lo <= x <= hi or x == _INF):
+        jm = J[k]
+        if not (lo <= jm <= hi or jm == _INF):
             return False
-        x = VMIN[k]
-        if not (-hi <= x <= -lo or x == -_INF):
+        vmin = VMIN[k]
+        if not (-hi <= vmin <= -lo or vmin == -_INF):
             return False
+        vf = VF[k]
+        af = AF[k]
+        if vf != 0.0 or af != 0.0:  # (a and j limits finite or j infinite: see _validate)
+            if not (-sm <= vf <= sm and -sm <= af <= sm):
+                return False
+            if not (vmin <= vf <= vmax and amin <= af <= amax):
+                return False
+            if jm == _INF:
+                if af != 0.0:
+                    return False
+            else:
+                half = 0.5 * af * af / jm
+                if af < 0.0 and vf + half > vmax * (1.0 + 1e-12):
+                    return False
+                if af > 0.0 and vf - half < vmin * (1.0 + 1e-12):
+                    return False
     return True

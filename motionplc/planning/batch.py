@@ -1070,12 +1070,14 @@ def plan_batch(
     names: Sequence[str] = KIND_NAMES
     width = MIN_WIDTH
     if si.size == n:  # every row: the rows' arrays are the result (strided views, no copy)
-        args = [x.tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        segs, e3, t_core, cnt, slow_kinds = _core_rows(None, *args)
+        segs, e3, t_core, cnt, slow_kinds = _core_rows(
+            None, (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)
+        )
         return BatchPlan(*segs, cnt, t_core, (e3[0], e3[1], e3[2]), slow_kinds)
     if si.size:
-        args = [x[si].tolist() for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)]
-        segs, e3, t_core, cnt, slow_kinds = _core_rows(si.tolist(), *args)
+        segs, e3, t_core, cnt, slow_kinds = _core_rows(
+            si, tuple(x[si] for x in (P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J))
+        )
         width = segs[0].shape[1]
         names = KIND_NAMES + tuple(slow_kinds)
         code[si] = np.arange(len(KIND_NAMES), len(names))
@@ -1116,26 +1118,44 @@ def plan_batch(
     )  # fmt: skip
 
 
+_ROW_CHUNK = 512  # core rows planned per pass: their Python floats stay in the CPU cache
+
+
 def _core_rows(
-    index: list[int] | None, *cols: list[float]
-) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """The numpy path's rows for the core (none that the rest-to-rest closed forms solve):
-    phases per row by the core (:func:`_batchrow.core_phases`, compiled with it), integrated
-    here in numpy for all rows at once (:func:`_integrate_rows`: ``Profile``'s arithmetic,
-    the same bits as :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m,
-    width) segment arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,)
-    duration, the segment counts, the kinds)."""
-    vals, nph, kinds = core_phases(index, *cols)
-    m = len(nph)
+    index: np.ndarray | None, arrs: tuple[np.ndarray, ...]
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """The numpy path's rows for the core (none that the rest-to-rest closed forms solve;
+    ``arrs``: p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max; ``index``: their
+    problem numbers, None for 0, 1, ...): phases per row by the core
+    (:func:`_batchrow.core_phases`, compiled with it) in chunks of ``_ROW_CHUNK`` rows (the
+    floats of a whole large batch as Python objects would not stay in the cache: 1.5x slower
+    per row at N = 1e4), integrated here in numpy for all rows at once
+    (:func:`_integrate_rows`: ``Profile``'s arithmetic, the same bits as
+    :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m, width) segment
+    arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,) duration, the
+    segment counts, the kinds). Raises the first failing row's error."""
+    m = arrs[0].shape[0]
+    buf = array("d")
+    nph: list[int] = []
+    kinds: list[str] = []
+    for s in range(0, m, _ROW_CHUNK):
+        e = min(s + _ROW_CHUNK, m)
+        if index is not None:
+            rows: list[int] | None = index[s:e].tolist()
+        else:
+            rows = None if m <= _ROW_CHUNK else list(range(s, e))
+        vals, n_ph, kd = core_phases(rows, *(x[s:e].tolist() for x in arrs))
+        buf.fromlist(vals)
+        nph += n_ph
+        kinds += kd
     counts = np.array(nph, dtype=np.intp)
     L = max(int(counts.max()) if m else 0, 1)
     ph = np.zeros((m, L, 4))
     ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
-    ph[np.arange(L) < counts[:, None]] = np.frombuffer(array("d", vals), dtype=float).reshape(-1, 4)
+    ph[np.arange(L) < counts[:, None]] = np.frombuffer(buf, dtype=float).reshape(-1, 4)
     dur, jerk, ova, ovv = np.ascontiguousarray(ph.transpose(2, 1, 0))  # (L, m) each
     with np.errstate(all="ignore"):
-        return _integrate_rows(np.array(cols[0]), np.array(cols[1]), np.array(cols[2]),
-                               dur, jerk, ova, ovv, kinds)  # fmt: skip
+        return _integrate_rows(arrs[0], arrs[1], arrs[2], dur, jerk, ova, ovv, kinds)
 
 
 def _integrate_rows(

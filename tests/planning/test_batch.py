@@ -525,3 +525,28 @@ def test_several_failures_raise_the_same_error_small_or_numpy(n: int) -> None:
     }
     with pytest.raises(PlanningError, match=r"^problem 1: the profile would last"):
         plan_batch(**kwargs)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("rest_rows", [False, True], ids=["all-core", "mixed"])
+def test_core_failure_past_the_first_chunk_names_its_problem(rest_rows: bool) -> None:
+    """The numpy path plans its core rows in chunks (batch._ROW_CHUNK): a row that fails in a
+    later chunk is named by its own problem number, in a batch of core rows only (chunk-local
+    numbers are offset) and beside rest-to-rest rows (the core rows' problem numbers)."""
+    from motionplc.planning.batch import _ROW_CHUNK
+
+    n = 3 * _ROW_CHUNK + 7
+    bad = 2 * _ROW_CHUNK + 5
+    v0 = np.full(n, 0.5)
+    if rest_rows:
+        v0[1::3] = 0.0  # every third row at rest: the closed forms
+        assert v0[bad] != 0.0
+    pf = np.full(n, 2.0)
+    pf[bad] = 1e12
+    j_max = np.full(n, 5.0)
+    j_max[bad] = 1e-15  # the profile lasts beyond MAX_DURATION
+    kwargs = dict(p0=0.0, v0=v0, a0=0.0, vf=0.0, af=0.0, v_max=INF, a_max=INF, j_max=j_max)
+    with pytest.raises(PlanningError, match=rf"^problem {bad}: the profile would last"):
+        plan_batch(pf=pf, **kwargs)  # type: ignore[arg-type]
+    pf[bad] = 2.0
+    b = plan_batch(pf=pf, **kwargs)  # type: ignore[arg-type]
+    assert len(b) == n and (b.kind[bad] != "arrived")
