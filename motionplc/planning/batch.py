@@ -66,13 +66,13 @@ from motionplc.planning._batchrow import (
 from motionplc.planning.limits import _NEG_RANGE, _RANGE, LIMIT_MAX, LIMIT_MIN, STATE_MAX
 from motionplc.planning.plan import MAX_DURATION
 from motionplc.planning.profile import Profile, Samples
+from motionplc.planning.roots import _CB0, _CB1, _CB2, _CB3
 from motionplc.planning.state import State
 
 __all__ = ["BatchPlan", "plan_batch"]
 
 _INF = math.inf
 _EPS = 2.220446049250313e-16
-_SPLIT = 134217729.0  # roots._SPLIT
 _KEEP = 1.0 - 1e-12  # time_optimal: a later family must be faster by more than rounding
 _T_TOL = 1e-12  # _third._T_TOL
 _LIM_TOL = 1e-12  # _third._LIM_TOL
@@ -477,39 +477,21 @@ def _compaction_orders() -> tuple[np.ndarray, np.ndarray]:
 _ORDER, _COUNT = _compaction_orders()
 
 
-def _cube_residual_array(y: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """``roots._cube_residual`` on arrays: the same operations in the same order."""
-    c = _SPLIT * y
-    yh = c - (c - y)
-    yl = y - yh
-    ph = y * y
-    pl = ((yh * yh - ph) + yh * yl + yl * yh) + yl * yl
-    c = _SPLIT * ph
-    phh = c - (c - ph)
-    phl = ph - phh
-    th = ph * y
-    tl = ((phh * yh - th) + phh * yl + phl * yh) + phl * yl
-    return (th - u) + (tl + pl * y)
-
-
 def cbrt_array(x: np.ndarray) -> np.ndarray:
     """:func:`motionplc.planning.roots.cbrt` elementwise (``x >= 0``, NaN allowed): the same
-    bits whatever numpy's ``power`` computes for the first estimate."""
+    operations in the same order, so the same bits (no ``pow``)."""
     with np.errstate(all="ignore"):
         ok = (x > 0.0) & (x < _INF)
         m, e = np.frexp(np.where(ok, x, 1.0))
         q = e // 3
         u = np.ldexp(m, e - 3 * q)  # [0.5, 4)
-        y = u ** (1.0 / 3.0)
-        y = y - _cube_residual_array(y, u) / (3.0 * y * y)
-        lo = np.nextafter(y, 0.0)
-        hi = np.nextafter(y, _INF)
-        r = np.abs(_cube_residual_array(lo, u))
-        r0 = np.abs(_cube_residual_array(y, u))
-        best = np.where(r0 < r, y, lo)
-        r = np.minimum(r, r0)  # the one chosen: r0 where r0 < r
-        best = np.where(np.abs(_cube_residual_array(hi, u)) < r, hi, best)
-        return np.where(ok, np.ldexp(best, q), x)
+        y = _CB0 + u * (_CB1 + u * (_CB2 + u * _CB3))
+        y3 = y * y * y
+        y = y * (y3 + 2.0 * u) / (2.0 * y3 + u)
+        y3 = y * y * y
+        y = y * (y3 + 2.0 * u) / (2.0 * y3 + u)
+        y = y + (u / (y * y) - y) / 3.0
+        return np.where(ok, np.ldexp(y, q), x)
 
 
 _JERK_SIGNS = np.array([1.0, 0.0, -1.0, 0.0, -1.0, 0.0, 1.0])[:, None]  # phases' jerk / (s J)
