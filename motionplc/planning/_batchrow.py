@@ -480,7 +480,7 @@ def core_phases(
                 error = _too_long(i, T)
             continue
         for phase in phases:  # the phase's own float objects (no new ones), NaN for none
-            ph: Any = phase  # (items taken as objects: a compiled build neither unboxes nor boxes)
+            ph: tuple[object, ...] = phase  # items as objects: neither unboxed nor boxed again
             m = len(ph)
             vals.append(ph[0])
             vals.append(ph[1])
