@@ -1,0 +1,288 @@
+"""The virtual drives' batched transmit (issue 15) sends exactly what frame-by-frame sends do.
+
+* ``fastcan.deliver_owned`` gives the peer what ``send_frame(..., owned=True)`` one frame
+  after the other gives it (same frames, fields, order), and does nothing at all (returns
+  False) wherever it cannot deliver at once: more buses on the channel, own messages,
+  a bounded queue, a closed bus, a plain ``can.Message``;
+* ``FaultInjectingBus.send_owned_batch`` equals ``send_owned`` of each frame (counters,
+  records, drops, delays, corruption) or does nothing (False) while a transmit switch is on;
+* a lockstep rig whose drives collect their frames in a step and deliver them at its end
+  (``SimulatedTimeNetwork.begin_batch``/``end_batch``) exchanges, frame for frame, what it
+  exchanges when every frame is sent at once, with transmit faults switched on and off.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import can
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motionplc.fieldbus import fastcan
+from motionplc.fieldbus.can_faults import FaultInjectingBus
+
+FIELDS = (
+    "arbitration_id",
+    "is_extended_id",
+    "is_remote_frame",
+    "is_error_frame",
+    "dlc",
+    "data",
+    "is_fd",
+    "is_rx",
+    "bitrate_switch",
+    "error_state_indicator",
+)
+
+FRAMES = st.lists(
+    st.tuples(st.integers(0, 0x7FF), st.binary(max_size=8), st.booleans()), max_size=12
+)
+
+
+def _fields(msg: can.Message) -> tuple[object, ...]:
+    return tuple(getattr(msg, f) for f in FIELDS)
+
+
+def _build(frames: list[tuple[int, bytes, bool]]) -> list[can.Message]:
+    return [fastcan.make_message(can_id, data, remote) for can_id, data, remote in frames]
+
+
+_N = [0]
+
+
+def _channel(tag: str) -> str:
+    _N[0] += 1
+    return f"lean-batch-{tag}-{_N[0]}"
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    frames=FRAMES,
+    receivers=st.integers(0, 2),
+    own=st.booleans(),
+    preserve=st.booleans(),
+    size=st.sampled_from([0, 0, 3]),
+    closed=st.booleans(),
+    plain=st.booleans(),
+)
+def test_deliver_owned_equals_owned_sends_or_does_nothing(
+    frames: list, receivers: int, own: bool, preserve: bool, size: int, closed: bool, plain: bool
+) -> None:
+    results = []
+    for how in ("one by one", "at once"):
+        channel = _channel(how)
+        tx = can.Bus(
+            interface="virtual",
+            channel=channel,
+            receive_own_messages=own,
+            preserve_timestamps=preserve,
+        )
+        rx = [can.Bus(interface="virtual", channel=channel, rx_queue_size=size)]
+        rx += [can.Bus(interface="virtual", channel=channel) for _ in range(receivers)]
+        try:
+            msgs = _build(frames)
+            if plain and msgs:
+                m = msgs[-1]
+                msgs[-1] = can.Message(
+                    arbitration_id=m.arbitration_id,
+                    is_extended_id=False,
+                    data=m.data,
+                    is_remote_frame=m.is_remote_frame,
+                )
+            for m in msgs:
+                m.timestamp = 7.5
+            if closed:
+                tx.shutdown()
+            t0 = time.time()  # noqa: TID251 - the bus stamps wall-clock time
+            errors = 0
+            if how == "at once":
+                done = fastcan.deliver_owned(tx, msgs)
+                can_do = (
+                    not closed and not own and receivers == 0 and size == 0 and not (plain and msgs)
+                )
+                assert done == can_do
+            else:
+                done = False
+            if not done:
+                for m in msgs:
+                    try:
+                        fastcan.send_frame(tx, m, 0.0, owned=True)
+                    except can.CanError:
+                        errors += 1
+            t1 = time.time()  # noqa: TID251
+            got = [fastcan.drain(b) if not (b is tx and closed) else [] for b in [tx, *rx]]
+            for q in got:
+                for m in q:
+                    assert m.channel == channel
+                    if preserve:
+                        assert m.timestamp == 7.5
+                    else:
+                        assert t0 <= m.timestamp <= t1
+            results.append(([[_fields(m) for m in q] for q in got], errors))
+            if done:  # the peer got the very frames, each with a buffer of its own
+                assert got[1] == msgs
+                assert len({id(m.data) for m in got[1]}) == len(msgs)
+        finally:
+            for b in [tx, *rx]:
+                b.shutdown()
+    assert results[0] == results[1]
+
+
+SWITCHES_ON = (
+    "bus_off",
+    "drop_tx_ids",
+    "drop_tx_every",
+    "drop_tx_probability",
+    "corrupt_dlc_ids",
+    "delay_tx",
+)
+SWITCHES = st.fixed_dictionaries(
+    {
+        "bus_off": st.booleans(),
+        "drop_tx_ids": st.sets(st.sampled_from([0x181, 0x281, 0x701])),
+        "drop_tx_every": st.sampled_from([0, 0, 3]),
+        "drop_tx_probability": st.sampled_from([0.0, 0.0, 0.5]),
+        "corrupt_dlc_ids": st.sets(st.sampled_from([0x181, 0x281])),
+        "delay_tx": st.dictionaries(st.sampled_from([0x181, 0x281]), st.integers(1, 2)),
+        "record": st.booleans(),
+    }
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    batches=st.lists(
+        st.tuples(
+            st.lists(
+                st.tuples(st.sampled_from([0x181, 0x281, 0x701, 0x80]), st.binary(max_size=8)),
+                max_size=6,
+            ),
+            st.one_of(st.none(), SWITCHES),
+        ),
+        max_size=6,
+    )
+)
+def test_send_owned_batch_equals_send_owned_of_each_frame(batches: list) -> None:
+    """Batches under random transmit switches (switched between batches): the same frames
+    reach the peer, the same records, the same counters, as ``send_owned`` frame by frame."""
+    outcomes = []
+    for how in ("one by one", "batched"):
+        channel = _channel(how)
+        faulty = FaultInjectingBus(can.Bus(interface="virtual", channel=channel), seed=3)
+        peer = can.Bus(interface="virtual", channel=channel)
+        try:
+            log = []
+            for frames, switches in batches:
+                if switches is not None:
+                    for name, value in switches.items():
+                        if name == "record":
+                            faulty.records = [] if value else None
+                        else:
+                            setattr(faulty, name, value)
+                msgs = _build([(c, d, False) for c, d in frames])
+                errors = 0
+                if how == "one by one" or not faulty.send_owned_batch(msgs):
+                    if how == "batched":  # refused only while a switch is on
+                        assert faulty.records is not None or any(
+                            getattr(faulty, name) for name in SWITCHES_ON
+                        )
+                    for m in msgs:
+                        try:
+                            faulty.send_owned(m)
+                        except can.CanError:
+                            errors += 1
+                faulty.tick()
+                log.append(
+                    (
+                        errors,
+                        [_fields(m) for m in fastcan.drain(peer)],
+                        faulty._tx_count,
+                        None if faulty.records is None else list(faulty.records),
+                    )
+                )
+            outcomes.append(log)
+        finally:
+            faulty.shutdown()
+            peer.shutdown()
+    assert outcomes[0] == outcomes[1]
+
+
+def _rig(channel: str, batched: bool, monkeypatch: pytest.MonkeyPatch) -> tuple:
+    """Two master drives and two virtual drives in lockstep for 400 cycles (a move, TPDOs
+    dropped, delayed and corrupted for a while, a drive fault and its reset): every frame
+    the master received (in order) and the feedback of every cycle."""
+    from motionplc.fieldbus import canopen_drive
+    from motionplc.fieldbus.base import DriveCommand
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.virtual_cia402 import (
+        SimulatedTimeNetwork,
+        VirtualCanBus,
+        VirtualCia402Drive,
+    )
+
+    received: list[tuple] = []
+
+    def recording_drain(bus: can.BusABC) -> list[can.Message]:
+        frames = fastcan.drain(bus)
+        received.extend(_fields(m) for m in frames)
+        return frames
+
+    with monkeypatch.context() as mp:
+        mp.setattr(canopen_drive, "drain", recording_drain)
+        if not batched:  # every frame delivered at its send
+            mp.setattr(SimulatedTimeNetwork, "begin_batch", lambda self: None)
+        rack = VirtualCanBus(
+            can.Bus(interface="virtual", channel=channel),
+            [VirtualCia402Drive(n) for n in (1, 2)],
+        )
+        master = CanopenMaster(
+            can.Bus(interface="virtual", channel=channel), peer=rack, heartbeat_period=0.01
+        )
+        try:
+            drives = [CanopenDrive(f"ax{n}", master, CanopenDriveConfig(node_id=n)) for n in (1, 2)]
+            for d in drives:
+                d.open()
+            faults = rack.faults
+            log = []
+            for k in range(400):
+                t = k * 0.001
+                if k == 100:
+                    faults.drop_tx_every = 5
+                elif k == 120:
+                    faults.drop_tx_every = 0
+                    faults.delay_tx[0x181] = 2
+                elif k == 140:
+                    faults.delay_tx.clear()
+                    faults.corrupt_dlc_ids.add(0x282)
+                elif k == 150:
+                    faults.corrupt_dlc_ids.clear()
+                    faults.records = []
+                elif k == 160:
+                    faults.records = None
+                    rack[2].inject_fault(0x2310)
+                fbs = [d.read_inputs(t) for d in drives]
+                log.append(tuple(dataclasses.astuple(fb) for fb in fbs))
+                for i, d in enumerate(drives):
+                    target = 0.0 if k < 50 else 0.02 * (i + 1) * min(k - 50, 200) / 200
+                    reset = k in (200, 201) and i == 1
+                    d.write_outputs(
+                        t, DriveCommand(position=target, enable=True, fault_reset=reset)
+                    )
+            return received, log, faults._tx_count
+        finally:
+            master.close()
+            rack.close()
+
+
+def test_batched_rig_exchanges_what_the_unbatched_rig_exchanges(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    batched = _rig(_channel("rig"), True, monkeypatch)
+    plain = _rig(_channel("rig"), False, monkeypatch)
+    assert len(batched[0]) > 400 * 4  # 4 TPDOs per cycle at least
+    assert batched == plain
+    fault_seen = any(fbs[1][3] for fbs in batched[1])
+    assert fault_seen and batched[1][-1][1][2] and not batched[1][-1][1][3]  # reset worked
