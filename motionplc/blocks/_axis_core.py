@@ -214,6 +214,8 @@ class AxisCore:
     _fe_limit: Any
     _modulo: Any
     _ideal: Any
+    drive: Any
+    _io_watch: Any
     mq: Any
     ts: Any
     sup: Any
@@ -223,6 +225,9 @@ class AxisCore:
 
     # -- the general path (defined by Axis) ----------------------------------------------------
     def _read_inputs_general(self, t: float) -> None:
+        raise NotImplementedError
+
+    def _apply_feedback_general(self, t: float, fb: Any) -> None:
         raise NotImplementedError
 
     def step(self, dt: float) -> None:
@@ -263,7 +268,7 @@ class AxisCore:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         ideal = self._ideal
         if ideal is None:
-            self._read_inputs_general(t)
+            self._apply_feedback(t, self.drive.read_inputs(t))
             return
         d: IdealCore = ideal
         if d._feedback is not None:
@@ -311,6 +316,62 @@ class AxisCore:
         self.img_a = self.a
         self.img_act_p = act_p
         self.img_act_v = velocity
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
+        self.img_error = self.axis_error
+        self.img_enabled = enabled
+        self.img_homed = self.homed
+
+    def _apply_feedback(self, t: float, fb: Any) -> None:
+        """``Axis._apply_feedback_general`` for feedback with communication and without
+        fault while no probe or drive homing is watched (every other case goes there): the
+        same steps in the same order, the feedback's values taken as they are (their own
+        arithmetic), the axis' fields native."""
+        if not fb.comm_ok or fb.fault or self._io_watch:
+            self._apply_feedback_general(t, fb)
+            return
+        act_p = fb.position + self.offset
+        act_v = fb.velocity
+        enabled = fb.enabled
+        fault = fb.fault
+        comm_ok = fb.comm_ok
+        dt_act = t - self._act_t
+        if dt_act > 0.0 and not fb.stale:  # actual acceleration: backward difference
+            self.act_v_prev = self.act_v
+            self.act_a = (act_v - self.act_v) / dt_act
+            self._act_t = t
+        self.act_p = act_p
+        self.act_v = act_v
+        self.drive_enabled = enabled
+        self.drive_fault = fault
+        self.comm_ok = comm_ok
+        warning = fb.warning
+        if warning != self.drive_warning:
+            self._drive_warning_changed(t, warning)
+        self.following_error = self._sent_p - act_p if enabled else 0.0
+        state = self.state
+        if (
+            not enabled
+            and state is not _ERROR_STOP
+            and state is not _DISABLED
+            and self.power_request
+            and self._was_enabled
+        ):
+            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+        self._was_enabled = enabled
+        if self._reset_handle is not None and self._reset_sent and not fb.reset_pending:
+            self._try_finish_reset(fault, comm_ok)
+        state = self.state
+        if state is _DISABLED:
+            if self.power_request and enabled and not fault:
+                state = self.state = _POWER_ON_READY_STATE  # T5
+            self._resync()
+        self.img_state = state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = act_p
+        self.img_act_v = act_v
         self.img_act_a = self.act_a
         self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error

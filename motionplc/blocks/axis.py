@@ -92,7 +92,7 @@ from motionplc.blocks.sync_job import SYNC_KINDS, SyncCommand
 from motionplc.blocks.sync_job import keep_velocity as _keep_velocity
 from motionplc.blocks.sync_job import prepare as _prepare_sync
 from motionplc.blocks.sync_job import submit as _submit_sync
-from motionplc.fieldbus.base import Drive, DriveCommand
+from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback
 from motionplc.fieldbus.error_codes import describe
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
@@ -439,7 +439,12 @@ class Axis(AxisCore):
     def _read_inputs_general(self, t: float) -> None:
         """READ INPUTS through a drive's feedback object (``AxisCore.read_inputs`` runs the
         healthy in-process ideal drive's case itself, with the same steps in the same order)."""
-        fb = self.drive.read_inputs(t)
+        self._apply_feedback_general(t, self.drive.read_inputs(t))
+
+    def _apply_feedback_general(self, t: float, fb: DriveFeedback) -> None:
+        """READ INPUTS of the drive's feedback ``fb`` of this cycle (``AxisCore.read_inputs``
+        runs the case of a drive with communication and without fault itself, with the same
+        steps in the same order: ``AxisCore._apply_feedback``)."""
         act_p = fb.position + self.offset
         act_v = fb.velocity
         enabled = fb.enabled
