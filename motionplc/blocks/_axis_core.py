@@ -214,6 +214,7 @@ class AxisCore:
     _fe_limit: Any
     _modulo: Any
     _ideal: Any
+    _write_setpoint: Any
     drive: Any
     _io_watch: Any
     mq: Any
@@ -451,7 +452,17 @@ class AxisCore:
                 self._kernel_failed(exc)
         ideal = self._ideal
         if ideal is None:
-            self.write_outputs(t)
+            write = self._write_setpoint
+            if write is None:
+                self.write_outputs(t)
+                return
+            # Axis.write_outputs with the command's fields as arguments (see Axis.__init__)
+            reset = self._reset_pulse
+            if reset:
+                self._reset_pulse = False
+                self._reset_sent = True
+            self._sent_p = self.p
+            write(t, self.p - self.offset, self.v, self.a, self.power_request, reset)
             return
         d: IdealCore = ideal
         if not d._comm_ok or d._fault:

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -92,7 +93,12 @@ from motionplc.blocks.sync_job import SYNC_KINDS, SyncCommand
 from motionplc.blocks.sync_job import keep_velocity as _keep_velocity
 from motionplc.blocks.sync_job import prepare as _prepare_sync
 from motionplc.blocks.sync_job import submit as _submit_sync
-from motionplc.fieldbus.base import Drive, DriveCommand, DriveFeedback
+from motionplc.fieldbus.base import (
+    Drive,
+    DriveCommand,
+    DriveFeedback,
+    write_outputs_via_setpoint,
+)
 from motionplc.fieldbus.error_codes import describe
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
@@ -213,6 +219,14 @@ class Axis(AxisCore):
         self.drive = drive
         # the in-process fast path (see motionplc.fieldbus.ideal): exactly an IdealDrive
         self._ideal: IdealDrive | None = drive if type(drive) is IdealDrive else None
+        # a drive whose write_outputs(t, command) is write_setpoint(t, the command's fields)
+        # (fieldbus.base.write_outputs_via_setpoint): AxisCore.step_write calls that with
+        # the values write_outputs would put in the command, without building it
+        self._write_setpoint: Callable[..., None] | None = (
+            drive.write_setpoint  # type: ignore[attr-defined]
+            if type(drive).write_outputs is write_outputs_via_setpoint
+            else None
+        )
         self.task_name: str | None = None
         self.group: Any = None  # the axes group (AxesGroup) this axis belongs to, if any
         self.fbs: list[Any] = []

@@ -93,6 +93,23 @@ class ProbeResult:
     error: str = ""
 
 
+def write_outputs_via_setpoint(self: Drive, t: float, command: DriveCommand) -> None:
+    """``Drive.write_outputs`` of a backend whose ``write_setpoint`` takes the command's
+    fields as arguments (the backend's class sets ``write_outputs =
+    write_outputs_via_setpoint``). For such a drive, and only while this very function is its
+    ``write_outputs`` (a subclass overriding it is called as usual), the axis calls
+    ``write_setpoint`` with the values it would have put in the command, without building
+    it: the same call."""
+    self.write_setpoint(  # type: ignore[attr-defined]
+        t,
+        command.position,
+        command.velocity,
+        command.acceleration,
+        command.enable,
+        command.fault_reset,
+    )
+
+
 class Drive(ABC):
     """A drive reached through some transport. Backends subclass this."""
 

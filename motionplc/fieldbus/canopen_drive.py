@@ -109,7 +109,6 @@ from motionplc.fieldbus.base import (
     MAX_QUEUED_PARAMETERS,
     Drive,
     DriveAddress,
-    DriveCommand,
     DriveFeedback,
     FieldbusError,
     LockstepPeer,
@@ -117,6 +116,7 @@ from motionplc.fieldbus.base import (
     ParameterTransfer,
     ProbeResult,
     reset_in_progress,
+    write_outputs_via_setpoint,
 )
 from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.canopen_startup import (
@@ -1388,11 +1388,23 @@ class CanopenDrive(Drive):
             self._apply_record(run.record, t)
             self._verify_deadline = run.deadline
 
-    def write_outputs(self, t: float, command: DriveCommand) -> None:
+    write_outputs = write_outputs_via_setpoint  # write_setpoint(t, the command's fields)
+
+    def write_setpoint(
+        self,
+        t: float,
+        position: float,
+        velocity: float,
+        acceleration: float,
+        enable: bool,
+        fault_reset: bool,
+    ) -> None:
+        """:meth:`write_outputs` of ``DriveCommand(position, velocity, acceleration, enable,
+        fault_reset)`` (the axis calls it without building the command)."""
         if not self._opened:
             self.master.written(self, t)
             return
-        if command.fault_reset:
+        if fault_reset:
             # MC_Reset: run the reset sequence (fault-reset edges, re-initialisation after a
             # communication failure, the whole start-up after a reboot) over the next cycles;
             # reported as reset_pending
@@ -1418,10 +1430,10 @@ class CanopenDrive(Drive):
         resetting = self._reset_until is not None or self._verify_deadline is not None
         if resetting and state is not Cia402State.FAULT:
             self.emcy_code = 0  # warnings / communication errors acknowledged
-        if state is _OE and command.enable:
+        if state is _OE and enable:
             cw = CONTROLWORD_OE_HOLD  # next_controlword(OE, OE, ...)
         else:
-            target = _OE if command.enable else Cia402State.READY_TO_SWITCH_ON
+            target = _OE if enable else Cia402State.READY_TO_SWITCH_ON
             cw = next_controlword(state, target, self.controlword, resetting)
         if self._hm_cw and state is Cia402State.OPERATION_ENABLED and cw == 0x0F:
             cw |= self._hm_cw  # homing: bit 4 starts the procedure
@@ -1430,18 +1442,16 @@ class CanopenDrive(Drive):
                 hm.phase = "run"
                 hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
-        if state is _OE and command.enable:
+        if state is _OE and enable:
             # Scaling.position_to_counts, inlined
-            target_counts = saturate_i32(
-                command.position * self._counts_per_unit + self._offset_counts
-            )
+            target_counts = saturate_i32(position * self._counts_per_unit + self._offset_counts)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
         # the values of the RPDO objects, in _RPDO_SLOTS order
-        velocity = (
-            saturate_i32(command.velocity * self._counts_per_unit) if self._needs_velocity else 0
+        velocity_counts = (
+            saturate_i32(velocity * self._counts_per_unit) if self._needs_velocity else 0
         )
-        values = (cw, target_counts, 0, self._cyclic_mode, velocity)
+        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
         master = self.master
         send = master.network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
         try:

@@ -8,7 +8,10 @@
   records, drops, delays, corruption) or does nothing (False) while a transmit switch is on;
 * a lockstep rig whose drives collect their frames in a step and deliver them at its end
   (``SimulatedTimeNetwork.begin_batch``/``end_batch``) exchanges, frame for frame, what it
-  exchanges when every frame is sent at once, with transmit faults switched on and off.
+  exchanges when every frame is sent at once, with transmit faults switched on and off;
+* the axis' setpoint shortcut (``AxisCore.step_write`` calling ``CanopenDrive.write_setpoint``
+  with the command's fields) gives the trace and the traffic of ``Axis.write_outputs`` with a
+  ``DriveCommand``, and is not taken for a drive that overrides ``write_outputs``.
 """
 
 from __future__ import annotations
@@ -286,3 +289,111 @@ def test_batched_rig_exchanges_what_the_unbatched_rig_exchanges(
     assert batched == plain
     fault_seen = any(fbs[1][3] for fbs in batched[1])
     assert fault_seen and batched[1][-1][1][2] and not batched[1][-1][1][3]  # reset worked
+
+
+def _runtime_rig(channel: str, shortcut: bool, monkeypatch: pytest.MonkeyPatch) -> tuple:
+    """Two axes on virtual CAN drives under the runtime (moves, power off and on, a drive
+    fault and MC_Reset): the trace digest and every frame the master received.
+    ``shortcut`` False: every cycle's setpoints go through ``Axis.write_outputs`` and a
+    ``DriveCommand`` (the axes' ``_write_setpoint`` cleared)."""
+    from motionplc.blocks import MC_MoveAbsolute, MC_Power, MC_Reset
+    from motionplc.fieldbus import canopen_drive
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+    from motionplc.runtime import Runtime
+
+    received: list[tuple] = []
+
+    def recording_drain(bus: can.BusABC) -> list[can.Message]:
+        frames = fastcan.drain(bus)
+        received.extend(_fields(m) for m in frames)
+        return frames
+
+    with monkeypatch.context() as mp:
+        mp.setattr(canopen_drive, "drain", recording_drain)
+        rack = VirtualCanBus(
+            can.Bus(interface="virtual", channel=channel),
+            [VirtualCia402Drive(n) for n in (1, 2)],
+        )
+        master = CanopenMaster(
+            can.Bus(interface="virtual", channel=channel), peer=rack, heartbeat_period=0.01
+        )
+        rt = Runtime(cycle=0.001)
+        try:
+            axes = []
+            for n in (1, 2):
+                cfg = CanopenDriveConfig(
+                    node_id=n, counts_per_unit=1000.0, velocity_feed_forward=n == 2
+                )
+                drive = CanopenDrive(f"a{n}", master, cfg)
+                axes.append(rt.add_axis(f"a{n}", 2.0, 10.0, 200.0, drive=drive))
+            for ax in axes:
+                assert ax._write_setpoint is not None  # the shortcut is on by default
+                if not shortcut:
+                    ax._write_setpoint = None
+            power = [MC_Power(axis=x, enable=True) for x in axes]
+            reset = [MC_Reset(axis=x) for x in axes]
+            moves = [MC_MoveAbsolute(axis=x, acceleration=8.0, deceleration=8.0) for x in axes]
+            targets = (1.5, -0.5, 2.0, 0.0)
+
+            def program(ctx: object) -> None:
+                k = rt.tick
+                if k == 400:
+                    rack[2].inject_fault(0x2310)
+                for j in range(2):
+                    power[j].enable = not 700 <= k < 760 or j == 1
+                    reset[j].execute = k in (500, 501)
+                    power[j]()
+                    reset[j]()
+                    mv = moves[j]
+                    mv.execute = k % 250 < 5
+                    mv.position = targets[(k // 250 + j) % len(targets)]
+                    mv.velocity = 1.0 + 0.5 * j
+                    mv()
+
+            rt.add_task("main", program)
+            rt.run(cycles=1500)
+            return rt.trace.digest(), received
+        finally:
+            rt.close()
+            master.close()
+            rack.close()
+
+
+def test_setpoint_shortcut_equals_write_outputs_with_a_command(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    fast = _runtime_rig(_channel("setpoint"), True, monkeypatch)
+    plain = _runtime_rig(_channel("setpoint"), False, monkeypatch)
+    assert len(fast[1]) > 1500 * 3
+    assert fast == plain
+
+
+def test_a_drive_overriding_write_outputs_gets_its_command() -> None:
+    """The shortcut is taken only while ``write_outputs`` is ``write_outputs_via_setpoint``
+    itself: a subclass overriding it is called with the command, as before."""
+    from motionplc.fieldbus.base import DriveCommand
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.runtime import Runtime
+
+    seen: list[DriveCommand] = []
+
+    class Spy(CanopenDrive):
+        def write_outputs(self, t: float, command: DriveCommand) -> None:
+            seen.append(command)
+
+    channel = _channel("override")
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel))
+    rt = Runtime(cycle=0.001)
+    try:
+        plain = CanopenDrive("p", master, CanopenDriveConfig(node_id=1))
+        spy = Spy("s", master, CanopenDriveConfig(node_id=2))
+        ax_plain = rt.add_axis("p", 1.0, 1.0, drive=plain)
+        ax_spy = rt.add_axis("s", 1.0, 1.0, drive=spy)
+        assert ax_plain._write_setpoint == plain.write_setpoint
+        assert ax_spy._write_setpoint is None
+        ax_spy.step_write(0.001, 0.0)
+        assert seen == [DriveCommand(0.0, 0.0, 0.0, False, False)]
+    finally:
+        rt.close()
+        master.close()
