@@ -26,6 +26,7 @@ from typing import Any, ClassVar, Final
 from motionplc.blocks.axis_state import Event, next_state
 from motionplc.blocks.enums import AxisState
 from motionplc.fieldbus._ideal_core import IdealCore
+from motionplc.fieldbus.base import feedback_of_fields
 from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
@@ -215,6 +216,7 @@ class AxisCore:
     _modulo: Any
     _ideal: Any
     _write_setpoint: Any
+    _read_values: Any
     drive: Any
     _io_watch: Any
     mq: Any
@@ -269,7 +271,16 @@ class AxisCore:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         ideal = self._ideal
         if ideal is None:
-            self._apply_feedback(t, self.drive.read_inputs(t))
+            read = self._read_values
+            if read is None:
+                self._apply_feedback(t, self.drive.read_inputs(t))
+                return
+            # the fields of drive.read_inputs(t), without the object (see Axis.__init__)
+            v: tuple[Any, ...] = read(t)
+            if not v[5] or v[3] or self._io_watch:  # no communication, a fault, I/O watched
+                self._apply_feedback_general(t, feedback_of_fields(*v))
+                return
+            self._apply_values(t, v[0], v[1], v[2], v[3], v[5], v[7], v[10], v[9])
             return
         d: IdealCore = ideal
         if d._feedback is not None:
@@ -331,13 +342,35 @@ class AxisCore:
         if not fb.comm_ok or fb.fault or self._io_watch:
             self._apply_feedback_general(t, fb)
             return
-        act_p = fb.position + self.offset
-        act_v = fb.velocity
-        enabled = fb.enabled
-        fault = fb.fault
-        comm_ok = fb.comm_ok
+        self._apply_values(
+            t,
+            fb.position,
+            fb.velocity,
+            fb.enabled,
+            fb.fault,
+            fb.comm_ok,
+            fb.stale,
+            fb.warning,
+            fb.reset_pending,
+        )
+
+    def _apply_values(
+        self,
+        t: float,
+        position: Any,
+        velocity: Any,
+        enabled: Any,
+        fault: Any,
+        comm_ok: Any,
+        stale: Any,
+        warning: Any,
+        reset_pending: Any,
+    ) -> None:
+        """:meth:`_apply_feedback`'s steps, of the feedback's fields."""
+        act_p = position + self.offset
+        act_v = velocity
         dt_act = t - self._act_t
-        if dt_act > 0.0 and not fb.stale:  # actual acceleration: backward difference
+        if dt_act > 0.0 and not stale:  # actual acceleration: backward difference
             self.act_v_prev = self.act_v
             self.act_a = (act_v - self.act_v) / dt_act
             self._act_t = t
@@ -346,7 +379,6 @@ class AxisCore:
         self.drive_enabled = enabled
         self.drive_fault = fault
         self.comm_ok = comm_ok
-        warning = fb.warning
         if warning != self.drive_warning:
             self._drive_warning_changed(t, warning)
         self.following_error = self._sent_p - act_p if enabled else 0.0
@@ -360,7 +392,7 @@ class AxisCore:
         ):
             self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
         self._was_enabled = enabled
-        if self._reset_handle is not None and self._reset_sent and not fb.reset_pending:
+        if self._reset_handle is not None and self._reset_sent and not reset_pending:
             self._try_finish_reset(fault, comm_ok)
         state = self.state
         if state is _DISABLED:

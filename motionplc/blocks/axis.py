@@ -97,6 +97,7 @@ from motionplc.fieldbus.base import (
     Drive,
     DriveCommand,
     DriveFeedback,
+    read_inputs_via_values,
     write_outputs_via_setpoint,
 )
 from motionplc.fieldbus.error_codes import describe
@@ -222,6 +223,13 @@ class Axis(AxisCore):
         # a drive whose write_outputs(t, command) is write_setpoint(t, the command's fields)
         # (fieldbus.base.write_outputs_via_setpoint): AxisCore.step_write calls that with
         # the values write_outputs would put in the command, without building it
+        # ... and one whose read_inputs(t) is DriveFeedback(*read_values(t))
+        # (fieldbus.base.read_inputs_via_values): AxisCore.read_inputs takes the values
+        self._read_values: Callable[[float], tuple[Any, ...]] | None = (
+            drive.read_values  # type: ignore[attr-defined]
+            if type(drive).read_inputs is read_inputs_via_values
+            else None
+        )
         self._write_setpoint: Callable[..., None] | None = (
             drive.write_setpoint  # type: ignore[attr-defined]
             if type(drive).write_outputs is write_outputs_via_setpoint

@@ -104,17 +104,17 @@ import canopen
 from canopen.emcy import EmcyError
 from canopen.objectdictionary import ObjectDictionary
 
-from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import (
     MAX_QUEUED_PARAMETERS,
     Drive,
     DriveAddress,
-    DriveFeedback,
     FieldbusError,
     LockstepPeer,
     ParameterError,
     ParameterTransfer,
     ProbeResult,
+    feedback_of_fields,
+    read_inputs_via_values,
     reset_in_progress,
     write_outputs_via_setpoint,
 )
@@ -323,55 +323,8 @@ class CanopenDriveConfig:
         return default_layout(self.velocity_feed_forward, self.feedback_velocity)
 
 
-_FEEDBACK_FIELDS = (
-    "position",
-    "velocity",
-    "enabled",
-    "fault",
-    "error_code",
-    "comm_ok",
-    "detail",
-    "stale",
-    "kind",
-    "reset_pending",
-    "warning",
-)
-try:
-    (_fp, _fv, _fe, _ff, _fc, _fo, _fd, _fs, _fk, _fr, _fw), _ = slot_setters(
-        DriveFeedback, _FEEDBACK_FIELDS
-    )
-
-    def _feedback(
-        position: float,
-        velocity: float,
-        enabled: bool,
-        fault: bool,
-        error_code: int,
-        comm_ok: bool,
-        detail: str,
-        stale: bool,
-        kind: str,
-        reset_pending: bool,
-        warning: str,
-    ) -> DriveFeedback:
-        """``DriveFeedback(...)`` with all eleven fields in order, built cheaply once per
-        drive and cycle (``motionplc._fastinit``)."""
-        fb = object.__new__(DriveFeedback)
-        _fp(fb, position)
-        _fv(fb, velocity)
-        _fe(fb, enabled)
-        _ff(fb, fault)
-        _fc(fb, error_code)
-        _fo(fb, comm_ok)
-        _fd(fb, detail)
-        _fs(fb, stale)
-        _fk(fb, kind)
-        _fr(fb, reset_pending)
-        _fw(fb, warning)
-        return fb
-
-except TypeError:  # DriveFeedback changed: the normal constructor (slower, same values)
-    _feedback = DriveFeedback  # type: ignore[assignment]
+# DriveFeedback(...) of all eleven fields in order, built cheaply (motionplc._fastinit)
+_feedback = feedback_of_fields
 
 
 class _MasterNetwork(canopen.Network):
@@ -1265,7 +1218,11 @@ class CanopenDrive(Drive):
             return False, f"node {n} is {nmt.state}"
         return _HB_OK
 
-    def read_inputs(self, t: float) -> DriveFeedback:
+    read_inputs = read_inputs_via_values  # DriveFeedback(*read_values(t))
+
+    def read_values(self, t: float) -> tuple[Any, ...]:
+        """The eleven fields of :meth:`read_inputs`' ``DriveFeedback``, in order (the axis
+        takes them without building the object)."""
         self.master.pump(t)
         if self._acyc_busy:
             self._service_acyclic(t)
@@ -1325,7 +1282,7 @@ class CanopenDrive(Drive):
         if self._hm is not None:
             self._homing_read(t, fresh)
         # Scaling.position_to_si / velocity_to_si, inlined
-        return _feedback(
+        return (
             (self.position_counts - self._offset_counts) / self._counts_per_unit,
             self.velocity_counts / self._counts_per_unit,
             enabled,

@@ -10,8 +10,10 @@
   (``SimulatedTimeNetwork.begin_batch``/``end_batch``) exchanges, frame for frame, what it
   exchanges when every frame is sent at once, with transmit faults switched on and off;
 * the axis' setpoint shortcut (``AxisCore.step_write`` calling ``CanopenDrive.write_setpoint``
-  with the command's fields) gives the trace and the traffic of ``Axis.write_outputs`` with a
-  ``DriveCommand``, and is not taken for a drive that overrides ``write_outputs``.
+  with the command's fields) and feedback shortcut (``AxisCore.read_inputs`` taking
+  ``CanopenDrive.read_values``' fields) give the trace and the traffic of
+  ``Axis.write_outputs`` with a ``DriveCommand`` and of the general READ INPUTS with a
+  ``DriveFeedback``; neither is taken for a drive that overrides the method.
 """
 
 from __future__ import annotations
@@ -291,11 +293,27 @@ def test_batched_rig_exchanges_what_the_unbatched_rig_exchanges(
     assert fault_seen and batched[1][-1][1][2] and not batched[1][-1][1][3]  # reset worked
 
 
+def _general_feedback_axis() -> type:
+    from motionplc.blocks.axis import Axis
+
+    class GeneralFeedbackAxis(Axis):
+        """Every feedback applied through the general path."""
+
+        def _apply_feedback(self, t: float, fb: object) -> None:
+            self._apply_feedback_general(t, fb)
+
+    return GeneralFeedbackAxis
+
+
+_GeneralFeedbackAxis = _general_feedback_axis()
+
+
 def _runtime_rig(channel: str, shortcut: bool, monkeypatch: pytest.MonkeyPatch) -> tuple:
     """Two axes on virtual CAN drives under the runtime (moves, power off and on, a drive
     fault and MC_Reset): the trace digest and every frame the master received.
     ``shortcut`` False: every cycle's setpoints go through ``Axis.write_outputs`` and a
-    ``DriveCommand`` (the axes' ``_write_setpoint`` cleared)."""
+    ``DriveCommand`` (the axes' ``_write_setpoint`` cleared), every feedback through
+    ``drive.read_inputs`` and ``Axis._apply_feedback_general`` (``_read_values`` cleared)."""
     from motionplc.blocks import MC_MoveAbsolute, MC_Power, MC_Reset
     from motionplc.fieldbus import canopen_drive
     from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
@@ -328,9 +346,12 @@ def _runtime_rig(channel: str, shortcut: bool, monkeypatch: pytest.MonkeyPatch) 
                 drive = CanopenDrive(f"a{n}", master, cfg)
                 axes.append(rt.add_axis(f"a{n}", 2.0, 10.0, 200.0, drive=drive))
             for ax in axes:
-                assert ax._write_setpoint is not None  # the shortcut is on by default
+                assert ax._write_setpoint is not None  # the shortcuts are on by default
+                assert ax._read_values is not None
                 if not shortcut:
                     ax._write_setpoint = None
+                    ax._read_values = None
+                    ax.__class__ = _GeneralFeedbackAxis
             power = [MC_Power(axis=x, enable=True) for x in axes]
             reset = [MC_Reset(axis=x) for x in axes]
             moves = [MC_MoveAbsolute(axis=x, acceleration=8.0, deceleration=8.0) for x in axes]
@@ -360,13 +381,46 @@ def _runtime_rig(channel: str, shortcut: bool, monkeypatch: pytest.MonkeyPatch) 
             rack.close()
 
 
-def test_setpoint_shortcut_equals_write_outputs_with_a_command(
+def test_setpoint_and_feedback_shortcuts_equal_the_command_and_feedback_objects(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     fast = _runtime_rig(_channel("setpoint"), True, monkeypatch)
     plain = _runtime_rig(_channel("setpoint"), False, monkeypatch)
     assert len(fast[1]) > 1500 * 3
     assert fast == plain
+
+
+def test_a_drive_overriding_read_inputs_gives_its_feedback() -> None:
+    from motionplc.fieldbus.base import DriveFeedback
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.runtime import Runtime
+
+    class Spy(CanopenDrive):
+        def read_inputs(self, t: float) -> DriveFeedback:
+            return DriveFeedback(0.125, 0.0, False, comm_ok=True)
+
+    channel = _channel("override-read")
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel))
+    rt = Runtime(cycle=0.001)
+    try:
+        spy = Spy("s", master, CanopenDriveConfig(node_id=2))
+        ax = rt.add_axis("s", 1.0, 1.0, drive=spy)
+        assert ax._read_values is None
+        ax.read_inputs(0.0)
+        assert ax.act_p == 0.125 and ax.comm_ok
+    finally:
+        rt.close()
+        master.close()
+
+
+def test_read_values_are_the_feedback_fields() -> None:
+    """``read_inputs`` of a CAN drive is ``DriveFeedback`` of its ``read_values``, in order."""
+    from motionplc.fieldbus.base import DriveFeedback, feedback_of_fields
+
+    values = (1.5, -0.25, True, False, 7, True, "d", False, "k", True, "w")
+    assert feedback_of_fields(*values) == DriveFeedback(*values)
+    assert feedback_of_fields is not DriveFeedback
+    assert dataclasses.astuple(feedback_of_fields(*values)) == values
 
 
 def test_a_drive_overriding_write_outputs_gets_its_command() -> None:
@@ -392,6 +446,8 @@ def test_a_drive_overriding_write_outputs_gets_its_command() -> None:
         ax_spy = rt.add_axis("s", 1.0, 1.0, drive=spy)
         assert ax_plain._write_setpoint == plain.write_setpoint
         assert ax_spy._write_setpoint is None
+        assert ax_plain._read_values == plain.read_values
+        assert ax_spy._read_values == spy.read_values  # read_inputs not overridden
         ax_spy.step_write(0.001, 0.0)
         assert seen == [DriveCommand(0.0, 0.0, 0.0, False, False)]
     finally:
