@@ -43,6 +43,7 @@ COMPILED_MODULES = (
     "motionplc.planning._batchrow",
     "motionplc.blocks._axis_core",  # the axis kernel's per-cycle common case (Axis' base)
     "motionplc.fieldbus._ideal_core",  # the ideal drive's per-cycle fields (IdealDrive's base)
+    "motionplc.fieldbus._plant_core",  # the virtual drives' frictionless servo loop
 )
 GROUP = "motionplc._core"  # the shared library: motionplc/_core__mypyc.<abi>.so
 MANIFEST = "motionplc/_compiled.json"  # source digests of the last successful compile

@@ -47,6 +47,7 @@ COMPILED_MODULES = (
     "motionplc.planning._batchrow",
     "motionplc.blocks._axis_core",  # the axis kernel's per-cycle common case (Axis' base)
     "motionplc.fieldbus._ideal_core",  # the ideal drive's per-cycle fields (IdealDrive's base)
+    "motionplc.fieldbus._plant_core",  # the virtual drives' frictionless servo loop
 )
 SHARED_LIB = "_core__mypyc"  # mypyc's group library, inside the motionplc package
 MANIFEST = "_compiled.json"  # written by the build: the sources' SHA-256 digests

@@ -26,6 +26,7 @@ from typing import Any, ClassVar, Final
 from motionplc.blocks.axis_state import Event, next_state
 from motionplc.blocks.enums import AxisState
 from motionplc.fieldbus._ideal_core import IdealCore
+from motionplc.fieldbus.base import feedback_of_fields
 from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
 
@@ -214,6 +215,10 @@ class AxisCore:
     _fe_limit: Any
     _modulo: Any
     _ideal: Any
+    _write_setpoint: Any
+    _read_values: Any
+    drive: Any
+    _io_watch: Any
     mq: Any
     ts: Any
     sup: Any
@@ -223,6 +228,9 @@ class AxisCore:
 
     # -- the general path (defined by Axis) ----------------------------------------------------
     def _read_inputs_general(self, t: float) -> None:
+        raise NotImplementedError
+
+    def _apply_feedback_general(self, t: float, fb: Any) -> None:
         raise NotImplementedError
 
     def step(self, dt: float) -> None:
@@ -263,7 +271,16 @@ class AxisCore:
         """READ INPUTS: drive feedback -> actual values, drive errors, power/reset handshakes."""
         ideal = self._ideal
         if ideal is None:
-            self._read_inputs_general(t)
+            read = self._read_values
+            if read is None:
+                self._apply_feedback(t, self.drive.read_inputs(t))
+                return
+            # the fields of drive.read_inputs(t), without the object (see Axis.__init__)
+            v: tuple[Any, ...] = read(t)
+            if not v[5] or v[3] or self._io_watch:  # no communication, a fault, I/O watched
+                self._apply_feedback_general(t, feedback_of_fields(*v))
+                return
+            self._apply_values(t, v[0], v[1], v[2], v[3], v[5], v[7], v[10], v[9])
             return
         d: IdealCore = ideal
         if d._feedback is not None:
@@ -311,6 +328,83 @@ class AxisCore:
         self.img_a = self.a
         self.img_act_p = act_p
         self.img_act_v = velocity
+        self.img_act_a = self.act_a
+        self.img_act_v_prev = self.act_v_prev
+        self.img_error = self.axis_error
+        self.img_enabled = enabled
+        self.img_homed = self.homed
+
+    def _apply_feedback(self, t: float, fb: Any) -> None:
+        """``Axis._apply_feedback_general`` for feedback with communication and without
+        fault while no probe or drive homing is watched (every other case goes there): the
+        same steps in the same order, the feedback's values taken as they are (their own
+        arithmetic), the axis' fields native."""
+        if not fb.comm_ok or fb.fault or self._io_watch:
+            self._apply_feedback_general(t, fb)
+            return
+        self._apply_values(
+            t,
+            fb.position,
+            fb.velocity,
+            fb.enabled,
+            fb.fault,
+            fb.comm_ok,
+            fb.stale,
+            fb.warning,
+            fb.reset_pending,
+        )
+
+    def _apply_values(
+        self,
+        t: float,
+        position: Any,
+        velocity: Any,
+        enabled: Any,
+        fault: Any,
+        comm_ok: Any,
+        stale: Any,
+        warning: Any,
+        reset_pending: Any,
+    ) -> None:
+        """:meth:`_apply_feedback`'s steps, of the feedback's fields."""
+        act_p = position + self.offset
+        act_v = velocity
+        dt_act = t - self._act_t
+        if dt_act > 0.0 and not stale:  # actual acceleration: backward difference
+            self.act_v_prev = self.act_v
+            self.act_a = (act_v - self.act_v) / dt_act
+            self._act_t = t
+        self.act_p = act_p
+        self.act_v = act_v
+        self.drive_enabled = enabled
+        self.drive_fault = fault
+        self.comm_ok = comm_ok
+        if warning != self.drive_warning:
+            self._drive_warning_changed(t, warning)
+        self.following_error = self._sent_p - act_p if enabled else 0.0
+        state = self.state
+        if (
+            not enabled
+            and state is not _ERROR_STOP
+            and state is not _DISABLED
+            and self.power_request
+            and self._was_enabled
+        ):
+            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
+        self._was_enabled = enabled
+        if self._reset_handle is not None and self._reset_sent and not reset_pending:
+            self._try_finish_reset(fault, comm_ok)
+        state = self.state
+        if state is _DISABLED:
+            if self.power_request and enabled and not fault:
+                state = self.state = _POWER_ON_READY_STATE  # T5
+            self._resync()
+        self.img_state = state
+        self.img_p = self.p
+        self.img_v = self.v
+        self.img_a = self.a
+        self.img_act_p = act_p
+        self.img_act_v = act_v
         self.img_act_a = self.act_a
         self.img_act_v_prev = self.act_v_prev
         self.img_error = self.axis_error
@@ -390,7 +484,17 @@ class AxisCore:
                 self._kernel_failed(exc)
         ideal = self._ideal
         if ideal is None:
-            self.write_outputs(t)
+            write = self._write_setpoint
+            if write is None:
+                self.write_outputs(t)
+                return
+            # Axis.write_outputs with the command's fields as arguments (see Axis.__init__)
+            reset = self._reset_pulse
+            if reset:
+                self._reset_pulse = False
+                self._reset_sent = True
+            self._sent_p = self.p
+            write(t, self.p - self.offset, self.v, self.a, self.power_request, reset)
             return
         d: IdealCore = ideal
         if not d._comm_ok or d._fault:

@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import math
 import struct
+from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -92,7 +93,13 @@ from motionplc.blocks.sync_job import SYNC_KINDS, SyncCommand
 from motionplc.blocks.sync_job import keep_velocity as _keep_velocity
 from motionplc.blocks.sync_job import prepare as _prepare_sync
 from motionplc.blocks.sync_job import submit as _submit_sync
-from motionplc.fieldbus.base import Drive, DriveCommand
+from motionplc.fieldbus.base import (
+    Drive,
+    DriveCommand,
+    DriveFeedback,
+    read_inputs_via_values,
+    write_outputs_via_setpoint,
+)
 from motionplc.fieldbus.error_codes import describe
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.planning import Limits, PlanningError, Profile, State, plan, plan_velocity
@@ -213,6 +220,21 @@ class Axis(AxisCore):
         self.drive = drive
         # the in-process fast path (see motionplc.fieldbus.ideal): exactly an IdealDrive
         self._ideal: IdealDrive | None = drive if type(drive) is IdealDrive else None
+        # a drive whose write_outputs(t, command) is write_setpoint(t, the command's fields)
+        # (fieldbus.base.write_outputs_via_setpoint): AxisCore.step_write calls that with
+        # the values write_outputs would put in the command, without building it
+        # ... and one whose read_inputs(t) is DriveFeedback(*read_values(t))
+        # (fieldbus.base.read_inputs_via_values): AxisCore.read_inputs takes the values
+        self._read_values: Callable[[float], tuple[Any, ...]] | None = (
+            drive.read_values  # type: ignore[attr-defined]
+            if type(drive).read_inputs is read_inputs_via_values
+            else None
+        )
+        self._write_setpoint: Callable[..., None] | None = (
+            drive.write_setpoint  # type: ignore[attr-defined]
+            if type(drive).write_outputs is write_outputs_via_setpoint
+            else None
+        )
         self.task_name: str | None = None
         self.group: Any = None  # the axes group (AxesGroup) this axis belongs to, if any
         self.fbs: list[Any] = []
@@ -439,7 +461,12 @@ class Axis(AxisCore):
     def _read_inputs_general(self, t: float) -> None:
         """READ INPUTS through a drive's feedback object (``AxisCore.read_inputs`` runs the
         healthy in-process ideal drive's case itself, with the same steps in the same order)."""
-        fb = self.drive.read_inputs(t)
+        self._apply_feedback_general(t, self.drive.read_inputs(t))
+
+    def _apply_feedback_general(self, t: float, fb: DriveFeedback) -> None:
+        """READ INPUTS of the drive's feedback ``fb`` of this cycle (``AxisCore.read_inputs``
+        runs the case of a drive with communication and without fault itself, with the same
+        steps in the same order: ``AxisCore._apply_feedback``)."""
         act_p = fb.position + self.offset
         act_v = fb.velocity
         enabled = fb.enabled

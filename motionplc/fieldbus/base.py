@@ -18,9 +18,10 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Protocol, runtime_checkable
 
+from motionplc._fastinit import slot_setters
 from motionplc.errors import MotionPlcError
 
 
@@ -91,6 +92,74 @@ class ProbeResult:
 
     position: float = math.nan
     error: str = ""
+
+
+def _feedback_builder() -> Callable[..., DriveFeedback]:
+    """``DriveFeedback(*fields)`` of all eleven fields in order, built cheaply
+    (``motionplc._fastinit``), or the constructor itself if the class no longer fits."""
+    names = tuple(f.name for f in fields(DriveFeedback))
+    try:
+        (fp, fv, fe, ff, fc, fo, fd, fs, fk, fr, fw), _ = slot_setters(DriveFeedback, names)
+    except (TypeError, ValueError):  # DriveFeedback changed: the normal constructor
+        return DriveFeedback
+    new = object.__new__
+
+    def build(
+        position: float,
+        velocity: float,
+        enabled: bool,
+        fault: bool,
+        error_code: int,
+        comm_ok: bool,
+        detail: str,
+        stale: bool,
+        kind: str,
+        reset_pending: bool,
+        warning: str,
+    ) -> DriveFeedback:
+        fb = new(DriveFeedback)
+        fp(fb, position)
+        fv(fb, velocity)
+        fe(fb, enabled)
+        ff(fb, fault)
+        fc(fb, error_code)
+        fo(fb, comm_ok)
+        fd(fb, detail)
+        fs(fb, stale)
+        fk(fb, kind)
+        fr(fb, reset_pending)
+        fw(fb, warning)
+        return fb
+
+    return build
+
+
+feedback_of_fields = _feedback_builder()
+
+
+def read_inputs_via_values(self: Drive, t: float) -> DriveFeedback:
+    """``Drive.read_inputs`` of a backend whose ``read_values(t)`` returns the eleven fields
+    of its :class:`DriveFeedback` in order (the backend's class sets ``read_inputs =
+    read_inputs_via_values``). For such a drive, and only while this very function is its
+    ``read_inputs``, the axis takes the values without the object: the same feedback."""
+    return feedback_of_fields(*self.read_values(t))  # type: ignore[attr-defined]
+
+
+def write_outputs_via_setpoint(self: Drive, t: float, command: DriveCommand) -> None:
+    """``Drive.write_outputs`` of a backend whose ``write_setpoint`` takes the command's
+    fields as arguments (the backend's class sets ``write_outputs =
+    write_outputs_via_setpoint``). For such a drive, and only while this very function is its
+    ``write_outputs`` (a subclass overriding it is called as usual), the axis calls
+    ``write_setpoint`` with the values it would have put in the command, without building
+    it: the same call."""
+    self.write_setpoint(  # type: ignore[attr-defined]
+        t,
+        command.position,
+        command.velocity,
+        command.acceleration,
+        command.enable,
+        command.fault_reset,
+    )
 
 
 class Drive(ABC):

@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import can
 from can import BusState
 
-from motionplc.fieldbus.fastcan import drain, send_frame
+from motionplc.fieldbus.fastcan import deliver_owned, drain, send_frame
 
 __all__ = ["FaultInjectingBus", "FrameRecord"]
 
@@ -100,6 +100,26 @@ class FaultInjectingBus(can.BusABC):
         :func:`~motionplc.fieldbus.fastcan.send_frame`'s ``owned``): the same switches, the
         same delivery, one copy fewer."""
         self._send(msg, None, True)
+
+    def send_owned_batch(self, msgs: list[can.Message]) -> bool:
+        """:meth:`send_owned` of each of ``msgs`` in order, done at once, or nothing done
+        (False: the caller sends them one by one). Done only while no transmit switch is on
+        (no bus-off, nothing dropped, delayed or corrupted, no recording: every frame's fate
+        is "ok") and the inner bus takes them at once
+        (:func:`~motionplc.fieldbus.fastcan.deliver_owned`: each frame must own its data)."""
+        if (
+            self.bus_off
+            or self.drop_tx_ids
+            or self.drop_tx_every
+            or self.drop_tx_probability
+            or self.corrupt_dlc_ids
+            or self.delay_tx
+            or self.records is not None
+            or not deliver_owned(self._inner, msgs)
+        ):
+            return False
+        self._tx_count += len(msgs)
+        return True
 
     def _send(self, msg: can.Message, timeout: float | None, owned: bool) -> None:
         if self.bus_off:

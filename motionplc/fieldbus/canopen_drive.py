@@ -104,19 +104,19 @@ import canopen
 from canopen.emcy import EmcyError
 from canopen.objectdictionary import ObjectDictionary
 
-from motionplc._fastinit import slot_setters
 from motionplc.fieldbus.base import (
     MAX_QUEUED_PARAMETERS,
     Drive,
     DriveAddress,
-    DriveCommand,
-    DriveFeedback,
     FieldbusError,
     LockstepPeer,
     ParameterError,
     ParameterTransfer,
     ProbeResult,
+    feedback_of_fields,
+    read_inputs_via_values,
     reset_in_progress,
+    write_outputs_via_setpoint,
 )
 from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.canopen_startup import (
@@ -323,55 +323,8 @@ class CanopenDriveConfig:
         return default_layout(self.velocity_feed_forward, self.feedback_velocity)
 
 
-_FEEDBACK_FIELDS = (
-    "position",
-    "velocity",
-    "enabled",
-    "fault",
-    "error_code",
-    "comm_ok",
-    "detail",
-    "stale",
-    "kind",
-    "reset_pending",
-    "warning",
-)
-try:
-    (_fp, _fv, _fe, _ff, _fc, _fo, _fd, _fs, _fk, _fr, _fw), _ = slot_setters(
-        DriveFeedback, _FEEDBACK_FIELDS
-    )
-
-    def _feedback(
-        position: float,
-        velocity: float,
-        enabled: bool,
-        fault: bool,
-        error_code: int,
-        comm_ok: bool,
-        detail: str,
-        stale: bool,
-        kind: str,
-        reset_pending: bool,
-        warning: str,
-    ) -> DriveFeedback:
-        """``DriveFeedback(...)`` with all eleven fields in order, built cheaply once per
-        drive and cycle (``motionplc._fastinit``)."""
-        fb = object.__new__(DriveFeedback)
-        _fp(fb, position)
-        _fv(fb, velocity)
-        _fe(fb, enabled)
-        _ff(fb, fault)
-        _fc(fb, error_code)
-        _fo(fb, comm_ok)
-        _fd(fb, detail)
-        _fs(fb, stale)
-        _fk(fb, kind)
-        _fr(fb, reset_pending)
-        _fw(fb, warning)
-        return fb
-
-except TypeError:  # DriveFeedback changed: the normal constructor (slower, same values)
-    _feedback = DriveFeedback  # type: ignore[assignment]
+# DriveFeedback(...) of all eleven fields in order, built cheaply (motionplc._fastinit)
+_feedback = feedback_of_fields
 
 
 class _MasterNetwork(canopen.Network):
@@ -1265,7 +1218,11 @@ class CanopenDrive(Drive):
             return False, f"node {n} is {nmt.state}"
         return _HB_OK
 
-    def read_inputs(self, t: float) -> DriveFeedback:
+    read_inputs = read_inputs_via_values  # DriveFeedback(*read_values(t))
+
+    def read_values(self, t: float) -> tuple[Any, ...]:
+        """The eleven fields of :meth:`read_inputs`' ``DriveFeedback``, in order (the axis
+        takes them without building the object)."""
         self.master.pump(t)
         if self._acyc_busy:
             self._service_acyclic(t)
@@ -1325,7 +1282,7 @@ class CanopenDrive(Drive):
         if self._hm is not None:
             self._homing_read(t, fresh)
         # Scaling.position_to_si / velocity_to_si, inlined
-        return _feedback(
+        return (
             (self.position_counts - self._offset_counts) / self._counts_per_unit,
             self.velocity_counts / self._counts_per_unit,
             enabled,
@@ -1388,11 +1345,23 @@ class CanopenDrive(Drive):
             self._apply_record(run.record, t)
             self._verify_deadline = run.deadline
 
-    def write_outputs(self, t: float, command: DriveCommand) -> None:
+    write_outputs = write_outputs_via_setpoint  # write_setpoint(t, the command's fields)
+
+    def write_setpoint(
+        self,
+        t: float,
+        position: float,
+        velocity: float,
+        acceleration: float,
+        enable: bool,
+        fault_reset: bool,
+    ) -> None:
+        """:meth:`write_outputs` of ``DriveCommand(position, velocity, acceleration, enable,
+        fault_reset)`` (the axis calls it without building the command)."""
         if not self._opened:
             self.master.written(self, t)
             return
-        if command.fault_reset:
+        if fault_reset:
             # MC_Reset: run the reset sequence (fault-reset edges, re-initialisation after a
             # communication failure, the whole start-up after a reboot) over the next cycles;
             # reported as reset_pending
@@ -1418,10 +1387,10 @@ class CanopenDrive(Drive):
         resetting = self._reset_until is not None or self._verify_deadline is not None
         if resetting and state is not Cia402State.FAULT:
             self.emcy_code = 0  # warnings / communication errors acknowledged
-        if state is _OE and command.enable:
+        if state is _OE and enable:
             cw = CONTROLWORD_OE_HOLD  # next_controlword(OE, OE, ...)
         else:
-            target = _OE if command.enable else Cia402State.READY_TO_SWITCH_ON
+            target = _OE if enable else Cia402State.READY_TO_SWITCH_ON
             cw = next_controlword(state, target, self.controlword, resetting)
         if self._hm_cw and state is Cia402State.OPERATION_ENABLED and cw == 0x0F:
             cw |= self._hm_cw  # homing: bit 4 starts the procedure
@@ -1430,18 +1399,16 @@ class CanopenDrive(Drive):
                 hm.phase = "run"
                 hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
-        if state is _OE and command.enable:
+        if state is _OE and enable:
             # Scaling.position_to_counts, inlined
-            target_counts = saturate_i32(
-                command.position * self._counts_per_unit + self._offset_counts
-            )
+            target_counts = saturate_i32(position * self._counts_per_unit + self._offset_counts)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
         # the values of the RPDO objects, in _RPDO_SLOTS order
-        velocity = (
-            saturate_i32(command.velocity * self._counts_per_unit) if self._needs_velocity else 0
+        velocity_counts = (
+            saturate_i32(velocity * self._counts_per_unit) if self._needs_velocity else 0
         )
-        values = (cw, target_counts, 0, self._cyclic_mode, velocity)
+        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
         master = self.master
         send = master.network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
         try:

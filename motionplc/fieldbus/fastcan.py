@@ -15,6 +15,10 @@ frame object itself (its data re-copied), so with master and rack alone on a cha
 is ever copied, while any other bus on the channel (a sniffer, a ``canopen`` peer) still gets
 its own copy of every frame, in the same order.
 
+:func:`deliver_owned` delivers a batch of such frames at once on the lockstep link (one lock,
+one time stamp) or declines (nothing done) wherever one-by-one sends could behave otherwise;
+the virtual drives collect what they send in a step and deliver it so at its end.
+
 :func:`drain` takes every frame waiting on a bus at once: for a ``VirtualBus`` without filters
 and with an unbounded queue it empties the queue under its mutex in one step (instead of one
 ``recv(timeout=0)`` per frame through ``BusABC.recv``'s filter/timeout loop); any other bus is
@@ -67,6 +71,7 @@ __all__ = [
     "FastMessage",
     "RateLimitedLog",
     "RxGuard",
+    "deliver_owned",
     "drain",
     "frame_error",
     "make_message",
@@ -179,6 +184,50 @@ def send_frame(
             all_sent = False
     if not all_sent:
         raise can.CanOperationError("Could not send message to one or more recipients")
+
+
+def deliver_owned(bus: can.BusABC, msgs: Sequence[can.Message]) -> bool:
+    """Deliver ``msgs`` at once on the lockstep link, as ``send_frame(bus, msg, owned=True)``
+    one after the other would, or do nothing and return False.
+
+    Done (True) only when ``bus`` is an open python-can ``VirtualBus`` (exactly that class)
+    that does not receive its own messages, alone on its channel with one peer whose queue
+    is an unbounded ``queue.Queue``, and every frame is a :class:`FastMessage` that owns its
+    ``data`` buffer (the caller built it for this send, with a ``bytearray`` of its own, and
+    never uses it again): the peer then gets these very objects, stamped as ``send_frame``
+    stamps them (the channel, ``is_rx``, the wall-clock time unless ``preserve_timestamps``:
+    one time stamp for the frames delivered together), appended in order under one lock.
+    Such a delivery cannot fail. Otherwise (another bus on the channel, a bounded queue, a
+    closed bus, ...) the caller sends them one by one, with their own errors."""
+    if type(bus) is not VirtualBus or not bus._open or bus.receive_own_messages:
+        return False
+    channel = bus.channel
+    if len(channel) != 2:
+        return False
+    own = bus.queue
+    peer = channel[1] if channel[0] is own else channel[0] if channel[1] is own else None
+    if peer is None or peer.maxsize > 0 or type(peer) is not queue.Queue:
+        return False
+    for msg in msgs:
+        if type(msg) is not FastMessage:
+            return False
+    channel_id = bus.channel_id
+    if bus.preserve_timestamps:
+        for msg in msgs:
+            msg.channel = channel_id
+            msg.is_rx = True
+    else:
+        timestamp = wall_time()
+        for msg in msgs:
+            msg.timestamp = timestamp
+            msg.channel = channel_id
+            msg.is_rx = True
+    with peer.mutex:  # Queue.put of each, inlined
+        peer.queue.extend(msgs)
+        peer.unfinished_tasks += len(msgs)
+        if peer.not_empty._waiters:  # recv()s waiting (threads only): one wake-up per frame
+            peer.not_empty.notify(len(msgs))
+    return True
 
 
 def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> FastMessage:

@@ -26,6 +26,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from motionplc._fastinit import slot_setters
+from motionplc.fieldbus._plant_core import frictionless_loop
 
 __all__ = [
     "PlantParams",
@@ -182,26 +183,18 @@ def plant_step_powered(
     step = (demand_to - demand_from) / n
     v_ff = params.kff * (demand_to - demand_from) / dt + velocity_offset
     # (a finite v_max keeps v finite in the loop; a NaN v takes neither friction branch)
-    if coulomb == 0.0 and viscous == 0.0 and load == 0.0 and -_INF < v < _INF and v_max < _INF:
-        v_min = -v_max
-        a_min = -a_max
-        for i in range(n):
-            v_cmd = v_ff + kp * (demand_from + step * i - p)
-            if v_cmd > v_max:
-                v_cmd = v_max
-            elif v_cmd < v_min:
-                v_cmd = v_min
-            a = (v_cmd - v) * inv_tau
-            if a > a_max:
-                a = a_max
-            elif a < a_min:
-                a = a_min
-            v += a * h
-            if v > v_max:
-                v = v_max
-            elif v < v_min:
-                v = v_min
-            p += v * h
+    if (
+        coulomb == 0.0
+        and viscous == 0.0
+        and load == 0.0
+        and -_INF < v < _INF
+        and v_max < _INF
+        and type(v_max) is float
+        and type(a_max) is float
+    ):
+        # the loop below without the zero terms, compiled (motionplc.fieldbus._plant_core);
+        # float limits: a clamped value is the limit itself, of the type the loop returns
+        p, v, a = frictionless_loop(n, h, p, v, demand_from, step, v_ff, kp, inv_tau, v_max, a_max)
         return plant_state(p, v, a)
     for i in range(n):
         v_cmd = v_ff + kp * (demand_from + step * i - p)

@@ -23,7 +23,10 @@ drive; frames the drives send are handed to the receiver without a copy, see
 with simulated time: :meth:`VirtualCanBus.step` drains the bus with ``recv(timeout=0)`` into
 ``Network.notify`` and runs the time-driven services (heartbeats, supervision). Periodic
 transmissions that canopen would start in a thread (``send_periodic``) run on that simulated
-time instead. No thread, no wall clock.
+time instead. No thread, no wall clock. The frames the drives send within a step are
+collected and delivered in order at its end (:meth:`SimulatedTimeNetwork.begin_batch`; at
+once through ``FaultInjectingBus.send_owned_batch`` while no transmit fault is switched on):
+no one reads the bus during a step, so the traffic is the same frame for frame.
 
 Received frames go through a :class:`~motionplc.fieldbus.fastcan.RxGuard` before any handler
 (canopen's LocalNode or ours) sees them: error/remote/FD frames, extended IDs, bad DLCs, NMT
@@ -151,6 +154,36 @@ class SimulatedTimeNetwork(canopen.Network):
         self._next_due = math.inf
         self._owned_for: object = None  # the bus _send_owned was looked up for
         self._send_owned: Callable[[can.Message], None] | None = None
+        # frames sent while a step runs (begin_batch .. end_batch), delivered at its end
+        self._batch: list[can.Message] | None = None
+
+    def begin_batch(self) -> None:
+        """From now until :meth:`end_batch`, frames sent are collected (each built, with a
+        data buffer of its own, at its send) and delivered in order by :meth:`end_batch`:
+        no one reads the bus in between (the step is single-threaded), so the traffic is
+        the same, frame for frame."""
+        self._batch = []
+
+    def end_batch(self) -> None:
+        """Deliver the frames collected since :meth:`begin_batch`, in order: at once through
+        ``FaultInjectingBus.send_owned_batch`` when it can, else each as
+        :meth:`send_message` sends it (send errors swallowed per frame)."""
+        batch = self._batch
+        self._batch = None
+        if not batch:
+            return
+        bus = self.bus
+        if isinstance(bus, FaultInjectingBus):
+            if bus.send_owned_batch(batch):
+                return
+            send: Callable[[can.Message], None] = bus.send_owned
+        else:
+            send = bus.send
+        for msg in batch:
+            try:
+                send(msg)
+            except can.CanError:
+                pass
 
     def send_periodic(  # type: ignore[override]
         self, can_id: int, data: bytes, period: float, remote: bool = False
@@ -161,6 +194,13 @@ class SimulatedTimeNetwork(canopen.Network):
         return task
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
+        batch = self._batch
+        if batch is not None:
+            msg = make_message(can_id, data, remote)
+            if msg.data is data:  # the caller's buffer: the frame gets its own
+                msg.data = bytearray(data)
+            batch.append(msg)
+            return
         bus = self.bus
         if bus is not self._owned_for:  # (one isinstance per bus, not per frame)
             self._owned_for = bus
@@ -568,6 +608,13 @@ class VirtualCia402Drive:
         maps (sampled after the cycle: the values :meth:`Cia402Device.snapshot` shows)."""
         network = self.network
         assert network is not None
+        batch = network._batch
+        if batch is not None:  # in a step: collected (make_message copies the packed bytes)
+            for frame, cob_id, tt in self._tpdo_plan:
+                if 1 <= tt <= 240 and self._sync_count % tt:
+                    continue
+                batch.append(make_message(cob_id, frame()))
+            return
         send: Callable[[int, bytes], None] | None = network.send_message
         send_owned = network._send_owned
         if network.bus is network._owned_for and send_owned is not None:
@@ -709,6 +756,13 @@ class VirtualCanBus(GuardedEndpoint):
         self.t = t
         self.network.now = t
         self.faults.tick()
+        self.network.begin_batch()  # what the drives send in this step: delivered at its end
+        try:
+            return self._step(t, wait)
+        finally:
+            self.network.end_batch()
+
+    def _step(self, t: float, wait: float) -> int:
         n = 0
         if wait > 0.0:
             first = self.faults.recv(timeout=wait)

@@ -92,6 +92,38 @@ def test_frictionless_plant_loop_equals_the_general_loop(
     assert kw == got or _bits(*dataclasses.astuple(kw)) == _bits(*dataclasses.astuple(got))
 
 
+def test_frictionless_loop_is_the_compiled_one_with_the_compiled_core() -> None:
+    """The comparison above runs the extension whenever the compiled core is in use (the
+    general loop it is compared with is interpreted Python)."""
+    from motionplc import compiled_core
+    from motionplc.fieldbus import _plant_core
+
+    compiled = _plant_core.__file__.endswith((".so", ".pyd"))
+    assert compiled == compiled_core().compiled
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    p=FINITE,
+    v=FINITE,
+    d0=FINITE,
+    dd=st.floats(-1e5, 1e5),
+    v_max=st.sampled_from([5.0e6, 1.0e3, 1000, 50]),
+    a_max=st.sampled_from([1.0e8, 1.0e4, 10**8, 5000]),
+)
+def test_integer_limits_give_the_values_and_types_of_the_plain_loop(
+    p: float, v: float, d0: float, dd: float, v_max: float, a_max: float
+) -> None:
+    """Limits given as ints (a clamped value is then the int itself): the general loop, the
+    same values of the same types as the frictionless loop of the plain code."""
+    params = PlantParams(v_max=v_max, a_max=a_max)
+    state = PlantState(p, v, 0.0)
+    got = plant_step_powered(params, state, d0, d0 + dd, 0.001, 0.0)
+    want = _general_loop(params, state, d0, d0 + dd, 0.001, 0.0)
+    assert [type(x) for x in dataclasses.astuple(got)] == [type(x) for x in want]
+    assert dataclasses.astuple(got) == want
+
+
 @settings(max_examples=100, deadline=None)
 @given(v=FINITE, coulomb=st.floats(0, 1e5), viscous=st.floats(0, 100), load=st.floats(-1e5, 1e5))
 def test_plant_with_friction_takes_the_general_loop(

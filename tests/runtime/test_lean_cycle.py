@@ -13,6 +13,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import random
 import struct
@@ -35,6 +36,7 @@ from motionplc.blocks import (
     MC_SetOverride,
     MC_Stop,
 )
+from motionplc.blocks.axis import Axis
 from motionplc.fieldbus.base import DriveCommand, DriveFeedback
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.runtime import Runtime
@@ -45,15 +47,62 @@ class PlainIdeal(IdealDrive):
     """An IdealDrive the axis does not recognise: every cycle goes through the objects."""
 
 
-def _run(seed: int, plain: bool, group: bool, cycles: int, fused: bool = True) -> tuple[str, str]:
-    """A random FB sequence on two axes; (trace digest, hash of the observables)."""
+class NoisyIdeal(PlainIdeal):
+    """A PlainIdeal whose feedback is now and then stale, late to enable, carries a
+    warning or a pending reset, or an integer position (its own random stream)."""
+
+    def __init__(self, name: str, seed: int) -> None:
+        super().__init__(name)
+        self.noise = random.Random(seed)
+
+    def read_inputs(self, t: float) -> DriveFeedback:
+        fb = super().read_inputs(t)
+        r = self.noise.random()
+        if r < 0.03:
+            return dataclasses.replace(fb, stale=True)
+        if r < 0.04:
+            return dataclasses.replace(fb, enabled=False)
+        if r < 0.06:
+            return dataclasses.replace(fb, warning=self.noise.choice(["", "EMCY 0x4210"]))
+        if r < 0.08:
+            return dataclasses.replace(fb, reset_pending=True)
+        if r < 0.09:
+            return dataclasses.replace(fb, position=round(fb.position), velocity=0)
+        return fb
+
+
+class GeneralFeedbackAxis(Axis):
+    """An Axis whose READ INPUTS applies every feedback through the general path."""
+
+    def _apply_feedback(self, t: float, fb: DriveFeedback) -> None:
+        self._apply_feedback_general(t, fb)
+
+
+def _run(
+    seed: int,
+    plain: bool,
+    group: bool,
+    cycles: int,
+    fused: bool = True,
+    noisy: bool = False,
+    general_feedback: bool = False,
+) -> tuple[str, str]:
+    """A random FB sequence on two axes; (trace digest, hash of the observables).
+    ``noisy``: on NoisyIdeal drives; ``general_feedback``: the axes are
+    GeneralFeedbackAxis."""
     rng = random.Random(seed)
     rt = Runtime(cycle=0.001)
-    drives = [(PlainIdeal if plain else IdealDrive)(n) for n in ("x", "y")]
+    if noisy:
+        drives: list[IdealDrive] = [NoisyIdeal(n, seed + i) for i, n in enumerate(("x", "y"))]
+    else:
+        drives = [(PlainIdeal if plain else IdealDrive)(n) for n in ("x", "y")]
     axes = [
         rt.add_axis("x", v_max=100.0, a_max=500.0, j_max=20_000.0, drive=drives[0]),
         rt.add_axis("y", v_max=50.0, a_max=300.0, drive=drives[1], following_error_limit=5.0),
     ]
+    if general_feedback:
+        for ax in axes:
+            ax.__class__ = GeneralFeedbackAxis
     if group:
         rt.add_group("g", ["x", "y"])
     fbs: list[Any] = []
@@ -127,6 +176,27 @@ def test_fused_kernel_equals_the_general_path(seed: int) -> None:
     assert _run(seed, plain=False, group=False, cycles=2500) == general  # everything fused
     assert _run(seed, plain=True, group=False, cycles=2500) == general  # the inline step
     assert _run(seed, plain=False, group=False, cycles=2500, fused=False) == general  # drive
+
+
+@pytest.mark.parametrize("seed", [31, 32, 33, 34])
+def test_compiled_feedback_path_equals_the_general_one(seed: int) -> None:
+    """``AxisCore._apply_feedback`` (feedback with communication, no fault) against
+    ``Axis._apply_feedback_general`` for every feedback: random FB sequences with drive
+    faults, communication losses, stale, disabled, warning, reset-pending and integer
+    feedback now and then."""
+    general = _run(seed, plain=True, group=False, cycles=2500, noisy=True, general_feedback=True)
+    assert _run(seed, plain=True, group=False, cycles=2500, noisy=True) == general
+
+
+def test_the_general_feedback_axis_takes_the_general_path() -> None:
+    """(the reference above is the general path: its override is what the kernel calls)"""
+    rt = Runtime(cycle=0.001)
+    x = rt.add_axis("x", v_max=10.0, a_max=100.0, drive=PlainIdeal("x"))
+    x.__class__ = GeneralFeedbackAxis
+    seen: list[float] = []
+    x._apply_feedback_general = lambda t, fb: seen.append(t)  # type: ignore[method-assign]
+    x.read_inputs(0.25)
+    assert seen == [0.25]
 
 
 @pytest.mark.parametrize("seed", [21])
