@@ -148,42 +148,44 @@ def _up_phases(a0: float, af: float, P: float, h1: float, Q: float, h2: float, J
     return [((P - a0) / J, J), (h1, 0.0, P), ((P - Q) / J, -J), (h2, 0.0, Q), ((af - Q) / J, J)]
 
 
-def _half_up(v0: float, a0: float, v1: float, amax: float, J: float) -> tuple[float, float] | None:
-    """Velocity change (v0, a0) -> (v1, 0) with shape up-down: peak P >= max(a0, 0), plateau h."""
+def _half_up(v0: float, a0: float, v1: float, amax: float, J: float) -> tuple[bool, float, float]:
+    """Velocity change (v0, a0) -> (v1, 0) with shape up-down: (found, peak P >= max(a0, 0),
+    plateau h); a plain tuple of primitives (a compiled build returns it unboxed)."""
     dv = v1 - v0
     rad = J * dv + 0.5 * a0 * a0
     # a start a rounding error beyond v1 (or one whose acceleration overshoots it by a
     # rounding error) still gets the half: the verification bounds the overshoot
     slack = 1e-12 * J * max(1.0, abs(v1))
     if rad < -slack:
-        return None
+        return False, 0.0, 0.0
     P = math.sqrt(max(rad, 0.0))
     if P < a0 and a0 * a0 - P * P > 2.0 * slack:
-        return None
+        return False, 0.0, 0.0
     P = max(P, a0)
     if P <= amax:
-        return P, 0.0
+        return True, P, 0.0
     h = (dv - (2.0 * amax * amax - a0 * a0) / (2.0 * J)) / amax
-    return amax, max(h, 0.0)
+    return True, amax, max(h, 0.0)
 
 
 def _half_down_from(
     v1: float, vf: float, af: float, amin: float, J: float
-) -> tuple[float, float] | None:
-    """Velocity change (v1, 0) -> (vf, af) with shape down-up: trough Q <= min(0, af)."""
+) -> tuple[bool, float, float]:
+    """Velocity change (v1, 0) -> (vf, af) with shape down-up: (found, trough Q <= min(0, af),
+    plateau h)."""
     dv = vf - v1
     rad = 0.5 * af * af - J * dv
     slack = 1e-12 * J * max(1.0, abs(v1))
     if rad < -slack:
-        return None
+        return False, 0.0, 0.0
     Q = -math.sqrt(max(rad, 0.0))
     if Q > af and af * af - Q * Q > 2.0 * slack:
-        return None
+        return False, 0.0, 0.0
     Q = min(Q, af)
     if Q >= amin:
-        return Q, 0.0
+        return True, Q, 0.0
     h = (dv - (af * af - 2.0 * amin * amin) / (2.0 * J)) / amin
-    return amin, max(h, 0.0)
+    return True, amin, max(h, 0.0)
 
 
 def _plateau_domain(lo: float, hi: float, m: float) -> tuple[float, float]:
@@ -220,14 +222,12 @@ def _fam_vel(
     """Cruise at v_max between two closed-form velocity changes."""
     if vmax == math.inf:
         return None
-    h1r = _half_up(v0, a0, vmax, amax, J)
-    if h1r is None:
+    up, P, h1 = _half_up(v0, a0, vmax, amax, J)
+    if not up:
         return None
-    h2r = _half_down_from(vmax, vf, af, amin, J)
-    if h2r is None:
+    down, Q, h2 = _half_down_from(vmax, vf, af, amin, J)
+    if not down:
         return None
-    P, h1 = h1r
-    Q, h2 = h2r
     t1 = (P - a0) / J
     t3 = P / J
     t5 = -Q / J
