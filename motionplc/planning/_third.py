@@ -30,12 +30,13 @@ from __future__ import annotations
 import math
 from typing import Final
 
-from motionplc.planning.roots import cbrt, quadratic_roots, quartic_roots_in
+from motionplc.planning.roots import _quadratic, cbrt, quartic_roots_in
 
 # A candidate is (duration, phases) with phases a list of (duration, jerk).
 # (duration, jerk[, exact acceleration at the phase start[, exact velocity]]): the planner
 # passes exact plateau/cruise values so that rounding does not drift over long phases.
 Phases = list[tuple[float, ...]]
+_NO_PHASES: Final[Phases] = []  # _check's phases of a failed candidate (never mutated)
 
 # (Final: a compiled build uses the values, not a lookup of the module's globals per use)
 _T_TOL: Final = 1e-12  # relative tolerance on a negative phase duration from rounding
@@ -58,7 +59,7 @@ def _fourth(x: float) -> float:
     return s * s
 
 
-def _verify(
+def _check(
     phases: Phases,
     v0: float,
     a0: float,
@@ -69,10 +70,11 @@ def _verify(
     vmin: float,
     amax: float,
     amin: float,
-) -> tuple[float, Phases] | None:
-    """Integrate the phases; return (duration, phases) when they reach the target within
-    tolerance and respect the limits, else None. Durations a rounding error below zero are
-    accepted (Profile drops non-positive phases)."""
+) -> tuple[bool, float, Phases]:
+    """Integrate the phases; (True, duration, phases) when they reach the target within
+    tolerance and respect the limits, else (False, 0, []) -- a plain tuple (the compiled build
+    returns it unboxed; :func:`_verify` is the optional form). Durations a rounding error
+    below zero are accepted (Profile drops non-positive phases)."""
     # relative margins; infinite limits stay infinite
     vhi = vmax + _LIM_TOL * (vmax if vmax > 1.0 else 1.0)
     vlo = vmin - _LIM_TOL * (-vmin if vmin < -1.0 else 1.0)
@@ -93,7 +95,7 @@ def _verify(
                 # still reaches the target
                 total = sum(abs(x[0]) for x in phases)
                 if dur < -_NEG_TOL * (total if total > 1.0 else 1.0):
-                    return None
+                    return False, 0.0, _NO_PHASES
             continue
         j = ph[1]
         if len(ph) > 2:
@@ -106,7 +108,7 @@ def _verify(
                 tz = -a / j
                 vz = v + tz * (a + 0.5 * tz * j)
                 if vz > vhi or vz < vlo:
-                    return None
+                    return False, 0.0, _NO_PHASES
             p += dur * (v + dur * (0.5 * a + dur * j / 6.0))
             v += dur * (a + 0.5 * dur * j)
             a = a1
@@ -115,7 +117,7 @@ def _verify(
             v += dur * a
         t += dur
         if v > vhi or v < vlo or a > ahi or a < alo:
-            return None
+            return False, 0.0, _NO_PHASES
         if p > pmax:
             pmax = p
         elif -p > pmax:
@@ -128,20 +130,37 @@ def _verify(
     # (double precision cannot end within 1e-8 of a target after travelling 1e9)
     e = p - d
     if e > 0.0 and e > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
-        return None
+        return False, 0.0, _NO_PHASES
     if e < 0.0 and -e > _P_TOL * max(1.0, abs(d)) + 1e-13 * pmax:
-        return None
+        return False, 0.0, _NO_PHASES
     if abs(v - vf) > _V_TOL * max(1.0, abs(vf)) + 1e-13 * vmag:
-        return None
+        return False, 0.0, _NO_PHASES
     if abs(a - af) > _A_TOL * max(1.0, abs(af)):
-        return None
+        return False, 0.0, _NO_PHASES
     # Drop phases of no duration: in a jerk-limited profile the acceleration is continuous, so
     # the exact plateau value such a phase carries must not act as a jump (it may differ by a
     # rounding error from where a skipped, rounding-negative ramp left the acceleration).
     for ph in phases:
         if ph[0] <= 0.0:
-            return t, [x for x in phases if x[0] > 0.0]
-    return t, phases
+            return True, t, [x for x in phases if x[0] > 0.0]
+    return True, t, phases
+
+
+def _verify(
+    phases: Phases,
+    v0: float,
+    a0: float,
+    d: float,
+    vf: float,
+    af: float,
+    vmax: float,
+    vmin: float,
+    amax: float,
+    amin: float,
+) -> tuple[float, Phases] | None:
+    """:func:`_check` as (duration, phases), or None where it fails."""
+    ok, t, ph = _check(phases, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    return (t, ph) if ok else None
 
 
 def _up_phases(a0: float, af: float, P: float, h1: float, Q: float, h2: float, J: float) -> Phases:
@@ -258,13 +277,13 @@ def _fam_vel(
         (h2, 0.0, Q),
         (t7, J),
     ]
-    r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-    if r is None:
+    ok, t, ph = _check(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+    if not ok:
         return None
-    cand = (r[0], r[1], "vel")
+    cand = (t, ph, "vel")
     if out is not None:
         out.append(cand)
-    return cand if r[0] < t_best else None
+    return cand if t < t_best else None
 
 
 def _fam_acc0_acc1(
@@ -316,7 +335,9 @@ def _fam_acc0_acc1(
         - 3.0 * _fourth(af)
     ) / denom
     best: Candidate | None = None
-    for h2 in quadratic_roots(1.0, b, c):
+    n_roots, q1, q2 = _quadratic(1.0, b, c)  # quadratic_roots' roots, ascending, unboxed
+    for i in range(n_roots):
+        h2 = q1 if i == 0 else q2
         if h2 < -_T_TOL:
             continue
         h2 = max(h2, 0.0)
@@ -327,13 +348,13 @@ def _fam_acc0_acc1(
         if ramps + h1 + h2 >= t_best:
             continue
         ph = _up_phases(a0, af, amax, h1, amin, h2, J)
-        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
+        ok, t, ph = _check(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if ok:
             if out is not None:
-                out.append((r[0], r[1], "acc0_acc1"))
-            if r[0] < t_best and out is None:
-                best = (r[0], r[1], "acc0_acc1")
-                t_best = r[0]
+                out.append((t, ph, "acc0_acc1"))
+            if t < t_best and out is None:
+                best = (t, ph, "acc0_acc1")
+                t_best = t
     return best
 
 
@@ -401,12 +422,12 @@ def _fam_none(
             break
         w = K / (2.0 * u)
         ph = _up_phases(a0, af, 0.5 * (w + u), 0.0, 0.5 * (w - u), 0.0, J)
-        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
+        ok, t, ph = _check(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if ok:
             if out is not None:
-                out.append((r[0], r[1], "none"))
-            elif r[0] < t_best:
-                return r[0], r[1], "none"
+                out.append((t, ph, "none"))
+            elif t < t_best:
+                return t, ph, "none"
     return None
 
 
@@ -464,12 +485,12 @@ def _fam_acc0(
         if h1 < -_T_TOL:
             continue
         ph = _up_phases(a0, af, amax, max(h1, 0.0), Q, 0.0, J)
-        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
+        ok, t, ph = _check(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if ok:
             if out is not None:
-                out.append((r[0], r[1], "acc0"))
-            elif r[0] < t_best:
-                return r[0], r[1], "acc0"
+                out.append((t, ph, "acc0"))
+            elif t < t_best:
+                return t, ph, "acc0"
     return None
 
 
@@ -523,12 +544,12 @@ def _fam_acc1(
         if h2 < -_T_TOL:
             continue
         ph = _up_phases(a0, af, P, 0.0, amin, max(h2, 0.0), J)
-        r = _verify(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
-        if r is not None:
+        ok, t, ph = _check(ph, v0, a0, d, vf, af, vmax, vmin, amax, amin)
+        if ok:
             if out is not None:
-                out.append((r[0], r[1], "acc1"))
-            elif r[0] < t_best:
-                return r[0], r[1], "acc1"
+                out.append((t, ph, "acc1"))
+            elif t < t_best:
+                return t, ph, "acc1"
     return None
 
 
@@ -614,9 +635,9 @@ def time_optimal(
         if J * t <= min(amax, -amin) and J * t * t <= min(vmax, -vmin):
             s = J if d > 0.0 else -J
             ph: Phases = [(t, s), (2.0 * t, -s), (t, s)]
-            r = _verify(ph, 0.0, 0.0, d, 0.0, 0.0, vmax, vmin, amax, amin)
-            if r is not None:
-                return r[0], r[1], "none-rest"
+            ok, tv, pv = _check(ph, 0.0, 0.0, d, 0.0, 0.0, vmax, vmin, amax, amin)
+            if ok:
+                return tv, pv, "none-rest"
     # A later candidate replaces the best so far only if it is faster by more than rounding
     # (1e-12 relative): the ramp and the families in their order (cruise first) win ties.
     # Found: a cruise at v_min "beaten" by 2e-17 s by a dip a rounding beyond v_min.

@@ -63,6 +63,7 @@ from motionplc.planning.plan import (
     velocity_phases,
 )
 from motionplc.planning.profile import Profile
+from motionplc.planning.roots import quadratic_roots
 from motionplc.planning.state import State
 from motionplc.planning.trajectory import Trajectory
 
@@ -768,7 +769,7 @@ def _velocity_fixed(ax: _Axis, T: float) -> tuple[Phases, str] | None:
         amax = ax.amax if sign > 0 else -ax.amin
         vmax, vmin = (ax.vmax, ax.vmin) if sign > 0 else (-ax.vmin, -ax.vmax)
         S = a0 + af + J * T
-        for P in _third.quadratic_roots(1.0, -S, 0.5 * (a0 * a0 + af * af + 2.0 * J * (vf - v0))):
+        for P in quadratic_roots(1.0, -S, 0.5 * (a0 * a0 + af * af + 2.0 * J * (vf - v0))):
             h = T - (2.0 * P - a0 - af) / J
             if P < max(a0, af) - 1e-12 or P > amax + 1e-12 or h < -1e-12:
                 continue
