@@ -1101,6 +1101,7 @@ def plan_batch(
 
 
 _ROW_CHUNK = 512  # core rows planned per pass: their Python floats stay in the CPU cache
+_INT_CHUNK = 4096  # rows integrated per numpy pass: the temporaries stay in the L2 cache
 
 
 def _core_rows(
@@ -1111,8 +1112,8 @@ def _core_rows(
     problem numbers, None for 0, 1, ...): phases per row by the core
     (:func:`_batchrow.core_phases`, compiled with it) in chunks of ``_ROW_CHUNK`` rows (the
     floats of a whole large batch as Python objects would not stay in the cache: 1.5x slower
-    per row at N = 1e4), integrated here in numpy for all rows at once
-    (:func:`_integrate_rows`: ``Profile``'s arithmetic, the same bits as
+    per row at N = 1e4), integrated in numpy ``_INT_CHUNK`` rows at a time
+    (:func:`_integrate_into`: ``Profile``'s arithmetic, the same bits as
     :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m, width) segment
     arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,) duration, the
     segment counts, the kinds). Raises the first failing row's error."""
@@ -1131,13 +1132,29 @@ def _core_rows(
         nph += n_ph
         kinds += kd
     counts = np.array(nph, dtype=np.intp)
-    L = max(int(counts.max()) if m else 0, 1)
-    ph = np.zeros((m, L, 4))
-    ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
-    ph[np.arange(L) < counts[:, None]] = np.frombuffer(buf, dtype=float).reshape(-1, 4)
-    dur, jerk, ova, ovv = np.ascontiguousarray(ph.transpose(2, 1, 0))  # (L, m) each
-    with np.errstate(all="ignore"):
-        return _integrate_rows(arrs[0], arrs[1], arrs[2], dur, jerk, ova, ovv, kinds)
+    flat = np.frombuffer(buf, dtype=float).reshape(-1, 4)
+    first = np.zeros(m + 1, dtype=np.intp)  # row k's phases: flat[first[k]:first[k + 1]]
+    np.cumsum(counts, out=first[1:])
+    width = max(MIN_WIDTH, int(counts.max()) if m else 0)  # >= the segment counts
+    rec = np.empty((6, width, m))  # (t, duration, jerk, p, v, a)
+    ends = np.empty((4, m))  # end p, v, a and the duration
+    cnt = np.empty(m, dtype=np.intp)
+    for s in range(0, m, _INT_CHUNK):
+        e = min(s + _INT_CHUNK, m)
+        cc = counts[s:e]
+        L = max(int(cc.max()), 1)
+        ph = np.zeros((e - s, L, 4))
+        ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
+        ph[np.arange(L) < cc[:, None]] = flat[first[s] : first[e]]
+        dur, jerk, ova, ovv = np.ascontiguousarray(ph.transpose(2, 1, 0))  # (L, rows) each
+        with np.errstate(all="ignore"):
+            _integrate_into(
+                arrs[0][s:e], arrs[1][s:e], arrs[2][s:e], dur, jerk, ova, ovv,
+                rec[:, :, s:e], ends[:, s:e], cnt[s:e],
+            )  # fmt: skip
+    w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
+    segs = tuple(rec[q, :w].T for q in range(6))
+    return segs, ends[:3], ends[3], cnt, kinds
 
 
 def _integrate_rows(
@@ -1149,28 +1166,54 @@ def _integrate_rows(
     ova: np.ndarray,
     ovv: np.ndarray,
     kinds: list[str],
-) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """:func:`_integrate_arrays` for (L, m) phases whose positive durations come first in
-    every row (the core's phase lists: no phase of no duration before a moving one), with the
-    result as :func:`_core_rows` returns it: in place, without a copy per operation or the
-    compaction of the segments (a phase is its segment); the same operations in the same
-    order, so the same bits. Other phase tables go through :func:`_integrate_arrays`."""
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """:func:`_integrate_into` with its own output arrays, as :func:`_core_rows` returns
+    them: (six (m, width) segment arrays, (3, m) end state, duration, counts, kinds)."""
+    L, m = dur.shape
+    width = max(MIN_WIDTH, L)
+    rec = np.empty((6, width, m))
+    ends = np.empty((4, m))
+    cnt = np.empty(m, dtype=np.intp)
+    with np.errstate(all="ignore"):
+        _integrate_into(p0, v0, a0, dur, jerk, ova, ovv, rec, ends, cnt)
+    w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
+    return tuple(rec[q, :w].T for q in range(6)), ends[:3], ends[3], cnt, kinds
+
+
+def _integrate_into(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    dur: np.ndarray,
+    jerk: np.ndarray,
+    ova: np.ndarray,
+    ovv: np.ndarray,
+    rec: np.ndarray,
+    ends: np.ndarray,
+    cnt: np.ndarray,
+) -> None:
+    """:func:`_integrate_arrays` for (L, m) phases into ``rec`` ((6, W, m), W >= L and >=
+    MIN_WIDTH: t, duration, jerk, p, v, a of each segment, padded with the duration, 0, 0
+    and the end state), ``ends`` ((4, m): end p, v, a, duration) and ``cnt`` (segments per
+    row). Phases whose positive durations come first in every row (the core's phase lists:
+    no phase of no duration before a moving one) are integrated in place, without a copy per
+    operation or the compaction of the segments (a phase is its segment); the same operations
+    in the same order, so the same bits. Other tables go through :func:`_integrate_arrays`.
+    Call under np.errstate."""
     L, m = dur.shape
     pos = dur > 0.0
-    cnt = pos.sum(axis=0)
+    np.sum(pos, axis=0, out=cnt)
     if not (pos == (np.arange(L)[:, None] < cnt)).all():  # a gap: compaction needed
-        *segs, pe, ve, ae, te, cnt = _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
+        *segs, pe, ve, ae, te, cnt2 = _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
         w = segs[0].shape[1]
-        if w < MIN_WIDTH:  # padding: start time = duration, no duration or jerk, end state
-            pad = MIN_WIDTH - w
-            fill = (te, None, None, pe, ve, ae)
-            segs = [
-                np.hstack([x, np.zeros((m, pad)) if f is None else np.repeat(f[:, None], pad, 1)])
-                for x, f in zip(segs, fill, strict=True)
-            ]
-        return tuple(segs), np.array([pe, ve, ae]), te, cnt, kinds
-    W = max(MIN_WIDTH, int(cnt.max()) if m else 0)
-    rec = np.empty((6, W, m))  # phase-major: (t, duration, jerk, p, v, a) at each phase start
+        for q, x in enumerate(segs):
+            rec[q, :w] = x.T
+        for q, fill in ((0, te), (3, pe), (4, ve), (5, ae)):
+            rec[q, w:] = fill
+        rec[1:3, w:] = 0.0
+        ends[0], ends[1], ends[2], ends[3] = pe, ve, ae, te
+        cnt[:] = cnt2
+        return
     kt, kd, kj, kp, kv, ka = rec
     t = np.zeros(m)
     p = p0.copy()
@@ -1189,13 +1232,12 @@ def _integrate_rows(
             np.copyto(a, ova[c], where=has_a[c])
         if set_v[c]:
             np.copyto(v, ovv[c], where=has_v[c])
-        if c < W:
-            kt[c] = t
-            kd[c] = x
-            kj[c] = jj
-            kp[c] = p
-            kv[c] = v
-            ka[c] = a
+        kt[c] = t
+        kd[c] = x
+        kj[c] = jj
+        kp[c] = p
+        kv[c] = v
+        ka[c] = a
         g = pos[c]
         # p + x * (v + x * (0.5 * a + x * jj / 6.0))
         np.multiply(x, jj, out=u)
@@ -1216,13 +1258,16 @@ def _integrate_rows(
         np.add(t, x, out=t, where=g)
     # padding (every column from the row's segment count on): start time = duration, no
     # duration or jerk, the end state -- as _integrate_arrays takes it from its end row
-    pad = np.arange(W)[:, None] >= cnt
+    pad = np.arange(L)[:, None] >= cnt
     if pad.any():
         for q, fill in ((0, t), (3, p), (4, v), (5, a)):
-            np.copyto(rec[q], fill, where=pad)
-        np.copyto(kd, 0.0, where=pad)
-        np.copyto(kj, 0.0, where=pad)
-    return (kt.T, kd.T, kj.T, kp.T, kv.T, ka.T), np.array([p, v, a]), t, cnt, kinds
+            np.copyto(rec[q, :L], fill, where=pad)
+        np.copyto(kd[:L], 0.0, where=pad)
+        np.copyto(kj[:L], 0.0, where=pad)
+    for q, fill in ((0, t), (3, p), (4, v), (5, a)):
+        rec[q, L:] = fill
+    rec[1:3, L:] = 0.0
+    ends[0], ends[1], ends[2], ends[3] = p, v, a, t
 
 
 def _integrate_arrays(
