@@ -296,6 +296,20 @@ def _too_long(i: int, T: float) -> PlanningError:
     )
 
 
+def _row_failure(i: int, exc: Exception) -> PlanningError:
+    """The error of problem ``i`` whose planning raised ``exc`` (a PlanningError or, a planner
+    defect, an ArithmeticError), chained to it."""
+    if isinstance(exc, PlanningError):
+        err = PlanningError(f"problem {i}: {exc}")
+    else:
+        err = PlanningError(
+            f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
+            f"for problem {i} (planner defect: please report these inputs)"
+        )
+    err.__cause__ = exc
+    return err
+
+
 def plan_rows(
     index: list[int] | None,
     P0: list[float],
@@ -385,16 +399,8 @@ def plan_rows(
         try:
             T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
         except (PlanningError, ArithmeticError) as exc:
-            if isinstance(exc, PlanningError):
-                err = PlanningError(f"problem {i}: {exc}")
-            else:
-                err = PlanningError(
-                    f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                    f"for problem {i} (planner defect: please report these inputs)"
-                )
-            err.__cause__ = exc
             if errors[group] is None:
-                errors[group] = err
+                errors[group] = _row_failure(i, exc)
             continue
         if not T <= MAX_DURATION:
             if errors[group] is None:
@@ -466,14 +472,7 @@ def core_phases(
             )
         except (PlanningError, ArithmeticError) as exc:
             if error is None:
-                if isinstance(exc, PlanningError):
-                    error = PlanningError(f"problem {i}: {exc}")
-                else:
-                    error = PlanningError(
-                        f"plan_batch: internal numerical failure ({type(exc).__name__}: {exc}) "
-                        f"for problem {i} (planner defect: please report these inputs)"
-                    )
-                error.__cause__ = exc
+                error = _row_failure(i, exc)
             continue
         if not T <= MAX_DURATION:
             if error is None:
