@@ -287,52 +287,8 @@ class AxisCore:
             self._read_inputs_general(t)
             return
         # a healthy in-process ideal drive: DriveFeedback(_position, _velocity, _enabled)
-        # (communication good, no fault, fresh, no warning, no reset pending), unbuilt;
-        # the same steps in the same order as for the object (Axis._read_inputs_general)
-        velocity: float = d._velocity
-        enabled = d._enabled
-        act_p = d._position + self.offset
-        dt_act = t - self._act_t
-        if dt_act > 0.0:  # actual acceleration: backward difference
-            self.act_v_prev = self.act_v
-            self.act_a = (velocity - self.act_v) / dt_act
-            self._act_t = t
-        self.act_p = act_p
-        self.act_v = velocity
-        self.drive_enabled = enabled
-        self.drive_fault = False
-        self.comm_ok = True
-        if self.drive_warning != "":
-            self._drive_warning_changed(t, "")
-        self.following_error = self._sent_p - act_p if enabled else 0.0
-        state = self.state
-        if (
-            not enabled
-            and state is not _ERROR_STOP
-            and state is not _DISABLED
-            and self.power_request
-            and self._was_enabled
-        ):
-            self.raise_axis_error("POWER_LOST", "drive left OPERATION ENABLED")
-        self._was_enabled = enabled
-        if self._reset_handle is not None and self._reset_sent:
-            self._try_finish_reset(False, True)
-        state = self.state
-        if state is _DISABLED:
-            if self.power_request and enabled:
-                state = self.state = _POWER_ON_READY_STATE  # T5
-            self._resync()
-        self.img_state = state
-        self.img_p = self.p
-        self.img_v = self.v
-        self.img_a = self.a
-        self.img_act_p = act_p
-        self.img_act_v = velocity
-        self.img_act_a = self.act_a
-        self.img_act_v_prev = self.act_v_prev
-        self.img_error = self.axis_error
-        self.img_enabled = enabled
-        self.img_homed = self.homed
+        # (communication good, no fault, fresh, no warning, no reset pending), unbuilt
+        self._apply_values(t, d._position, d._velocity, d._enabled, False, True, False, "", False)
 
     def _apply_feedback(self, t: float, fb: Any) -> None:
         """``Axis._apply_feedback_general`` for feedback with communication and without
@@ -357,8 +313,8 @@ class AxisCore:
     def _apply_values(
         self,
         t: float,
-        position: Any,
-        velocity: Any,
+        position: float,
+        velocity: float,
         enabled: Any,
         fault: Any,
         comm_ok: Any,

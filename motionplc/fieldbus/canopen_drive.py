@@ -113,7 +113,6 @@ from motionplc.fieldbus.base import (
     ParameterError,
     ParameterTransfer,
     ProbeResult,
-    feedback_of_fields,
     read_inputs_via_values,
     reset_in_progress,
     write_outputs_via_setpoint,
@@ -321,10 +320,6 @@ class CanopenDriveConfig:
         if self.pdos is not None:
             return self.pdos
         return default_layout(self.velocity_feed_forward, self.feedback_velocity)
-
-
-# DriveFeedback(...) of all eleven fields in order, built cheaply (motionplc._fastinit)
-_feedback = feedback_of_fields
 
 
 class _MasterNetwork(canopen.Network):

@@ -311,7 +311,6 @@ def _row_failure(i: int, exc: Exception) -> PlanningError:
 
 
 def plan_rows(
-    index: list[int] | None,
     P0: list[float],
     V0: list[float],
     A0: list[float],
@@ -332,8 +331,8 @@ def plan_rows(
     more) with (duration, 0, 0, end state), with ``width`` = 0 unpadded. ``ends``: four
     floats (p, v, a, duration) per row. Rest to rest
     with a finite jerk limit: :func:`rest_row` (the numpy path's arithmetic); every other row
-    by the core, as the numpy path dispatches them. ``index[k]``: the problem number of row
-    ``k`` in error messages (None: k). Raises the first failure of the numpy path's order:
+    by the core, as the numpy path dispatches them; row ``k`` is problem ``k`` in error
+    messages. Raises the first failure of the numpy path's order:
     closed-form rest to rest, rest to rest without a jerk limit, then the core's rows.
     """
     n = len(P0)
@@ -357,7 +356,6 @@ def plan_rows(
         amax = AMAX[k]
         amin = AMIN[k]
         jm = J[k]
-        i = k if index is None else index[k]
         d = pf - p0
         group = 2
         start = len(vals)
@@ -377,7 +375,7 @@ def plan_rows(
                     m, pe, ve, ae, te = rest_segments(p0, cols, P, Q, VC, down, jm, vals)
                     if not te <= MAX_DURATION:
                         if errors[0] is None:
-                            errors[0] = _too_long(i, te)
+                            errors[0] = _too_long(k, te)
                         del vals[start:]
                         continue
                     starts.append(start)
@@ -400,11 +398,11 @@ def plan_rows(
             T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
         except (PlanningError, ArithmeticError) as exc:
             if errors[group] is None:
-                errors[group] = _row_failure(i, exc)
+                errors[group] = _row_failure(k, exc)
             continue
         if not T <= MAX_DURATION:
             if errors[group] is None:
-                errors[group] = _too_long(i, T)
+                errors[group] = _too_long(k, T)
             continue
         m, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, vals)
         starts.append(start)

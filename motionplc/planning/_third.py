@@ -327,7 +327,7 @@ def _fam_acc0_acc1(
         + 6.0 * a0 * a0 * A2
         - 12.0 * A2 * N2
         + 6.0 * A2 * af * af
-        + 24.0 * amax * (amin * amin * amin)  # as batch's numpy (no pow: platform-free)
+        + 24.0 * amax * _cube(amin)
         - 24.0 * amax * amin * af * af
         + 8.0 * amax * _cube(af)
         - 12.0 * N2 * N2

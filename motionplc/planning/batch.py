@@ -846,7 +846,7 @@ def _plan_small(
 ) -> BatchPlan:
     """plan_batch for validated inputs as lists, row by row on floats
     (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
-    out, e, cnt, kinds = _rows(None, P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)
+    out, e, cnt, kinds = _rows(P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)
     return BatchPlan(
         out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
         cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
@@ -856,21 +856,19 @@ def _plan_small(
 _PAD_ROWS = 24  # from this many rows on, numpy pads the rows (fewer floats to convert)
 
 
-def _rows(
-    index: list[int] | None, *cols: list[float]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+def _rows(*cols: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """:func:`_batchrow.plan_rows` as arrays: (m, width, 6) segments (start time, duration,
     jerk, p, v, a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH),
     (m, 4) end state and duration, (m,) segment counts, kinds. The fields of the segments
     are strided views of one array('d') (converted at C speed, no copy)."""
     m = len(cols[0])
     if m < _PAD_ROWS:  # padded as the rows are planned
-        vals, ends, nseg, kinds = plan_rows(index, *cols, MIN_WIDTH)
+        vals, ends, nseg, kinds = plan_rows(*cols, MIN_WIDTH)
         width = len(vals) // (6 * m) if m else MIN_WIDTH
         out = np.frombuffer(array("d", vals), dtype=float).reshape(m, width, 6)
         e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
         return out, e, np.array(nseg, dtype=np.intp), kinds
-    vals, ends, nseg, kinds = plan_rows(index, *cols, 0)
+    vals, ends, nseg, kinds = plan_rows(*cols, 0)
     e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
     cnt = np.array(nseg, dtype=np.intp)
     width = max(MIN_WIDTH, int(cnt.max()))
@@ -1155,29 +1153,6 @@ def _core_rows(
     w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
     segs = tuple(rec[q, :w].T for q in range(6))
     return segs, ends[:3], ends[3], cnt, kinds
-
-
-def _integrate_rows(
-    p0: np.ndarray,
-    v0: np.ndarray,
-    a0: np.ndarray,
-    dur: np.ndarray,
-    jerk: np.ndarray,
-    ova: np.ndarray,
-    ovv: np.ndarray,
-    kinds: list[str],
-) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """:func:`_integrate_into` with its own output arrays, as :func:`_core_rows` returns
-    them: (six (m, width) segment arrays, (3, m) end state, duration, counts, kinds)."""
-    L, m = dur.shape
-    width = max(MIN_WIDTH, L)
-    rec = np.empty((6, width, m))
-    ends = np.empty((4, m))
-    cnt = np.empty(m, dtype=np.intp)
-    with np.errstate(all="ignore"):
-        _integrate_into(p0, v0, a0, dur, jerk, ova, ovv, rec, ends, cnt)
-    w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
-    return tuple(rec[q, :w].T for q in range(6)), ends[:3], ends[3], cnt, kinds
 
 
 def _integrate_into(

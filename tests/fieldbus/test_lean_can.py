@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from motionplc.fieldbus import canopen_drive, fastcan
-from motionplc.fieldbus.base import DriveFeedback
+from motionplc.fieldbus.base import DriveFeedback, feedback_of_fields
 from motionplc.fieldbus.virtual_device import Cia402Device, DeviceSnapshot
 
 FIELDS = (
@@ -150,9 +150,9 @@ def test_make_message_sets_what_the_message_constructor_sets(
 
 
 def test_canopen_feedback_builder_equals_the_constructor() -> None:
-    assert canopen_drive._feedback is not DriveFeedback  # the builder is in use
+    assert feedback_of_fields is not DriveFeedback  # the builder is in use
     values = (1.5, -0.25, True, False, 0, True, "", False, "", False, "EMCY 0x4210")
-    fb = canopen_drive._feedback(*values)
+    fb = feedback_of_fields(*values)
     assert type(fb) is DriveFeedback
     assert fb == DriveFeedback(*values) and hash(fb) == hash(DriveFeedback(*values))
     with pytest.raises(dataclasses.FrozenInstanceError):

@@ -1,4 +1,4 @@
-"""``batch._integrate_rows`` (in place, no compaction) against ``batch._integrate_arrays`` (the
+"""``batch._integrate_into`` (in place, no compaction) against ``batch._integrate_arrays`` (the
 general integration with compaction) and against ``Profile`` itself, bit for bit: random phase
 tables in the core's layout (moving phases first, then phases of no duration) with exact
 accelerations/velocities set by some phases, and tables with gaps (which take the fallback)."""
@@ -8,9 +8,31 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from motionplc.planning.batch import MIN_WIDTH, _integrate_arrays, _integrate_rows
+from motionplc.planning.batch import MIN_WIDTH, _integrate_arrays, _integrate_into
 from motionplc.planning.profile import Profile
 from motionplc.planning.state import State
+
+
+def _integrate_rows(
+    p0: np.ndarray,
+    v0: np.ndarray,
+    a0: np.ndarray,
+    dur: np.ndarray,
+    jerk: np.ndarray,
+    ova: np.ndarray,
+    ovv: np.ndarray,
+    kinds: list[str],
+) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """``_integrate_into`` with its own output arrays, laid out as ``batch._core_rows``
+    returns them: (six (m, width) segment arrays, (3, m) end state, duration, counts, kinds)."""
+    n_ph, m = dur.shape
+    rec = np.empty((6, max(MIN_WIDTH, n_ph), m))
+    ends = np.empty((4, m))
+    cnt = np.empty(m, dtype=np.intp)
+    with np.errstate(all="ignore"):
+        _integrate_into(p0, v0, a0, dur, jerk, ova, ovv, rec, ends, cnt)
+    w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
+    return tuple(rec[q, :w].T for q in range(6)), ends[:3], ends[3], cnt, kinds
 
 
 def _table(rng: np.random.Generator, m: int, width: int, gaps: bool) -> tuple[np.ndarray, ...]:
