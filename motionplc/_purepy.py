@@ -9,7 +9,8 @@ when
 
 * ``MOTIONPLC_PURE_PYTHON`` is set (to anything but ``""`` or ``"0"``) at import time;
 * an extension, the shared library or the build manifest is missing (a build without a C
-  compiler, or with ``MOTIONPLC_NO_MYPYC=1``);
+  compiler, or with ``MOTIONPLC_NO_MYPYC=1``), or ``librt``, the run-time library the
+  extensions import, is not installed;
 * a source differs from the one the extensions were built from (an edited checkout with an
   editable install: the edit is what runs, never a stale extension; rebuild with
   ``pip install -e .`` to compile it again).
@@ -79,10 +80,23 @@ def _extension(directory: str, name: str) -> str | None:
     return None
 
 
+def _librt_available() -> bool:
+    """Whether ``librt.strings`` (mypyc's run-time library, which the compiled core imports)
+    can be imported."""
+    try:
+        import librt.strings  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
 def _compiled_available() -> tuple[bool, str]:
-    """Whether every extension of the core exists and was built from the present sources."""
+    """Whether every extension of the core exists and was built from the present sources
+    (and the run-time library it needs is installed)."""
     if _extension(_PKG_DIR, SHARED_LIB) is None:
         return False, "pure Python: no compiled core installed"
+    if not _librt_available():
+        return False, "pure Python: librt.strings (mypyc's run-time library) is not installed"
     for module in COMPILED_MODULES:
         src = _source(module)
         if _extension(os.path.dirname(src), module.rpartition(".")[2]) is None:

@@ -4,8 +4,11 @@
 limit by :func:`rest_row` (the closed forms of ``batch._rest_to_rest`` / ``batch._families``,
 operation for operation on floats, so the same bits as the numpy path), every other row by the
 core (``plan.position_phases``, called directly in C when compiled), and integrates each
-profile as ``Profile.__init__`` does (the same operations: the same bits as :func:`plan`). It
-never touches numpy: :mod:`motionplc.planning.batch` turns the flat float lists into arrays.
+profile as ``Profile.__init__`` does (the same operations: the same bits as :func:`plan`).
+:func:`core_segments` does the same for the numpy path's core rows. Both write their segments
+as little-endian doubles to ``librt.strings`` byte writers (:func:`core_segments` also reads
+its inputs from bytes), which mypyc compiles to inline C: no Python float per value. They
+never touch numpy: :mod:`motionplc.planning.batch` reads the bytes as arrays.
 
 Compiled, a row costs a few hundred nanoseconds beyond the core's own solver time (no State,
 Profile or phase-array objects per row); as plain Python the same code runs unchanged.
@@ -14,12 +17,21 @@ Profile or phase-array objects per row); as plain Python the same code runs unch
 from __future__ import annotations
 
 import math
-from typing import Any, Final
+from typing import Final
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import LIMIT_MAX, LIMIT_MIN, STATE_MAX
 from motionplc.planning.plan import MAX_DURATION, arrived, position_phases
 from motionplc.planning.roots import cbrt
+
+try:  # inline C when compiled (no Python float per value); the stand-in without librt
+    from librt.strings import BytesWriter, read_f64_le, write_f64_le
+except ImportError:  # pragma: no cover - librt is a dependency on CPython
+    from motionplc.planning._f64io import (  # type: ignore[assignment]
+        BytesWriter,
+        read_f64_le,
+        write_f64_le,
+    )
 
 _INF: Final = math.inf
 _NAN: Final = math.nan
@@ -197,6 +209,39 @@ def rest_row(
     return None
 
 
+ROW_BYTES: Final = 88  # an input row of core_segments: eleven little-endian doubles
+WIDTH: Final = 7  # segments per row in the ``seg`` output (batch.MIN_WIDTH)
+
+# The output of plan_rows and core_segments, little-endian doubles (batch._assemble reads it):
+# ``seg``: per row its first WIDTH segments (start time, duration, jerk, p, v, a), padded to
+# WIDTH with (duration, 0, 0, end state); ``ends``: per row (end p, v, a, duration, segment
+# count); ``wide``: the segments beyond WIDTH of the rows listed in ``wide_rows``.
+
+
+def _write_segment(
+    w: BytesWriter, t: float, x: float, j: float, p: float, v: float, a: float
+) -> None:
+    write_f64_le(w, t)
+    write_f64_le(w, x)
+    write_f64_le(w, j)
+    write_f64_le(w, p)
+    write_f64_le(w, v)
+    write_f64_le(w, a)
+
+
+def _end_row(
+    seg: BytesWriter, ends: BytesWriter, n: int, p: float, v: float, a: float, t: float
+) -> None:
+    """A row's padding (to WIDTH segments) and its end state, duration and segment count."""
+    for _ in range(n, WIDTH):
+        _write_segment(seg, t, 0.0, 0.0, p, v, a)
+    write_f64_le(ends, p)
+    write_f64_le(ends, v)
+    write_f64_le(ends, a)
+    write_f64_le(ends, t)
+    write_f64_le(ends, float(n))
+
+
 def rest_segments(
     p0: float,
     cols: list[float],
@@ -205,11 +250,11 @@ def rest_segments(
     VC: float,
     down: bool,
     J: float,
-    out: list[float],
+    seg: BytesWriter,
 ) -> tuple[int, float, float, float, float]:
     """``batch._rest_to_rest``'s integration of one row on floats (the same operations): the
-    segments (start time, duration, jerk, p, v, a) of the phases of positive duration appended
-    to ``out``; returns (their count, the end state, the duration)."""
+    segments of the phases of positive duration (at most seven) written to ``seg``; returns
+    (their count, the end state, the duration)."""
     s = -1.0 if down else 1.0
     sj = s * J
     zj = s * 0.0
@@ -231,22 +276,12 @@ def rest_segments(
                 v = s * VC
             else:
                 a = s * Q
-            out.append(t)
-            out.append(x)
-            out.append(zj)
-            out.append(p)
-            out.append(v)
-            out.append(a)
+            _write_segment(seg, t, x, zj, p, v, a)
             p = p + x * (v + x * (0.5 * a))
             v = v + x * a
         else:
             jj = sj if c == 0 or c == 6 else -sj
-            out.append(t)
-            out.append(x)
-            out.append(jj)
-            out.append(p)
-            out.append(v)
-            out.append(a)
+            _write_segment(seg, t, x, jj, p, v, a)
             xj = x * jj
             p = p + x * (v + x * (0.5 * a + xj / 6.0))
             v = v + x * (a + 0.5 * xj)
@@ -256,10 +291,16 @@ def rest_segments(
 
 
 def phase_segments(
-    p0: float, v0: float, a0: float, phases: list[tuple[float, ...]], out: list[float]
+    p0: float,
+    v0: float,
+    a0: float,
+    phases: list[tuple[float, ...]],
+    seg: BytesWriter,
+    wide: BytesWriter,
 ) -> tuple[int, float, float, float, float]:
-    """``batch._integrate_phases`` (Profile.__init__) for one phase list on floats: the
-    segments appended to ``out``; returns (their count, the end state, the duration)."""
+    """``batch._integrate_phases`` (Profile.__init__'s operations) for one phase list on
+    floats: the first WIDTH segments written to ``seg``, the others to ``wide``; returns
+    (their count, the end state, the duration)."""
     t = 0.0
     p = p0
     v = v0
@@ -273,13 +314,8 @@ def phase_segments(
             if len(ph) > 3:
                 v = ph[3]
         if x > 0.0:
+            _write_segment(seg if m < WIDTH else wide, t, x, jj, p, v, a)
             m += 1
-            out.append(t)
-            out.append(x)
-            out.append(jj)
-            out.append(p)
-            out.append(v)
-            out.append(a)
             p = p + x * (v + x * (0.5 * a + x * jj / 6.0))
             v2 = v + x * (a + 0.5 * x * jj)
             a = a + x * jj
@@ -322,27 +358,20 @@ def plan_rows(
     AMAX: list[float],
     AMIN: list[float],
     J: list[float],
-    width: int,
-) -> tuple[list[float], list[float], list[int], list[str]]:
-    """Validated problems, row by row: (segments, ends, segment counts, kinds).
-
-    ``segments`` holds each row's segments, six floats each (start time, duration, jerk, p,
-    v, a); with ``width`` > 0 every row padded to ``width`` segments (widened if a row has
-    more) with (duration, 0, 0, end state), with ``width`` = 0 unpadded. ``ends``: four
-    floats (p, v, a, duration) per row. Rest to rest
-    with a finite jerk limit: :func:`rest_row` (the numpy path's arithmetic); every other row
-    by the core, as the numpy path dispatches them; row ``k`` is problem ``k`` in error
-    messages. Raises the first failure of the numpy path's order:
-    closed-form rest to rest, rest to rest without a jerk limit, then the core's rows.
-    """
+    seg: BytesWriter,
+    ends: BytesWriter,
+    wide: BytesWriter,
+    wide_rows: list[int],
+    kinds: list[str],
+) -> None:
+    """Validated problems, row by row, written to ``seg``, ``ends`` and ``wide`` (see above;
+    row ``k`` is problem ``k``, listed in ``wide_rows`` if wider than WIDTH), their kinds
+    appended to ``kinds``. Rest to rest with a finite jerk limit: :func:`rest_row` (the numpy
+    path's arithmetic); every other row by the core, as the numpy path dispatches them.
+    Raises the first failure of the numpy path's order: closed-form rest to rest, rest to
+    rest without a jerk limit, then the core's rows."""
     n = len(P0)
     eps = 8.0 * _EPS
-    vals: list[float] = []
-    ends: list[float] = []
-    nseg: list[int] = []
-    kinds: list[str] = []
-    starts: list[int] = []
-    wide = width
     errors: list[PlanningError | None] = [None, None, None]
     for k in range(n):
         p0 = P0[k]
@@ -358,7 +387,6 @@ def plan_rows(
         jm = J[k]
         d = pf - p0
         group = 2
-        start = len(vals)
         if (
             v0 == 0.0
             and a0 == 0.0
@@ -372,141 +400,89 @@ def plan_rows(
                 rr = rest_row(p0, d, vmax, vmin, amax, amin, jm)
                 if rr is not None:
                     cols, P, Q, VC, code, down = rr
-                    m, pe, ve, ae, te = rest_segments(p0, cols, P, Q, VC, down, jm, vals)
-                    if not te <= MAX_DURATION:
-                        if errors[0] is None:
-                            errors[0] = _too_long(k, te)
-                        del vals[start:]
-                        continue
-                    starts.append(start)
-                    nseg.append(m)
-                    ends.extend((pe, ve, ae, te))
+                    m, pe, ve, ae, te = rest_segments(p0, cols, P, Q, VC, down, jm, seg)
+                    if not te <= MAX_DURATION and errors[0] is None:
+                        errors[0] = _too_long(k, te)
+                    _end_row(seg, ends, m, pe, ve, ae, te)
                     kinds.append(KIND_NAMES[code])
-                    if m > wide:
-                        wide = m
-                    elif m < width:
-                        vals.extend((te, 0.0, 0.0, pe, ve, ae) * (width - m))
                     continue
         if arrived(p0, v0, a0, pf, vf, af):
-            starts.append(start)
-            nseg.append(0)
-            ends.extend((p0, vf, af, 0.0))
+            _end_row(seg, ends, 0, p0, vf, af, 0.0)
             kinds.append("arrived")
-            vals.extend((0.0, 0.0, 0.0, p0, vf, af) * width)
             continue
         try:
             T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
         except (PlanningError, ArithmeticError) as exc:
             if errors[group] is None:
                 errors[group] = _row_failure(k, exc)
-            continue
+            continue  # (the output is dropped: an error is raised below)
         if not T <= MAX_DURATION:
             if errors[group] is None:
                 errors[group] = _too_long(k, T)
             continue
-        m, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, vals)
-        starts.append(start)
-        nseg.append(m)
-        ends.extend((pe, ve, ae, te))
+        m, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, seg, wide)
+        if m > WIDTH:
+            wide_rows.append(k)
+        _end_row(seg, ends, m, pe, ve, ae, te)
         kinds.append(kind)
-        if m > wide:
-            wide = m
-        elif m < width:
-            vals.extend((te, 0.0, 0.0, pe, ve, ae) * (width - m))
     for e in errors:
         if e is not None:
             raise e
-    if width and wide > width:  # a row longer than width: every row laid out again
-        vals = _relayout(vals, starts, nseg, ends, width, wide)
-    return vals, ends, nseg, kinds
 
 
-# a missing exact value of a phase: one NaN object (appended without boxing a new float)
-_NAN_OBJ: Final[object] = math.nan
-
-
-def core_phases(
-    index: list[int] | None,
-    P0: list[float],
-    V0: list[float],
-    A0: list[float],
-    PF: list[float],
-    VF: list[float],
-    AF: list[float],
-    VMAX: list[float],
-    VMIN: list[float],
-    AMAX: list[float],
-    AMIN: list[float],
-    J: list[float],
-) -> tuple[list[float], list[int], list[str]]:
+def core_segments(
+    src: bytes,
+    m: int,
+    base: int,
+    rows: list[int] | None,
+    seg: BytesWriter,
+    ends: BytesWriter,
+    wide: BytesWriter,
+    wide_rows: list[int],
+    kinds: list[str],
+) -> None:
     """The numpy path's rows for the core (validated; none that the rest-to-rest closed forms
-    solve), planned as :func:`plan_rows` plans them, returned as phases for
-    ``batch._integrate_arrays`` instead of integrated segments: (four floats per phase:
-    duration, jerk, the exact acceleration and velocity it starts with or NaN; the number of
-    phases per row; the kinds). An arrived row is one phase of no duration setting (af, vf)
-    (:func:`plan_rows`' end state for it). Raises the first row's failure."""
-    n = len(P0)
-    vals: list[Any] = []
-    nph: list[int] = []
-    kinds: list[str] = []
-    error: PlanningError | None = None
-    for k in range(n):
-        p0 = P0[k]
-        v0 = V0[k]
-        a0 = A0[k]
-        pf = PF[k]
-        vf = VF[k]
-        af = AF[k]
-        d = pf - p0
+    solve), planned and integrated as :func:`plan_rows` plans them (the same bits), read and
+    written as little-endian doubles (compiled: no Python float per value).
+
+    ``src``: ``m`` rows of eleven doubles (p0, v0, a0, pf, vf, af, v_max, v_min, a_max,
+    a_min, j_max); row ``k`` is problem ``base + k`` (``rows[k]`` if given) in error messages
+    and ``base + k`` in ``wide_rows``. The output as :func:`plan_rows`' (an arrived row has
+    no segment and ends at (p0, vf, af)). Raises the first failing row's PlanningError."""
+    for k in range(m):
+        o = ROW_BYTES * k
+        p0 = read_f64_le(src, o)
+        v0 = read_f64_le(src, o + 8)
+        a0 = read_f64_le(src, o + 16)
+        pf = read_f64_le(src, o + 24)
+        vf = read_f64_le(src, o + 32)
+        af = read_f64_le(src, o + 40)
         if arrived(p0, v0, a0, pf, vf, af):
-            vals.extend((0.0, 0.0, af, vf))
-            nph.append(1)
+            _end_row(seg, ends, 0, p0, vf, af, 0.0)
             kinds.append("arrived")
             continue
-        i = k if index is None else index[k]
         try:
             T, phases, kind = position_phases(
-                v0, a0, d, vf, af, VMAX[k], VMIN[k], AMAX[k], AMIN[k], J[k]
+                v0,
+                a0,
+                pf - p0,
+                vf,
+                af,
+                read_f64_le(src, o + 48),
+                read_f64_le(src, o + 56),
+                read_f64_le(src, o + 64),
+                read_f64_le(src, o + 72),
+                read_f64_le(src, o + 80),
             )
         except (PlanningError, ArithmeticError) as exc:
-            if error is None:
-                error = _row_failure(i, exc)
-            continue
+            raise _row_failure(base + k if rows is None else rows[k], exc) from exc
         if not T <= MAX_DURATION:
-            if error is None:
-                error = _too_long(i, T)
-            continue
-        for phase in phases:  # the phase's own float objects (no new ones), NaN for none
-            ph: tuple[object, ...] = phase  # items as objects: neither unboxed nor boxed again
-            m = len(ph)
-            vals.append(ph[0])
-            vals.append(ph[1])
-            if m == 2:
-                vals.append(_NAN_OBJ)
-                vals.append(_NAN_OBJ)
-            else:  # (duration, jerk, a[, v]): what phase_segments reads of a phase
-                vals.append(ph[2])
-                vals.append(ph[3] if m > 3 else _NAN_OBJ)
-        nph.append(len(phases))
+            raise _too_long(base + k if rows is None else rows[k], T)
+        n, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, seg, wide)
+        if n > WIDTH:
+            wide_rows.append(base + k)
+        _end_row(seg, ends, n, pe, ve, ae, te)
         kinds.append(kind)
-    if error is not None:
-        raise error
-    return vals, nph, kinds
-
-
-def _relayout(
-    vals: list[float], starts: list[int], nseg: list[int], ends: list[float], width: int, wide: int
-) -> list[float]:
-    """The rows of ``vals`` (row k from ``starts[k]``: its ``nseg[k]`` segments, padded to
-    ``width`` if shorter) padded to ``wide`` segments."""
-    out: list[float] = []
-    for k in range(len(starts)):
-        s = starts[k]
-        m = nseg[k]
-        out.extend(vals[s : s + 6 * m])
-        e = 4 * k
-        out.extend((ends[e + 3], 0.0, 0.0, ends[e], ends[e + 1], ends[e + 2]) * (wide - m))
-    return out
 
 
 def rows_valid(

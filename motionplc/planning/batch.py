@@ -22,8 +22,10 @@ Dispatch per element:
   holds them to 1e-12) with the same segments and family name.
 * every other element (a non-zero velocity or acceleration, zero distance, and the rare
   rest-to-rest row no closed form accepts) goes through the planning core per
-  element (``plan.position_phases``, called by ``_batchrow.plan_rows``: both compiled when the
-  package is built with mypyc, no Profile per row), so it is :func:`plan`'s result bit for bit.
+  element (``plan.position_phases``, called by ``_batchrow.core_segments``: both compiled when
+  the package is built with mypyc; no Profile and, compiled, no Python float per row: the
+  inputs are read from and the segments written to bytes as doubles), so it is
+  :func:`plan`'s result bit for bit.
 
 Batches of at most ``_SMALL`` problems (192 with the compiled core, 64 as plain Python) skip
 numpy's fixed cost per operation: every row is planned on plain floats by the same dispatch
@@ -42,7 +44,6 @@ the allowed range.
 from __future__ import annotations
 
 import math
-from array import array
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -59,7 +60,8 @@ from motionplc.planning._batchrow import (
     NONE,
     SECOND,
     VEL,
-    core_phases,
+    BytesWriter,
+    core_segments,
     plan_rows,
     rows_valid,
 )
@@ -853,33 +855,43 @@ def _plan_small(
     )  # fmt: skip
 
 
-_PAD_ROWS = 24  # from this many rows on, numpy pads the rows (fewer floats to convert)
-
-
 def _rows(*cols: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """:func:`_batchrow.plan_rows` as arrays: (m, width, 6) segments (start time, duration,
     jerk, p, v, a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH),
-    (m, 4) end state and duration, (m,) segment counts, kinds. The fields of the segments
-    are strided views of one array('d') (converted at C speed, no copy)."""
-    m = len(cols[0])
-    if m < _PAD_ROWS:  # padded as the rows are planned
-        vals, ends, nseg, kinds = plan_rows(*cols, MIN_WIDTH)
-        width = len(vals) // (6 * m) if m else MIN_WIDTH
-        out = np.frombuffer(array("d", vals), dtype=float).reshape(m, width, 6)
-        e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
-        return out, e, np.array(nseg, dtype=np.intp), kinds
-    vals, ends, nseg, kinds = plan_rows(*cols, 0)
-    e = np.frombuffer(array("d", ends), dtype=float).reshape(m, 4)
-    cnt = np.array(nseg, dtype=np.intp)
-    width = max(MIN_WIDTH, int(cnt.max()))
+    (m, 5) end state, duration and segment count, (m,) segment counts, kinds."""
+    seg, ends, wide = BytesWriter(), BytesWriter(), BytesWriter()
+    wide_rows: list[int] = []
+    kinds: list[str] = []
+    plan_rows(*cols, seg, ends, wide, wide_rows, kinds)
+    rec = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
+    e = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+    cnt = e[:, 4].astype(np.intp)
+    return _widened(rec, e, cnt, wide, wide_rows), e, cnt, kinds
+
+
+def _widened(
+    rec: np.ndarray, e: np.ndarray, cnt: np.ndarray, wide: BytesWriter, wide_rows: list[int]
+) -> np.ndarray:
+    """The (m, MIN_WIDTH, 6) segments ``rec`` of rows ending at ``e`` (m, >= 4: end p, v, a,
+    duration) with the segments beyond MIN_WIDTH of the rows ``wide_rows`` in ``wide``
+    (little-endian doubles, six per segment, in row order): every row padded to the widest
+    one (``rec`` itself if no row is wider)."""
+    if not wide_rows:
+        return rec
+    m = rec.shape[0]
+    width = int(cnt.max())
     out = np.empty((m, width, 6))
-    out[:, :, 0] = e[:, 3:4]  # padding: start time = duration, no duration or jerk, end
-    out[:, :, 1:3] = 0.0
-    out[:, :, 3:6] = e[:, None, :3]
-    out[np.arange(width) < cnt[:, None]] = np.frombuffer(array("d", vals), dtype=float).reshape(
-        -1, 6
-    )
-    return out, e, cnt, kinds
+    out[:, :MIN_WIDTH] = rec
+    out[:, MIN_WIDTH:, 0] = e[:, 3:4]  # padding: start = duration, no duration or jerk, end
+    out[:, MIN_WIDTH:, 1:3] = 0.0
+    out[:, MIN_WIDTH:, 3:6] = e[:, None, :3]
+    wr = np.array(wide_rows, dtype=np.intp)
+    extra = out[wr, MIN_WIDTH:]
+    extra[np.arange(width - MIN_WIDTH) < (cnt[wr] - MIN_WIDTH)[:, None]] = np.frombuffer(
+        wide.getvalue(), dtype="<f8"
+    ).reshape(-1, 6)
+    out[wr, MIN_WIDTH:] = extra
+    return out
 
 
 def _small_lists(values: tuple[object, ...]) -> tuple[list[float], ...] | None:
@@ -1098,8 +1110,7 @@ def plan_batch(
     )  # fmt: skip
 
 
-_ROW_CHUNK = 512  # core rows planned per pass: their Python floats stay in the CPU cache
-_INT_CHUNK = 4096  # rows integrated per numpy pass: the temporaries stay in the L2 cache
+_ROW_CHUNK = 1024  # core rows per pass: their input and segment bytes stay in the CPU cache
 
 
 def _core_rows(
@@ -1107,142 +1118,36 @@ def _core_rows(
 ) -> tuple[tuple[np.ndarray, ...], np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """The numpy path's rows for the core (none that the rest-to-rest closed forms solve;
     ``arrs``: p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max; ``index``: their
-    problem numbers, None for 0, 1, ...): phases per row by the core
-    (:func:`_batchrow.core_phases`, compiled with it) in chunks of ``_ROW_CHUNK`` rows (the
-    floats of a whole large batch as Python objects would not stay in the cache: 1.5x slower
-    per row at N = 1e4), integrated in numpy ``_INT_CHUNK`` rows at a time
-    (:func:`_integrate_into`: ``Profile``'s arithmetic, the same bits as
-    :func:`_batchrow.plan_rows`' per-row integration). Returns (the six (m, width) segment
+    problem numbers, None for 0, 1, ...), planned and integrated by
+    :func:`_batchrow.core_segments` (compiled with the core: :func:`_batchrow.plan_rows`'
+    arithmetic, so the same bits as :func:`plan`) ``_ROW_CHUNK`` rows at a time, their
+    inputs and segments passed as little-endian doubles. Returns (the six (m, width) segment
     arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,) duration, the
     segment counts, the kinds). Raises the first failing row's error."""
     m = arrs[0].shape[0]
-    buf = array("d")
-    nph: list[int] = []
+    seg = BytesWriter()
+    ends = BytesWriter()
+    wide = BytesWriter()
+    wide_rows: list[int] = []
     kinds: list[str] = []
+    rec = _block(m * MIN_WIDTH * 6).reshape(m, MIN_WIDTH, 6)
+    e = np.empty((m, 5))
+    src = np.empty((min(m, _ROW_CHUNK), 11), dtype="<f8")
     for s in range(0, m, _ROW_CHUNK):
-        e = min(s + _ROW_CHUNK, m)
-        if index is not None:
-            rows: list[int] | None = index[s:e].tolist()
-        else:
-            rows = None if m <= _ROW_CHUNK else list(range(s, e))
-        vals, n_ph, kd = core_phases(rows, *(x[s:e].tolist() for x in arrs))
-        buf.fromlist(vals)
-        nph += n_ph
-        kinds += kd
-    counts = np.array(nph, dtype=np.intp)
-    flat = np.frombuffer(buf, dtype=float).reshape(-1, 4)
-    first = np.zeros(m + 1, dtype=np.intp)  # row k's phases: flat[first[k]:first[k + 1]]
-    np.cumsum(counts, out=first[1:])
-    width = max(MIN_WIDTH, int(counts.max()) if m else 0)  # >= the segment counts
-    rec = np.empty((6, width, m))  # (t, duration, jerk, p, v, a)
-    ends = np.empty((4, m))  # end p, v, a and the duration
-    cnt = np.empty(m, dtype=np.intp)
-    for s in range(0, m, _INT_CHUNK):
-        e = min(s + _INT_CHUNK, m)
-        cc = counts[s:e]
-        L = max(int(cc.max()), 1)
-        ph = np.zeros((e - s, L, 4))
-        ph[:, :, 2:] = np.nan  # padding: no duration, no exact acceleration or velocity
-        ph[np.arange(L) < cc[:, None]] = flat[first[s] : first[e]]
-        dur, jerk, ova, ovv = np.ascontiguousarray(ph.transpose(2, 1, 0))  # (L, rows) each
-        with np.errstate(all="ignore"):
-            _integrate_into(
-                arrs[0][s:e], arrs[1][s:e], arrs[2][s:e], dur, jerk, ova, ovv,
-                rec[:, :, s:e], ends[:, s:e], cnt[s:e],
-            )  # fmt: skip
-    w = max(MIN_WIDTH, int(cnt.max()) if m else 0)
-    segs = tuple(rec[q, :w].T for q in range(6))
-    return segs, ends[:3], ends[3], cnt, kinds
-
-
-def _integrate_into(
-    p0: np.ndarray,
-    v0: np.ndarray,
-    a0: np.ndarray,
-    dur: np.ndarray,
-    jerk: np.ndarray,
-    ova: np.ndarray,
-    ovv: np.ndarray,
-    rec: np.ndarray,
-    ends: np.ndarray,
-    cnt: np.ndarray,
-) -> None:
-    """:func:`_integrate_arrays` for (L, m) phases into ``rec`` ((6, W, m), W >= L and >=
-    MIN_WIDTH: t, duration, jerk, p, v, a of each segment, padded with the duration, 0, 0
-    and the end state), ``ends`` ((4, m): end p, v, a, duration) and ``cnt`` (segments per
-    row). Phases whose positive durations come first in every row (the core's phase lists:
-    no phase of no duration before a moving one) are integrated in place, without a copy per
-    operation or the compaction of the segments (a phase is its segment); the same operations
-    in the same order, so the same bits. Other tables go through :func:`_integrate_arrays`.
-    Call under np.errstate."""
-    L, m = dur.shape
-    pos = dur > 0.0
-    np.sum(pos, axis=0, out=cnt)
-    if not (pos == (np.arange(L)[:, None] < cnt)).all():  # a gap: compaction needed
-        *segs, pe, ve, ae, te, cnt2 = _integrate_arrays(p0, v0, a0, dur, jerk, ova, ovv)
-        w = segs[0].shape[1]
-        for q, x in enumerate(segs):
-            rec[q, :w] = x.T
-        for q, fill in ((0, te), (3, pe), (4, ve), (5, ae)):
-            rec[q, w:] = fill
-        rec[1:3, w:] = 0.0
-        ends[0], ends[1], ends[2], ends[3] = pe, ve, ae, te
-        cnt[:] = cnt2
-        return
-    kt, kd, kj, kp, kv, ka = rec
-    t = np.zeros(m)
-    p = p0.copy()
-    v = v0.copy()
-    a = a0.copy()
-    has_a = ~np.isnan(ova)
-    has_v = ~np.isnan(ovv)
-    set_a = has_a.any(axis=1)
-    set_v = has_v.any(axis=1)
-    u = np.empty(m)
-    w = np.empty(m)
-    for c in range(L):
-        x = dur[c]
-        jj = jerk[c]
-        if set_a[c]:
-            np.copyto(a, ova[c], where=has_a[c])
-        if set_v[c]:
-            np.copyto(v, ovv[c], where=has_v[c])
-        kt[c] = t
-        kd[c] = x
-        kj[c] = jj
-        kp[c] = p
-        kv[c] = v
-        ka[c] = a
-        g = pos[c]
-        # p + x * (v + x * (0.5 * a + x * jj / 6.0))
-        np.multiply(x, jj, out=u)
-        np.divide(u, 6.0, out=w)
-        np.add(np.multiply(0.5, a), w, out=w)
-        np.multiply(x, w, out=w)
-        np.add(v, w, out=w)
-        np.multiply(x, w, out=w)
-        np.add(p, w, out=p, where=g)
-        # v + x * (a + 0.5 * x * jj)
-        np.multiply(0.5, x, out=w)
-        np.multiply(w, jj, out=w)
-        np.add(a, w, out=w)
-        np.multiply(x, w, out=w)
-        np.add(v, w, out=v, where=g)
-        # a + x * jj, t + x
-        np.add(a, u, out=a, where=g)
-        np.add(t, x, out=t, where=g)
-    # padding (every column from the row's segment count on): start time = duration, no
-    # duration or jerk, the end state -- as _integrate_arrays takes it from its end row
-    pad = np.arange(L)[:, None] >= cnt
-    if pad.any():
-        for q, fill in ((0, t), (3, p), (4, v), (5, a)):
-            np.copyto(rec[q, :L], fill, where=pad)
-        np.copyto(kd[:L], 0.0, where=pad)
-        np.copyto(kj[:L], 0.0, where=pad)
-    for q, fill in ((0, t), (3, p), (4, v), (5, a)):
-        rec[q, L:] = fill
-    rec[1:3, L:] = 0.0
-    ends[0], ends[1], ends[2], ends[3] = p, v, a, t
+        stop = min(s + _ROW_CHUNK, m)
+        blk = src[: stop - s]
+        for q, x in enumerate(arrs):
+            blk[:, q] = x[s:stop]
+        rows = None if index is None else index[s:stop].tolist()
+        core_segments(blk.tobytes(), stop - s, s, rows, seg, ends, wide, wide_rows, kinds)
+        rec[s:stop] = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
+        e[s:stop] = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+        seg.truncate(0)
+        ends.truncate(0)
+    cnt = e[:, 4].astype(np.intp)
+    rec = _widened(rec, e, cnt, wide, wide_rows)
+    segs = tuple(rec[:, :, q] for q in range(6))
+    return segs, e[:, :3].T, e[:, 3], cnt, kinds
 
 
 def _integrate_arrays(

@@ -25,7 +25,6 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motionplc.planning import BatchPlan, Limits, PlanningError, Profile, State, plan, plan_batch
-from motionplc.planning.batch import _PAD_ROWS as PAD_ROWS
 from motionplc.planning.batch import _SMALL as SMALL
 from tests.planning._cases import Case, generate_cases
 from tests.planning._strategies import hsettings
@@ -257,16 +256,17 @@ def test_small_batches_equal_the_numpy_path_bit_for_bit(kind: str) -> None:
     _assert_small_path_is_numpy_path(cases)
 
 
-def test_rows_padded_as_planned_or_by_numpy_alike() -> None:
-    """Short row-by-row batches are padded while planned, longer ones by numpy afterwards
-    (batch._PAD_ROWS): both give the numpy path's rows, wider core rows (a brake first)
-    included."""
+def test_rows_wider_than_seven_segments_alike_row_by_row_and_numpy() -> None:
+    """Rows of more than seven segments (a brake first) are widened after planning (their
+    extra segments kept aside), row by row as in the numpy path: in batches of 7 and 24 rows,
+    with and without such a row, every row is the numpy path's."""
     rng = np.random.default_rng(1517)
     cases = generate_cases(300, 1518) + _rest(rng, 100, True)
     cases = [cases[k] for k in rng.permutation(len(cases))]
-    assert PAD_ROWS > 7 and plan_batch(*_columns(cases)).t.shape[1] > 7
+    widths = {plan_batch(*_columns(cases[s : s + 7])).t.shape[1] for s in range(0, 400, 7)}
+    assert plan_batch(*_columns(cases)).t.shape[1] > 7 and 7 in widths and len(widths) > 1
     _assert_small_path_is_numpy_path(cases, 7)
-    _assert_small_path_is_numpy_path(cases, PAD_ROWS)
+    _assert_small_path_is_numpy_path(cases, 24)
 
 
 @pytest.mark.parametrize("n", [5, 200])
@@ -539,7 +539,7 @@ def test_core_failure_past_the_first_chunk_names_its_problem(rest_rows: bool) ->
     v0 = np.full(n, 0.5)
     if rest_rows:
         v0[1::3] = 0.0  # every third row at rest: the closed forms
-        assert v0[bad] != 0.0
+        v0[bad] = 0.5  # (a core row)
     pf = np.full(n, 2.0)
     pf[bad] = 1e12
     j_max = np.full(n, 5.0)
