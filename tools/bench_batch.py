@@ -21,8 +21,9 @@ or asymmetric limits, which plan solves by quartic roots and plan_batch in close
 ``--cpu`` times by the process' CPU time instead of the wall clock (the figures then leave out
 the time other jobs took the CPU). ``--touch`` adds the first use of ``BatchPlan.kind`` (its
 tuple of N names is built lazily; every array is built by the call). Batches of at most
-``batch._SMALL`` problems (192 with the compiled core, 64 as plain Python) take plan_batch's
-row-by-row path, larger ones numpy. Each
+``batch._SMALL`` problems (with the compiled core every batch, as plain Python 64) take
+plan_batch's row-by-row path, larger ones numpy; ``--path rows numpy`` adds a column per
+path, plan_batch forced through it (how the compiled core's choice was made). Each
 timing is one call, so it includes the cold caches left by the loops before it: a size timed
 after others can differ by ~20 % from the same size timed alone (compare before/after runs
 with the same ``--sizes``).
@@ -44,6 +45,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from motionplc.planning import batch as batch_module  # noqa: E402
 from motionplc.planning import plan  # noqa: E402
 from motionplc.planning.batch import plan_batch  # noqa: E402
 from tests.planning._cases import Case, generate_cases, import_ruckig  # noqa: E402
@@ -75,6 +77,15 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
         action="store_true",
         help="time by the process' CPU time (user + system) instead of the wall clock: "
         "steadier on a machine shared with other jobs",
+    )
+    ap.add_argument(
+        "--path",
+        nargs="+",
+        choices=("rows", "numpy"),
+        default=[],
+        help="also time plan_batch forced through these paths (batch._SMALL set): 'rows' row "
+        "by row (the compiled core's path for every batch), 'numpy' the vectorised path (the "
+        "pure-Python core's beyond 64 problems)",
     )
     ap.add_argument(
         "--touch",
@@ -136,6 +147,8 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, flo
     m = min(n, args.loop_max)
     problems = [(c.start(), c.target(), c.limits()) for c in cases[:m]]
     res: dict[str, list[float]] = {"batch": [], "ruckig": [], "plan": []}
+    for path in args.path:
+        res[path] = []
     clock = time.process_time_ns if args.cpu else time.perf_counter_ns
     inputs = [c.ruckig_input(rk) for c in cases] if rk is not None else []
     if rk is not None:
@@ -146,6 +159,13 @@ def bench(kind: str, n: int, args: argparse.Namespace, rk: Any) -> dict[str, flo
             res["batch"].append(timed(lambda: plan_batch(*cols).kind, clock) / n)
         else:
             res["batch"].append(timed(lambda: plan_batch(*cols), clock) / n)
+        for path in args.path:
+            saved = batch_module._SMALL
+            batch_module._SMALL = sys.maxsize if path == "rows" else 0
+            try:
+                res[path].append(timed(lambda: plan_batch(*cols), clock) / n)
+            finally:
+                batch_module._SMALL = saved
         if rk is not None:
 
             def loop_rk() -> None:
@@ -184,7 +204,8 @@ def main(argv: list[str] | None = None) -> int:
     if rk is None:
         print("ruckig is not installed: no Ruckig column")
     head = f"{'kind':10s} {'N':>7s} {'batch':>9s} {'ruckig':>9s} {'plan':>9s}"
-    print(head + f" {'batch/ruckig':>13s} {'plan/batch':>11s}")
+    head += f" {'batch/ruckig':>13s} {'plan/batch':>11s}"
+    print(head + "".join(f" {p:>9s}" for p in args.path))
     for kind in args.kinds:
         for n in args.sizes:
             r = bench(kind, n, args, rk)
@@ -192,6 +213,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{kind:10s} {n:7d} {r['batch']:9.3f} {rr:9.3f} {r['plan']:9.3f} "
                 f"{r['batch'] / rr:13.2f} {r['plan'] / r['batch']:11.1f}"
+                + "".join(f" {r[p]:9.3f}" for p in args.path)
             )
     return 0
 

@@ -42,7 +42,7 @@ _LIM_TOL: Final = 1e-12  # _third._LIM_TOL
 
 # Kind codes of the rest-to-rest rows solved in closed form (Profile.kind as plan names them);
 # code + 1: mirrored (d < 0)
-KIND_NAMES: Final = (
+KIND_NAMES: Final[tuple[str, ...]] = (  # (a tuple object: indexed without boxing)
     "none-rest", "none-rest", "vel", "vel-down", "acc0_acc1", "acc0_acc1-down",
     "none", "none-down", "acc0", "acc0-down", "acc1", "acc1-down",
     "second-order", "first-order",
@@ -72,17 +72,24 @@ def _pos(x: float) -> float:
     return 0.0 if x < 0.0 else x
 
 
+RestRow = tuple[
+    bool, float, float, float, float, float, float, float, float, float, float, int, bool
+]
+_NO_REST: Final = (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0, False)
+
+
 def rest_row(
     p0: float, d: float, vmax: float, vmin: float, amax: float, amin: float, J: float
-) -> tuple[list[float], float, float, float, int, bool] | None:
+) -> RestRow:
     """One rest-to-rest row (finite J, d beyond ``arrived``) as ``batch._rest_to_rest`` and
-    ``batch._families`` compute it, operation for operation on floats (the same bits): (the
-    seven phase durations, P, Q, cruise velocity, kind code, down), or None where no closed
-    form accepts the row (it goes to the core)."""
+    ``batch._families`` compute it, operation for operation on floats (the same bits): (True,
+    the seven phase durations, P, Q, cruise velocity, kind code, down), or (False, ...) where
+    no closed form accepts the row (it goes to the core). A tuple of primitives: compiled, it
+    is returned unboxed."""
     tr = cbrt(abs(d) / (2.0 * J))  # _third.time_optimal's and batch's cube root
     down = d < 0.0
     if J * tr <= _min(amax, -amin) and J * tr * tr <= _min(vmax, -vmin):
-        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, 0.0, NR, down
+        return True, tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr, 0.0, 0.0, 0.0, NR, down
     if down:
         D, Vmax, Amax, Amin = -d, -vmin, -amin, -amax
     else:
@@ -147,7 +154,8 @@ def rest_row(
                 lo = hi = _NAN
             else:
                 lo, hi = (q, r2) if q <= r2 else (r2, q)
-        for r in (lo, hi):
+        for i in range(2):  # (lo, hi) without a tuple of boxed floats
+            r = lo if i == 0 else hi
             if not r >= -_T_TOL:  # NaN: no root
                 continue
             r = _pos(r)
@@ -171,15 +179,15 @@ def rest_row(
             if tt < t_best:
                 acc, acc_h1, acc_h2, t_best = True, hh1, r, tt
         if acc:
-            return [tA, acc_h1, tB, 0.0, 0.0, acc_h2, tC], Amax, Amin, Vmax, ACC + down, down
+            return True, tA, acc_h1, tB, 0.0, 0.0, acc_h2, tC, Amax, Amin, Vmax, ACC + down, down
     if vel:
-        return [t1, h1, t1, cruise, t5, h2, t5], P, Q, Vmax, VEL + down, down
+        return True, t1, h1, t1, cruise, t5, h2, t5, P, Q, Vmax, VEL + down, down
     # no cruise, at most one plateau (asymmetric limits)
     Br = -Amin
     vtol = Vmax * (1.0 + 1e-12)
     sJ = math.sqrt(J)
     if J * tr <= Amax and J * tr <= Br and J * tr * tr <= vtol:
-        return [tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr], 0.0, 0.0, Vmax, NONE + down, down
+        return True, tr, 0.0, 2.0 * tr, 0.0, 0.0, 0.0, tr, 0.0, 0.0, Vmax, NONE + down, down
     bb = Amax / sJ
     cc = math.sqrt(2.0 * Amax * D)
     s0 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
@@ -191,8 +199,8 @@ def rest_row(
         and q0 <= Br * (1.0 + 1e-12)
         and V0 <= vtol
     ):  # fmt: skip
-        cols = [Amax / J, _pos(h0), (Amax + q0) / J, 0.0, 0.0, 0.0, q0 / J]
-        return cols, Amax, -q0, Vmax, ACC0 + down, down
+        c0, c1, c2, c6 = Amax / J, _pos(h0), (Amax + q0) / J, q0 / J
+        return True, c0, c1, c2, 0.0, 0.0, 0.0, c6, Amax, -q0, Vmax, ACC0 + down, down
     bb = Br / sJ
     cc = math.sqrt(2.0 * Br * D)
     s1 = 2.0 * cc / (bb + math.sqrt(bb * bb + 4.0 * cc))
@@ -204,9 +212,9 @@ def rest_row(
         and p1 <= Amax * (1.0 + 1e-12)
         and V1 <= vtol
     ):  # fmt: skip
-        cols = [p1 / J, 0.0, (p1 + Br) / J, 0.0, 0.0, _pos(h1r), Br / J]
-        return cols, p1, -Br, Vmax, ACC1 + down, down
-    return None
+        c0, c2, c5, c6 = p1 / J, (p1 + Br) / J, _pos(h1r), Br / J
+        return True, c0, 0.0, c2, 0.0, 0.0, c5, c6, p1, -Br, Vmax, ACC1 + down, down
+    return _NO_REST
 
 
 ROW_BYTES: Final = 88  # an input row of core_segments: eleven little-endian doubles
@@ -233,7 +241,7 @@ def _end_row(
     seg: BytesWriter, ends: BytesWriter, n: int, p: float, v: float, a: float, t: float
 ) -> None:
     """A row's padding (to WIDTH segments) and its end state, duration and segment count."""
-    for _ in range(n, WIDTH):
+    for _k in range(n, WIDTH):  # (not '_': typed object, boxed per step)
         _write_segment(seg, t, 0.0, 0.0, p, v, a)
     write_f64_le(ends, p)
     write_f64_le(ends, v)
@@ -243,51 +251,57 @@ def _end_row(
 
 
 def rest_segments(
-    p0: float,
-    cols: list[float],
-    P: float,
-    Q: float,
-    VC: float,
-    down: bool,
-    J: float,
-    seg: BytesWriter,
+    p0: float, r: RestRow, J: float, seg: BytesWriter
 ) -> tuple[int, float, float, float, float]:
-    """``batch._rest_to_rest``'s integration of one row on floats (the same operations): the
-    segments of the phases of positive duration (at most seven) written to ``seg``; returns
-    (their count, the end state, the duration)."""
-    s = -1.0 if down else 1.0
+    """``batch._rest_to_rest``'s integration of one :func:`rest_row` on floats (the same
+    operations): the segments of the phases of positive duration (at most seven) written to
+    ``seg``; returns (their count, the end state, the duration)."""
+    s = -1.0 if r[12] else 1.0
+    P = r[8]
+    Q = r[9]
+    VC = r[10]
     sj = s * J
     zj = s * 0.0
-    t = 0.0
-    p = p0
-    v = 0.0
-    a = 0.0
-    m = 0
-    for c in range(7):
-        x = cols[c]
-        if not x > 0.0:  # no duration: changes nothing, no segment
-            continue
-        m += 1
-        if c & 1:  # a plateau: zero jerk, the exact values set
-            if c == 1:
-                a = s * P
-            elif c == 3:
-                a = zj
-                v = s * VC
-            else:
-                a = s * Q
-            _write_segment(seg, t, x, zj, p, v, a)
-            p = p + x * (v + x * (0.5 * a))
-            v = v + x * a
-        else:
-            jj = sj if c == 0 or c == 6 else -sj
-            _write_segment(seg, t, x, jj, p, v, a)
-            xj = x * jj
-            p = p + x * (v + x * (0.5 * a + xj / 6.0))
-            v = v + x * (a + 0.5 * xj)
-            a = a + xj
-        t = t + x
+    st = (0, 0.0, p0, 0.0, 0.0)  # (segments, t, p, v, a)
+    st = _rest_ramp(r[1], sj, st, seg)
+    st = _rest_plateau(r[2], s * P, zj, st, seg)
+    st = _rest_ramp(r[3], -sj, st, seg)
+    if r[4] > 0.0:  # the cruise: zero acceleration, the exact velocity
+        m, t, p, v, a = st
+        st = _rest_plateau(r[4], zj, zj, (m, t, p, s * VC, a), seg)
+    st = _rest_ramp(r[5], -sj, st, seg)
+    st = _rest_plateau(r[6], s * Q, zj, st, seg)
+    m, t, p, v, a = _rest_ramp(r[7], sj, st, seg)
     return m, p, v, a, t
+
+
+def _rest_ramp(
+    x: float, jj: float, st: tuple[int, float, float, float, float], seg: BytesWriter
+) -> tuple[int, float, float, float, float]:
+    """One ramp of :func:`rest_segments` (jerk ``jj``; none without a positive duration)."""
+    m, t, p, v, a = st
+    if not x > 0.0:  # no duration: changes nothing, no segment
+        return st
+    _write_segment(seg, t, x, jj, p, v, a)
+    xj = x * jj
+    p = p + x * (v + x * (0.5 * a + xj / 6.0))
+    v = v + x * (a + 0.5 * xj)
+    a = a + xj
+    return m + 1, t + x, p, v, a
+
+
+def _rest_plateau(
+    x: float, a: float, zj: float, st: tuple[int, float, float, float, float], seg: BytesWriter
+) -> tuple[int, float, float, float, float]:
+    """One plateau of :func:`rest_segments` at the exact acceleration ``a`` (zero jerk
+    ``zj``); none (and nothing set) without a positive duration."""
+    m, t, p, v, _a = st
+    if not x > 0.0:
+        return st
+    _write_segment(seg, t, x, zj, p, v, a)
+    p = p + x * (v + x * (0.5 * a))
+    v = v + x * a
+    return m + 1, t + x, p, v, a
 
 
 def phase_segments(
@@ -368,44 +382,39 @@ def _row_failure(i: int, exc: Exception) -> PlanningError:
 
 
 def plan_rows(
-    P0: list[float],
-    V0: list[float],
-    A0: list[float],
-    PF: list[float],
-    VF: list[float],
-    AF: list[float],
-    VMAX: list[float],
-    VMIN: list[float],
-    AMAX: list[float],
-    AMIN: list[float],
-    J: list[float],
+    src: bytes,
+    rows: int,
+    base: int,
     seg: BytesWriter,
     ends: BytesWriter,
     wide: BytesWriter,
     wide_rows: list[int],
     kinds: list[str],
+    errors: list[PlanningError | None],
 ) -> None:
-    """Validated problems, row by row, written to ``seg``, ``ends`` and ``wide`` (see above;
-    row ``k`` is problem ``k``, listed in ``wide_rows`` if wider than WIDTH), their kinds
-    appended to ``kinds``. Rest to rest with a finite jerk limit: :func:`rest_row` (the numpy
-    path's arithmetic); every other row by the core, as the numpy path dispatches them.
-    Raises the first failure of the numpy path's order: closed-form rest to rest, rest to
-    rest without a jerk limit, then the core's rows."""
-    n = len(P0)
+    """Validated problems: ``rows`` rows of eleven little-endian doubles in ``src`` (as
+    :func:`core_segments` reads them; row ``k`` is problem ``base + k``), row by row, written
+    to ``seg``, ``ends`` and ``wide`` (see above; listed in ``wide_rows`` if wider than
+    WIDTH), their kinds appended to ``kinds``. Rest to rest with a finite jerk limit:
+    :func:`rest_row` (the numpy path's arithmetic); every other row by the core, as the numpy
+    path dispatches them. A row that fails writes nothing: ``errors`` (three entries) keeps
+    the first failure of each group of the numpy path's order (closed-form rest to rest, rest
+    to rest without a jerk limit, the core's rows), for the caller to raise the first one."""
     eps = 8.0 * _EPS
-    errors: list[PlanningError | None] = [None, None, None]
-    for k in range(n):
-        p0 = P0[k]
-        v0 = V0[k]
-        a0 = A0[k]
-        pf = PF[k]
-        vf = VF[k]
-        af = AF[k]
-        vmax = VMAX[k]
-        vmin = VMIN[k]
-        amax = AMAX[k]
-        amin = AMIN[k]
-        jm = J[k]
+    for k in range(rows):  # (rows, not m: compiled, range() reads its bound per step)
+        o = ROW_BYTES * k
+        i = base + k
+        p0 = read_f64_le(src, o)
+        v0 = read_f64_le(src, o + 8)
+        a0 = read_f64_le(src, o + 16)
+        pf = read_f64_le(src, o + 24)
+        vf = read_f64_le(src, o + 32)
+        af = read_f64_le(src, o + 40)
+        vmax = read_f64_le(src, o + 48)
+        vmin = read_f64_le(src, o + 56)
+        amax = read_f64_le(src, o + 64)
+        amin = read_f64_le(src, o + 72)
+        jm = read_f64_le(src, o + 80)
         d = pf - p0
         group = 2
         if (
@@ -419,11 +428,11 @@ def plan_rows(
                 group = 1
             else:
                 rr = rest_row(p0, d, vmax, vmin, amax, amin, jm)
-                if rr is not None:
-                    cols, P, Q, VC, code, down = rr
-                    m, pe, ve, ae, te = rest_segments(p0, cols, P, Q, VC, down, jm, seg)
+                if rr[0]:
+                    code = rr[11]
+                    m, pe, ve, ae, te = rest_segments(p0, rr, jm, seg)
                     if not te <= MAX_DURATION and errors[0] is None:
-                        errors[0] = _too_long(k, te)
+                        errors[0] = _too_long(i, te)
                     _end_row(seg, ends, m, pe, ve, ae, te)
                     kinds.append(KIND_NAMES[code])
                     continue
@@ -435,16 +444,13 @@ def plan_rows(
             T, phases, kind = position_phases(v0, a0, d, vf, af, vmax, vmin, amax, amin, jm)
         except (PlanningError, ArithmeticError) as exc:
             if errors[group] is None:
-                errors[group] = _row_failure(k, exc)
-            continue  # (the output is dropped: an error is raised below)
+                errors[group] = _row_failure(i, exc)
+            continue  # (nothing written: the caller raises the first error)
         if not T <= MAX_DURATION:
             if errors[group] is None:
-                errors[group] = _too_long(k, T)
+                errors[group] = _too_long(i, T)
             continue
-        _core_row(k, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
-    for e in errors:
-        if e is not None:
-            raise e
+        _core_row(i, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
 
 
 def core_segments(
@@ -498,50 +504,41 @@ def core_segments(
         _core_row(base + k, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
 
 
-def rows_valid(
-    P0: list[float],
-    V0: list[float],
-    A0: list[float],
-    PF: list[float],
-    VF: list[float],
-    AF: list[float],
-    VMAX: list[float],
-    VMIN: list[float],
-    AMAX: list[float],
-    AMIN: list[float],
-    J: list[float],
-) -> bool:
-    """True when every row passes the usual checks (states in [-STATE_MAX, STATE_MAX],
-    v_max and j_max in [LIMIT_MIN, LIMIT_MAX] or inf, v_min likewise negated, a_max and -a_min
-    in range and finite; a target in motion inside the limits and reachable: ``batch._validate``
-    with its arithmetic); False (NaN included): let the vectorised checks of plan_batch decide
-    and name the error. Never True where those checks would raise."""
+def rows_valid(src: bytes, n: int) -> bool:
+    """True when every row of ``src`` (``n`` rows of eleven little-endian doubles: p0, v0,
+    a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max) passes the usual checks (states in
+    [-STATE_MAX, STATE_MAX], v_max and j_max in [LIMIT_MIN, LIMIT_MAX] or inf, v_min likewise
+    negated, a_max and -a_min in range and finite; a target in motion inside the limits and
+    reachable: ``batch._validate`` with its arithmetic); False (NaN included): let the
+    vectorised checks of plan_batch decide and name the error. Never True where those
+    checks would raise."""
     sm = float(STATE_MAX)
     lo = float(LIMIT_MIN)
     hi = float(LIMIT_MAX)
-    for k in range(len(P0)):
-        amax = AMAX[k]
-        amin = AMIN[k]
+    for k in range(n):
+        o = ROW_BYTES * k
+        amax = read_f64_le(src, o + 64)
+        amin = read_f64_le(src, o + 72)
         if not (
-            -sm <= P0[k] <= sm
-            and -sm <= V0[k] <= sm
-            and -sm <= A0[k] <= sm
-            and -sm <= PF[k] <= sm
+            -sm <= read_f64_le(src, o) <= sm
+            and -sm <= read_f64_le(src, o + 8) <= sm
+            and -sm <= read_f64_le(src, o + 16) <= sm
+            and -sm <= read_f64_le(src, o + 24) <= sm
             and lo <= amax <= hi
             and -hi <= amin <= -lo
         ):
             return False
-        vmax = VMAX[k]
+        vmax = read_f64_le(src, o + 48)
         if not (lo <= vmax <= hi or vmax == _INF):
             return False
-        jm = J[k]
+        jm = read_f64_le(src, o + 80)
         if not (lo <= jm <= hi or jm == _INF):
             return False
-        vmin = VMIN[k]
+        vmin = read_f64_le(src, o + 56)
         if not (-hi <= vmin <= -lo or vmin == -_INF):
             return False
-        vf = VF[k]
-        af = AF[k]
+        vf = read_f64_le(src, o + 32)
+        af = read_f64_le(src, o + 40)
         if vf != 0.0 or af != 0.0:  # (a and j limits finite or j infinite: see _validate)
             if not (-sm <= vf <= sm and -sm <= af <= sm):
                 return False

@@ -85,7 +85,7 @@ def _cubic_max_root(b: float, c: float, d: float) -> float:
     else:
         t = 0.0
     m = t - b / 3.0
-    for _ in range(2):
+    for _it in range(2):
         f = ((m + b) * m + c) * m + d
         df = (3.0 * m + 2.0 * b) * m + c
         if df == 0.0:
@@ -120,7 +120,7 @@ def quartic_real_roots(c3: float, c2: float, c1: float, c0: float) -> list[float
     out: list[float] = []
     for y in ys:
         x = y - sh
-        for _ in range(12):  # Newton to convergence (quadratic for a simple root)
+        for _it in range(12):  # Newton to convergence (quadratic for a simple root)
             f = (((x + c3) * x + c2) * x + c1) * x + c0
             df = ((4.0 * x + 3.0 * c3) * x + 2.0 * c2) * x + c1
             if df == 0.0:
@@ -341,7 +341,7 @@ def vel_free_jerk(
     x_hi, f_hi = 0.0, r[0] - T  # f < 0 at j = J
     x_lo = 3.0 * math.log(max(r[0], 1e-300) / T)
     f_lo: float | None = None
-    for _ in range(60):
+    for _it in range(60):
         rr = _vel_duration(v0, a0, d, vf, af, vmax, amax, amin, J * math.exp(x_lo))
         if rr is None:
             # the cruise vanished (j too low): the bracket's low end is between
@@ -359,7 +359,7 @@ def vel_free_jerk(
     if f_lo is None or f_lo <= 0.0:
         return None
     side = 0
-    for _ in range(100):
+    for _it in range(100):
         x = x_hi - f_hi * (x_hi - x_lo) / (f_hi - f_lo)
         if not x_lo < x < x_hi:
             x = 0.5 * (x_lo + x_hi)
@@ -538,7 +538,7 @@ def _illinois(
     args: tuple[float, ...],
 ) -> Phases | None:
     side = 0
-    for _ in range(80):
+    for _it in range(80):
         x = b - fb * (b - a) / (fb - fa)
         if not (a < x < b or b < x < a):
             x = 0.5 * (a + b)

@@ -27,10 +27,12 @@ Dispatch per element:
   inputs are read from and the segments written to bytes as doubles), so it is
   :func:`plan`'s result bit for bit.
 
-Batches of at most ``_SMALL`` problems (192 with the compiled core, 64 as plain Python) skip
-numpy's fixed cost per operation: every row is planned on plain floats by the same dispatch
-and the same arithmetic, operation for operation (``_batchrow``; so the same bits as the numpy
-path; tests/planning/test_batch.py checks it).
+With the compiled core every batch, as plain Python batches of at most 64 problems, are
+planned row by row on plain floats (``_batchrow.plan_rows``) by the same dispatch and the same
+arithmetic, operation for operation (so the same bits as the numpy path;
+tests/planning/test_batch.py checks it): compiled, that is faster than the numpy path at every
+size for general states and as fast for rest to rest (``tools/bench_batch.py --path``); the
+numpy path serves the pure-Python core beyond 64 problems.
 
 The rest-to-rest chunks share one workspace (fresh memory costs a page fault per 4 kB page:
 in a VM that was as much as the arithmetic); :attr:`BatchPlan.kind` (a tuple of N names) is
@@ -44,6 +46,7 @@ the allowed range.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -826,47 +829,66 @@ def _quadratic_roots(b: np.ndarray, c: np.ndarray) -> tuple[np.ndarray, np.ndarr
     return lo, hi
 
 
-# -- small batches: the same arithmetic on plain floats --------------------------------------
-# at most this many problems: row by row on floats (no numpy fixed cost per operation); the
-# compiled rows (_batchrow) beat the numpy path up to ~200 problems, as plain Python up to ~64
+# -- row by row: the same arithmetic on plain floats -----------------------------------------
+# At most this many problems: row by row on floats (_batchrow.plan_rows; no numpy fixed cost
+# per operation). Compiled, every batch: the compiled rows beat the numpy path at every size
+# for general states and match it for rest to rest (tools/bench_batch.py --path: per plan,
+# rest to rest 0.23 / 0.21 / 0.23 us at N = 1e3 / 1e4 / 1e5 against numpy's 0.52 / 0.21 /
+# 0.20, general 1.31 / 1.27 / 1.37 us against 1.67 / 1.63 / 1.54); as plain Python up to 64.
 _COMPILED_ROWS = not str(getattr(_batchrow, "__file__", "")).endswith(".py")
-_SMALL = 192 if _COMPILED_ROWS else 64
+_SMALL = sys.maxsize if _COMPILED_ROWS else 64
 
 
-def _plan_small(
-    P0: list[float],
-    V0: list[float],
-    A0: list[float],
-    PF: list[float],
-    VF: list[float],
-    AF: list[float],
-    VMAX: list[float],
-    VMIN: list[float],
-    AMAX: list[float],
-    AMIN: list[float],
-    J: list[float],
-) -> BatchPlan:
-    """plan_batch for validated inputs as lists, row by row on floats
-    (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
-    out, e, cnt, kinds = _rows(P0, V0, A0, PF, VF, AF, VMAX, VMIN, AMAX, AMIN, J)
+def _plan_small(table: np.ndarray) -> BatchPlan:
+    """plan_batch for the validated problems of ``table`` (:func:`_row_table`), row by row
+    on floats (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
+    out, e, cnt, kinds = _rows(table)
     return BatchPlan(
         out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
         cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
     )  # fmt: skip
 
 
-def _rows(*cols: list[float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """:func:`_batchrow.plan_rows` as arrays: (m, width, 6) segments (start time, duration,
-    jerk, p, v, a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH),
-    (m, 5) end state, duration and segment count, (m,) segment counts, kinds."""
+_ROWS_CHUNK = 4096  # rows planned between two copies out of the byte writers (cache-sized)
+
+
+def _rows(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """:func:`_batchrow.plan_rows` for the rows of ``table`` (:func:`_row_table`) as arrays,
+    ``_ROWS_CHUNK`` rows at a time: (n, width, 6) segments (start time, duration, jerk, p, v,
+    a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH), (n, 5) end
+    state, duration and segment count, (n,) segment counts, kinds. Raises the first failure
+    in the numpy path's order."""
+    n = table.shape[0]
     seg, ends, wide = BytesWriter(), BytesWriter(), BytesWriter()
     wide_rows: list[int] = []
     kinds: list[str] = []
-    plan_rows(*cols, seg, ends, wide, wide_rows, kinds)
-    rec = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
-    e = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+    errors: list[PlanningError | None] = [None, None, None]
+    if n <= _ROWS_CHUNK:
+        plan_rows(table.tobytes(), n, 0, seg, ends, wide, wide_rows, kinds, errors)
+        _raise_first(errors)
+        rec = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
+        e = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+    else:  # the writers reused per chunk: their bytes stay in the cache, no growth
+        rec = _block(n * MIN_WIDTH * 6).reshape(n, MIN_WIDTH, 6)
+        e = np.empty((n, 5))
+        for s in range(0, n, _ROWS_CHUNK):
+            stop = min(s + _ROWS_CHUNK, n)
+            src = table[s:stop].tobytes()
+            plan_rows(src, stop - s, s, seg, ends, wide, wide_rows, kinds, errors)
+            if not any(x is not None for x in errors):  # (after one: only the errors count)
+                rec[s:stop] = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
+                e[s:stop] = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+            seg.truncate(0)
+            ends.truncate(0)
+        _raise_first(errors)
     cnt = e[:, 4].astype(np.intp)
     return _widened(rec, e, cnt, wide, wide_rows), e, cnt, kinds
+
+
+def _raise_first(errors: list[PlanningError | None]) -> None:
+    for err in errors:
+        if err is not None:
+            raise err
 
 
 def _widened(
@@ -894,11 +916,41 @@ def _widened(
     return out
 
 
-def _small_lists(values: tuple[object, ...]) -> tuple[list[float], ...] | None:
-    """The eleven inputs of plan_batch (v_min / a_min may be None) as lists of one length
-    N <= _SMALL in the order of :func:`_plan_small` (v_min, a_min defaulted), when every
-    input is a float or a 1-D float64 array and they broadcast; None otherwise (the general
-    path then converts, broadcasts and names any error)."""
+# the columns of a row table (_row_table) given in plan_batch's order of arguments:
+# p0, v0, a0, pf, vf, af, v_max, a_max, j_max, then v_min, a_min
+_ROW_COLUMNS = (0, 1, 2, 3, 4, 5, 6, 8, 10, 7, 9)
+
+
+def _row_table(cols: Sequence[object], n: int) -> np.ndarray:
+    """The (n, 11) little-endian table of the rows read by :func:`_batchrow.plan_rows` and
+    :func:`_batchrow.core_segments` (p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min,
+    j_max) from the inputs in plan_batch's order (floats or arrays broadcasting to n; v_min
+    and a_min, if not given, default to -v_max and -a_max)."""
+    rows = np.empty((n, 11), dtype="<f8")
+    for q, x in zip(_ROW_COLUMNS, cols, strict=False):
+        rows[:, q] = x
+    if len(cols) < 10:
+        np.negative(rows[:, 6], out=rows[:, 7])
+    if len(cols) < 11:
+        np.negative(rows[:, 8], out=rows[:, 9])
+    return rows
+
+
+def _rows_valid(table: np.ndarray) -> bool:
+    """:func:`_batchrow.rows_valid` of every row of ``table``, ``_ROWS_CHUNK`` at a time."""
+    n = table.shape[0]
+    for s in range(0, n, _ROWS_CHUNK):
+        stop = min(s + _ROWS_CHUNK, n)
+        if not rows_valid(table[s:stop].tobytes(), stop - s):
+            return False
+    return True
+
+
+def _small_table(values: tuple[object, ...]) -> np.ndarray | None:
+    """:func:`_row_table` of the eleven inputs of plan_batch (v_min / a_min may be None: the
+    default) when every input is a float or a 1-D float64 array, they broadcast to a length
+    N <= _SMALL; None otherwise (the general path then converts, broadcasts and names any
+    error)."""
     n = 1
     for x in values:
         if type(x) is np.ndarray:
@@ -913,17 +965,12 @@ def _small_lists(values: tuple[object, ...]) -> tuple[list[float], ...] | None:
             return None
     if n > _SMALL:
         return None
-    out: list[list[float]] = []
-    for x in values:
-        if type(x) is float:
-            out.append([x] * n)
-        elif x is not None:
-            lst = x.tolist()  # type: ignore[attr-defined]
-            out.append(lst * n if len(lst) == 1 else lst)
-    vmax, amax, J = out[6], out[7], out[8]
-    vmin = out[9] if values[9] is not None else [-x for x in vmax]
-    amin = out[-1] if values[10] is not None else [-x for x in amax]
-    return (*out[:6], vmax, vmin, amax, amin, J)
+    cols = list(values[:9])
+    if values[9] is not None or values[10] is not None:
+        cols.append(values[9] if values[9] is not None else -np.asarray(values[6]))
+    if values[10] is not None:
+        cols.append(values[10])
+    return _row_table(cols, n)
 
 
 # -- the public function ---------------------------------------------------------------------
@@ -954,15 +1001,11 @@ def plan_batch(
     of at most 64 problems row by row on plain floats with the same arithmetic (the same bits).
     """
     names = ("p0", "v0", "a0", "pf", "vf", "af", "v_max", "a_max", "j_max")
-    small = _small_lists(
-        (p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min)
-    )  # fmt: skip
+    small = _small_table((p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min))
     if small is not None:
-        if not rows_valid(*small):  # let the vectorised checks name the error
-            arrs = [np.atleast_1d(np.asarray(x, dtype=float)) for x in small]
-            arrs = arrs[:7] + [arrs[8], arrs[10], arrs[7], arrs[9]]
-            _validate_arrays(arrs, True, True)
-        return _plan_small(*small)
+        if not _rows_valid(small):  # let the vectorised checks name the error
+            _validate_arrays([small[:, q] for q in _ROW_COLUMNS], True, True)
+        return _plan_small(small)
     given = [p0, v0, a0, pf, vf, af, v_max, a_max, j_max]
     given += [x for x in (v_min, a_min) if x is not None]
     shape = p0.shape if type(p0) is np.ndarray else None
@@ -992,13 +1035,16 @@ def plan_batch(
             ) from exc
         arrs = [np.atleast_1d(x) for x in wide]
     if arrs[0].shape[0] <= _SMALL:  # other input types (lists, ints, numpy scalars)
-        ls = [x.tolist() for x in arrs]
-        lv = ls.pop(9) if v_min is not None else [-x for x in ls[6]]
-        la = ls.pop(9) if a_min is not None else [-x for x in ls[7]]
-        lists = (*ls[:7], lv, ls[7], la, ls[8])
-        if not rows_valid(*lists):
+        n = arrs[0].shape[0]
+        cols: list[object] = list(arrs[:9])
+        if v_min is not None or a_min is not None:
+            cols.append(arrs[9] if v_min is not None else -arrs[6])
+        if a_min is not None:
+            cols.append(arrs[-1])
+        table = _row_table(cols, n)
+        if not _rows_valid(table):
             _validate_arrays(arrs, v_min is not None, a_min is not None)
-        return _plan_small(*lists)
+        return _plan_small(table)
     VMIN, AMIN = _validate_arrays(arrs, v_min is not None, a_min is not None)
     P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
     n = P0.shape[0]

@@ -26,27 +26,57 @@ _CB1: Final = 0.5406693762288409
 _CB0: Final = 0.5588937456952309
 
 
+_TWO48: Final = 281474976710656.0  # 2^48 = 8^16
+_TWO_M48: Final = 3.552713678800501e-15  # 2^-48
+_TWO_M45: Final = 2.842170943040401e-14  # 2^-45 = 0.5 / 8^15
+
+
 def cbrt(x: float) -> float:
     """The cube root of ``x >= 0``, within one ulp (the nearest double in ~92 % of cases).
 
-    Its bits do not depend on the platform's ``pow`` or numpy's: ``x = u 2^(3q)`` exactly
-    (``frexp``/``ldexp``, u in [0.5, 4)), a cubic fit of ``u^(1/3)``, two Halley steps and a
-    Newton step, all in IEEE basic arithmetic (correctly rounded everywhere), so
-    ``batch.cbrt_array`` computes the same bits with numpy (numpy 2.4's SIMD power differs
-    from C's pow in the last bit of about 5 % of ``x ** (1/3)``). ``0``, ``inf`` and NaN map
-    to themselves."""
+    Its bits do not depend on the platform's ``pow`` or numpy's: ``x = u 8^q`` exactly (u in
+    [0.5, 4): ``frexp``'s mantissa times 2^(e - 3q), q = e // 3; found here by scaling with
+    powers of two, which is exact, without the cost of a call of ``frexp``/``ldexp``), a cubic
+    fit of ``u^(1/3)``, two Halley steps and a Newton step, all in IEEE basic arithmetic
+    (correctly rounded everywhere), then ``* 2^q`` (exact), so ``batch.cbrt_array`` computes
+    the same bits with numpy's frexp/ldexp (numpy 2.4's SIMD power differs from C's pow in the
+    last bit of about 5 % of ``x ** (1/3)``). ``0``, ``inf`` and NaN map to themselves."""
     if not 0.0 < x < math.inf:
         return x
-    m, e = math.frexp(x)
-    q = e // 3
-    u = math.ldexp(m, e - 3 * q)  # [0.5, 4)
+    u = x
+    q = 0
+    while u < _TWO_M45:  # (scaling up is exact, also from a subnormal; u stays < 8)
+        u *= _TWO48
+        q -= 16
+    while u >= _TWO48:  # (the result stays >= 1: exact)
+        u *= _TWO_M48
+        q += 16
+    while u >= 4.0:  # (stays >= 0.5)
+        u *= 0.125
+        q += 1
+    while u < 0.5:  # (stays < 4)
+        u *= 8.0
+        q -= 1
     y = _CB0 + u * (_CB1 + u * (_CB2 + u * _CB3))
     y3 = y * y * y
     y = y * (y3 + 2.0 * u) / (2.0 * y3 + u)  # Halley: 1e-2 -> 1e-6
     y3 = y * y * y
     y = y * (y3 + 2.0 * u) / (2.0 * y3 + u)  # -> rounding
     y = y + (u / (y * y) - y) / 3.0  # Newton: within one ulp
-    return math.ldexp(y, q)
+    # y * 2^q (|q| <= 359, y near 1: a normal result, every scaling exact)
+    while q >= 16:
+        y *= 65536.0
+        q -= 16
+    while q <= -16:
+        y *= 1.52587890625e-05  # 2^-16
+        q += 16
+    while q > 0:
+        y *= 2.0
+        q -= 1
+    while q < 0:
+        y *= 0.5
+        q += 1
+    return y
 
 
 def _quadratic(a: float, b: float, c: float) -> tuple[int, float, float]:

@@ -408,7 +408,7 @@ def _by_limit_bisection(
     xp, fp = xb, fb
     width = abs(xa - xb)
     since_halved = 0
-    for _ in range(80):
+    for _it in range(80):
         x_lo, x_hi = (xa, xb) if xa < xb else (xb, xa)
         x = xc - fc * (xc - xp) / (fc - fp) if fc != fp else 0.5 * (x_lo + x_hi)
         if since_halved >= 3 or not x_lo < x < x_hi:
@@ -470,7 +470,7 @@ def _dense_in_windows(
     for k in range(n - 1):
         if ok[k] != ok[k + 1]:
             a, b = xs[k], xs[k + 1]
-            for _ in range(40):
+            for _it in range(40):
                 m = 0.5 * (a + b)
                 if admissible(m) == ok[k]:
                     a = m
@@ -542,7 +542,7 @@ def _scan_family(
         if prev is not None and (prev[1] < 0.0) != (f < 0.0):
             a, b, fa = prev[0], x, prev[1]
             bracketed = True
-            for _ in range(100):
+            for _it in range(100):
                 m = 0.5 * (a + b)
                 rm = resid(m)
                 if rm is None:
@@ -886,7 +886,7 @@ def _scan_1d(
             return c
         if prev is not None and (prev[1] < 0.0) != (f < 0.0):
             a, fa, b = prev[0], prev[1], x
-            for _ in range(60):
+            for _it in range(60):
                 m = 0.5 * (a + b)
                 fm, cm = val(m)
                 if cm is None:

@@ -16,8 +16,10 @@ errors with plan's and Limits'.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Iterator
 
 import numpy as np
 import pytest
@@ -25,11 +27,38 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motionplc.planning import BatchPlan, Limits, PlanningError, Profile, State, plan, plan_batch
-from motionplc.planning.batch import _SMALL as SMALL
+from motionplc.planning import batch as batch_module
 from tests.planning._cases import Case, generate_cases
 from tests.planning._strategies import hsettings
 
 INF = math.inf
+# the row-by-row path's size in these tests (plan_batch takes it for every compiled batch and
+# for pure-Python batches of at most 64 problems; numpy_path() forces the numpy path)
+SMALL = 64
+
+
+@contextlib.contextmanager
+def numpy_path() -> Iterator[None]:
+    """plan_batch through the numpy path for every batch (the vectorised rest-to-rest closed
+    forms, core rows by batch._core_rows), as the pure-Python core plans batches of more than
+    64 problems."""
+    saved = batch_module._SMALL
+    batch_module._SMALL = 0
+    try:
+        yield
+    finally:
+        batch_module._SMALL = saved
+
+
+@contextlib.contextmanager
+def rows_path() -> Iterator[None]:
+    """plan_batch row by row for every batch (as the compiled core plans every batch)."""
+    saved = batch_module._SMALL
+    batch_module._SMALL = sys.maxsize
+    try:
+        yield
+    finally:
+        batch_module._SMALL = saved
 
 
 def _columns(cases: list[Case]) -> list[np.ndarray]:
@@ -114,14 +143,22 @@ def _row_equals_plan(b: BatchPlan, i: int, prof: Profile, *, exact: bool | None 
 
 
 def _assert_batch_equals_plan(cases: list[Case]) -> BatchPlan:
-    b = plan_batch(*_columns(cases))
-    assert len(b) == len(cases)
-    bad = []
-    for i, c in enumerate(cases):
-        why = _row_equals_plan(b, i, plan(c.start(), c.target(), c.limits()))
-        if why:
-            bad.append(f"{c.code()}: {why}")
-    assert not bad, f"{len(bad)} of {len(cases)} rows differ from plan, e.g.\n" + "\n".join(bad[:5])
+    """Every row of plan_batch is plan's, through the numpy path and row by row (the row
+    path's result is returned)."""
+    refs = [plan(c.start(), c.target(), c.limits()) for c in cases]
+    for path in (numpy_path, rows_path):
+        with path():
+            b = plan_batch(*_columns(cases))
+        assert len(b) == len(cases)
+        bad = []
+        for i, c in enumerate(cases):
+            why = _row_equals_plan(b, i, refs[i])
+            if why:
+                bad.append(f"{c.code()}: {why}")
+        assert not bad, (
+            f"{path.__name__}: {len(bad)} of {len(cases)} rows differ from plan, e.g.\n"
+            + "\n".join(bad[:5])
+        )
     return b
 
 
@@ -139,14 +176,19 @@ def _assert_rows_identical(b: BatchPlan, i: int, ref: BatchPlan, k: int) -> None
 
 
 def _assert_small_path_is_numpy_path(cases: list[Case], size: int = SMALL) -> None:
-    """plan_batch on chunks of ``size`` <= SMALL rows (plain floats) gives the rows of one
-    call on all of them (numpy) bit for bit: the same arithmetic, the same dispatch."""
-    assert len(cases) > SMALL >= size
-    wide = plan_batch(*_columns(cases))
-    for start in range(0, len(cases), size):
-        part = plan_batch(*_columns(cases[start : start + size]))
-        for k in range(len(part)):
-            _assert_rows_identical(part, k, wide, start + k)
+    """plan_batch row by row (plain floats) on chunks of ``size`` rows and on all of them
+    gives the rows of one call through the numpy path bit for bit: the same arithmetic, the
+    same dispatch."""
+    with numpy_path():
+        wide = plan_batch(*_columns(cases))
+    with rows_path():
+        whole = plan_batch(*_columns(cases))
+        for k in range(len(whole)):
+            _assert_rows_identical(whole, k, wide, k)
+        for start in range(0, len(cases), size):
+            part = plan_batch(*_columns(cases[start : start + size]))
+            for k in range(len(part)):
+                _assert_rows_identical(part, k, wide, start + k)
 
 
 # -- equality with plan ----------------------------------------------------------------------
@@ -233,7 +275,7 @@ def _edge_cases() -> list[Case]:
 
 @pytest.mark.parametrize("kind", ["symmetric", "asymmetric", "second-order", "general", "edge"])
 def test_small_batches_equal_the_numpy_path_bit_for_bit(kind: str) -> None:
-    """Batches of at most SMALL problems are planned row by row on floats: every row equals
+    """Batches planned row by row on floats (chunks of SMALL problems): every row equals
     the numpy path's (which equals plan) bit for bit, closed-form rows included."""
     rng = np.random.default_rng(1515)
     if kind == "edge":
@@ -333,11 +375,13 @@ def test_rest_to_rest_hypothesis_equals_plan(
         with pytest.raises(PlanningError):
             plan_batch(*_columns([c]))
         return
-    b = plan_batch(*_columns([c, c]))  # the small-batch path (floats)
+    with rows_path():
+        b = plan_batch(*_columns([c, c]))  # row by row (floats)
     assert _row_equals_plan(b, 1, prof) == ""
-    wide = plan_batch(*_columns([c] * (SMALL + 1)))  # the numpy path
-    assert _row_equals_plan(wide, SMALL, prof) == ""
-    _assert_rows_identical(wide, SMALL, b, 1)
+    with numpy_path():
+        wide = plan_batch(*_columns([c] * 3))
+    assert _row_equals_plan(wide, 2, prof) == ""
+    _assert_rows_identical(wide, 2, b, 1)
 
 
 def test_profile_of_a_row_is_the_row_and_plans_profile() -> None:
@@ -507,10 +551,14 @@ def test_unplannable_problems_raise_like_plan(
         plan(State(c["p0"], c["v0"], c["a0"]), State(c["pf"], c["vf"], c["af"]), lim)
 
 
-@pytest.mark.parametrize("n", [2, 2 * (SMALL + 1)])
-def test_several_failures_raise_the_same_error_small_or_numpy(n: int) -> None:
+@pytest.mark.parametrize("path", [rows_path, numpy_path])
+@pytest.mark.parametrize("n", [2, 2 * (SMALL + 1), 3 * 4096])
+def test_several_failures_raise_the_same_error_small_or_numpy(
+    n: int, path: Callable[[], contextlib.AbstractContextManager[None]]
+) -> None:
     """Row 0 (moving: the core) and row 1 (rest to rest in closed form) both last too long:
-    either path names row 1, the numpy path's order (closed-form rows first)."""
+    either path names row 1, the numpy path's order (closed-form rows first), also when the
+    rows come in chunks (batch._ROWS_CHUNK, 4096)."""
     k = n // 2
     kwargs = {
         "p0": 0.0,
@@ -523,19 +571,21 @@ def test_several_failures_raise_the_same_error_small_or_numpy(n: int) -> None:
         "a_max": INF,
         "j_max": 1e-15,
     }
-    with pytest.raises(PlanningError, match=r"^problem 1: the profile would last"):
+    with path(), pytest.raises(PlanningError, match=r"^problem 1: the profile would last"):
         plan_batch(**kwargs)  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("path", ["rows", "numpy"])
 @pytest.mark.parametrize("rest_rows", [False, True], ids=["all-core", "mixed"])
-def test_core_failure_past_the_first_chunk_names_its_problem(rest_rows: bool) -> None:
-    """The numpy path plans its core rows in chunks (batch._ROW_CHUNK): a row that fails in a
-    later chunk is named by its own problem number, in a batch of core rows only (chunk-local
-    numbers are offset) and beside rest-to-rest rows (the core rows' problem numbers)."""
-    from motionplc.planning.batch import _ROW_CHUNK
-
-    n = 3 * _ROW_CHUNK + 7
-    bad = 2 * _ROW_CHUNK + 5
+def test_core_failure_past_the_first_chunk_names_its_problem(rest_rows: bool, path: str) -> None:
+    """Both paths plan in chunks (row by row: batch._ROWS_CHUNK rows; the numpy path its core
+    rows: batch._ROW_CHUNK): a row that fails in a later chunk is named by its own problem
+    number, in a batch of core rows only (chunk-local numbers are offset) and beside
+    rest-to-rest rows (the core rows' problem numbers)."""
+    chunk = batch_module._ROWS_CHUNK if path == "rows" else batch_module._ROW_CHUNK
+    choose = rows_path if path == "rows" else numpy_path
+    n = 3 * chunk + 7
+    bad = 2 * chunk + 5
     v0 = np.full(n, 0.5)
     if rest_rows:
         v0[1::3] = 0.0  # every third row at rest: the closed forms
@@ -545,8 +595,9 @@ def test_core_failure_past_the_first_chunk_names_its_problem(rest_rows: bool) ->
     j_max = np.full(n, 5.0)
     j_max[bad] = 1e-15  # the profile lasts beyond MAX_DURATION
     kwargs = dict(p0=0.0, v0=v0, a0=0.0, vf=0.0, af=0.0, v_max=INF, a_max=INF, j_max=j_max)
-    with pytest.raises(PlanningError, match=rf"^problem {bad}: the profile would last"):
+    with choose(), pytest.raises(PlanningError, match=rf"^problem {bad}: the profile would"):
         plan_batch(pf=pf, **kwargs)  # type: ignore[arg-type]
     pf[bad] = 2.0
-    b = plan_batch(pf=pf, **kwargs)  # type: ignore[arg-type]
+    with choose():
+        b = plan_batch(pf=pf, **kwargs)  # type: ignore[arg-type]
     assert len(b) == n and (b.kind[bad] != "arrived")

@@ -7,6 +7,7 @@ for the vectorised checks)."""
 from __future__ import annotations
 
 import math
+import struct
 
 import numpy as np
 
@@ -52,7 +53,7 @@ def test_never_passes_a_rejected_row() -> None:
     passed = rejected = 0
     for _ in range(6000):
         row = _random_row(rng)
-        fast = rows_valid(*([x] for x in row))
+        fast = rows_valid(struct.pack("<11d", *row), 1)
         ok = _vectorised_ok(row)
         assert not (fast and not ok), row
         passed += fast
@@ -65,4 +66,22 @@ def test_passes_ordinary_rows() -> None:
         row = [case.p0, case.v0, case.a0, case.pf, case.vf, case.af, case.v_max, case.lo_v,
                case.a_max, case.lo_a, case.j_max]  # fmt: skip
         assert _vectorised_ok(row)
-        assert rows_valid(*([x] for x in row)), case
+        assert rows_valid(struct.pack("<11d", *row), 1), case
+
+
+def test_a_table_fails_by_its_one_bad_row_wherever_it_is() -> None:
+    """Many rows in one table: each row read at its own offset (one bad field of any row, at
+    any place, fails the table; the table itself passes)."""
+    rows = []
+    for case in generate_cases(60, 10):
+        rows.append([case.p0, case.v0, case.a0, case.pf, case.vf, case.af, case.v_max,
+                     case.lo_v, case.a_max, case.lo_a, case.j_max])  # fmt: skip
+    flat = [x for row in rows for x in row]
+    assert rows_valid(struct.pack(f"<{len(flat)}d", *flat), len(rows))
+    bad_values = (3e12, 3e12, 3e12, 3e12, 2e12, 2e12, -1.0, 1.0, INF, -INF, 0.0)
+    for k in (0, 1, 30, 59):
+        for q, bad in enumerate(bad_values):
+            broken = list(flat)
+            broken[11 * k + q] = bad
+            assert not rows_valid(struct.pack(f"<{len(flat)}d", *broken), len(rows)), (k, q)
+    assert rows_valid(struct.pack(f"<{len(flat)}d", *flat), len(rows) - 1)  # n rows only

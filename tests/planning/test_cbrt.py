@@ -53,6 +53,20 @@ def test_numpy_twin_gives_the_same_bits() -> None:
     ][:5]
 
 
+def test_every_binade_edge_gives_the_twin_bits() -> None:
+    """``cbrt`` finds x = u 8^q by scaling with powers of two (its loops switch at powers of
+    two and eight), the twin with frexp: at every power of two of the double range and the
+    doubles next to it, the same bits."""
+    edges = [math.ldexp(1.0, k) for k in range(-1074, 1024)]
+    x = np.array([y for e in edges for y in (math.nextafter(e, 0.0), e, math.nextafter(e, 9e307))])
+    x = x[np.isfinite(x) & (x > 0.0)]
+    a = cbrt_array(x)
+    s = np.array([cbrt(float(v)) for v in x])
+    assert np.array_equal(a, s), [
+        (float(v), float(p), float(q)) for v, p, q in zip(x, a, s, strict=True) if p != q
+    ][:5]
+
+
 def test_exact_cubes_and_specials() -> None:
     for k in (0.5, 1.0, 2.0, 3.0, 7.0, 1e-5, 12345.0):
         assert cbrt(k * k * k) == k
