@@ -381,6 +381,18 @@ def _row_failure(i: int, exc: Exception) -> PlanningError:
     return err
 
 
+def _states(src: bytes, o: int) -> tuple[float, float, float, float, float, float]:
+    """The start and target states (p0, v0, a0, pf, vf, af) of the row at byte ``o``."""
+    return (
+        read_f64_le(src, o),
+        read_f64_le(src, o + 8),
+        read_f64_le(src, o + 16),
+        read_f64_le(src, o + 24),
+        read_f64_le(src, o + 32),
+        read_f64_le(src, o + 40),
+    )
+
+
 def plan_rows(
     src: bytes,
     rows: int,
@@ -404,12 +416,7 @@ def plan_rows(
     for k in range(rows):  # (rows, not m: compiled, range() reads its bound per step)
         o = ROW_BYTES * k
         i = base + k
-        p0 = read_f64_le(src, o)
-        v0 = read_f64_le(src, o + 8)
-        a0 = read_f64_le(src, o + 16)
-        pf = read_f64_le(src, o + 24)
-        vf = read_f64_le(src, o + 32)
-        af = read_f64_le(src, o + 40)
+        p0, v0, a0, pf, vf, af = _states(src, o)
         vmax = read_f64_le(src, o + 48)
         vmin = read_f64_le(src, o + 56)
         amax = read_f64_le(src, o + 64)
@@ -474,12 +481,7 @@ def core_segments(
     no segment and ends at (p0, vf, af)). Raises the first failing row's PlanningError."""
     for k in range(m):
         o = ROW_BYTES * k
-        p0 = read_f64_le(src, o)
-        v0 = read_f64_le(src, o + 8)
-        a0 = read_f64_le(src, o + 16)
-        pf = read_f64_le(src, o + 24)
-        vf = read_f64_le(src, o + 32)
-        af = read_f64_le(src, o + 40)
+        p0, v0, a0, pf, vf, af = _states(src, o)
         if arrived(p0, v0, a0, pf, vf, af):
             _end_row(seg, ends, 0, p0, vf, af, 0.0)
             kinds.append("arrived")
