@@ -50,10 +50,11 @@ from motionplc.planning import (  # noqa: E402
     Profile,
     State,
     plan,
+    plan_batch,
     plan_sync,
     plan_velocity,
 )
-from tests.planning._cases import generate_cases, generate_multi_cases  # noqa: E402
+from tests.planning._cases import Case, generate_cases, generate_multi_cases  # noqa: E402
 
 SEED = 15
 N_PLAN = 4000  # position cases (plus a velocity-interface plan of each)
@@ -106,6 +107,24 @@ def random_results(seed: int, n_plan: int, n_sync: int) -> dict[str, list[Any]]:
         out["velocity"].append(_call(_velocity_bits, c))
     for m in generate_multi_cases(n_sync, seed + 4, 3):
         out["sync"].append(_call(_sync_bits, m))
+    # plan_batch of every plannable case and as many rest-to-rest ones (asymmetric limits for
+    # half): compiled row by row, as plain Python through numpy (more than 64 problems)
+    ok = [c for c, r in zip(cases, out["plan"], strict=True) if r[0] != "PlanningError"]
+    rng = np.random.default_rng(seed + 5)
+    for k in range(len(ok)):
+        p0, pf = (float(x) for x in rng.normal(0.0, 4.0, 2))
+        v, a, j = (float(x) for x in rng.uniform(0.1, 10.0, 3))
+        lo = (-float(rng.uniform(0.1, 10.0)), -float(rng.uniform(0.1, 10.0))) if k % 2 else ()
+        ok.append(Case(p0, 0.0, 0.0, pf, 0.0, 0.0, v, a, j, *lo))
+    cols = [np.array([getattr(c, f) for c in ok], dtype=float) for f in Case.__slots__[:9]]
+    lo_v = np.array([c.lo_v if c.lo_v is not None else -c.v_max for c in ok])
+    lo_a = np.array([c.lo_a if c.lo_a is not None else -c.a_max for c in ok])
+    b = plan_batch(*cols, lo_v, lo_a)
+    fields = (b.duration, b.t, b.durations, b.j, b.p, b.v, b.a, b.end_p, b.end_v, b.end_a)
+    out["batch"] = [
+        [b.kind[i], int(b.n_segments[i]), *(x[i].tobytes().hex() for x in fields)]
+        for i in range(len(b))
+    ]  # (one row per result: a difference names its problem)
     return out
 
 
