@@ -161,7 +161,7 @@ from motionplc.fieldbus.fastcan import (
     send_frame,
     service_error,
 )
-from motionplc.fieldbus.scaling import Scaling, saturate_i32
+from motionplc.fieldbus.scaling import INT32_MAX, INT32_MIN, Scaling, saturate_i32
 from motionplc.fieldbus.sdo import (
     ABORT_OBJECT_MISSING,
     ABORT_SUBINDEX_MISSING,
@@ -193,6 +193,8 @@ NMT_BOOT_UP = 0x00
 NMT_PRE_OPERATIONAL = 0x7F
 NMT_OPERATIONAL = 0x05  # canopen's NmtBase._state of "OPERATIONAL"
 _HB_OK = (True, "")
+_I32_LO = float(INT32_MIN)  # saturate_i32 returns int(round(x)) for _I32_LO < x < _I32_HI
+_I32_HI = float(INT32_MAX)
 _OE = Cia402State.OPERATION_ENABLED
 _UNKNOWN = Cia402State.UNKNOWN
 _FAULTY = (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
@@ -1457,31 +1459,44 @@ class CanopenDrive(Drive):
                 hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
         if state is _OE and enable:
-            # Scaling.position_to_counts, inlined
-            target_counts = saturate_i32(position * self._counts_per_unit + self._offset_counts)
+            # Scaling.position_to_counts, inlined; saturate_i32's own result strictly inside
+            # the range (NaN fails the test)
+            x = position * self._counts_per_unit + self._offset_counts
+            target_counts = int(round(x)) if _I32_LO < x < _I32_HI else saturate_i32(x)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
-        # the values of the RPDO objects, in _RPDO_SLOTS order
         velocity_counts = (
             saturate_i32(velocity * self._counts_per_unit) if self._needs_velocity else 0
         )
-        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
         master = self.master
         network = master.network
-        if network._batch is None and master._batch_t != t:
+        batch = network._batch
+        if batch is None and master._batch_t != t:
             # the cycle's first setpoint: its frames (RPDOs, SYNC, heartbeat) batched until
             # end_cycle steps the peer (tried once per cycle)
             master._batch_t = t
             if master.peer is not None:
                 network.begin_batch()
+                batch = network._batch
+        if batch is not None and master._exchange_now:
+            batch = None  # (send_frame delivers the batch, then sends and exchanges)
         send = network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
+        values: tuple[int, ...] | None = None
         try:
             for c in self._rpdos:
                 slots = c.slots
                 if slots == _CW_TARGET:
-                    send(make_message(c.cob_id, c.pack(cw, target_counts)), True)
+                    data = c.pack(cw, target_counts)
                 else:
-                    send(make_message(c.cob_id, c.pack(*[values[i] for i in slots])), True)
+                    if values is None:  # the values of the RPDO objects, in _RPDO_SLOTS order
+                        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
+                    data = c.pack(*[values[i] for i in slots])
+                if batch is not None:
+                    # send_frame's batch path: make_message's frame owns a copy of the bytes
+                    batch.append(make_message(c.cob_id, data))
+                    master.bus_ok = True
+                else:
+                    send(make_message(c.cob_id, data), True)
         except can.CanError:
             pass  # recorded by the master (bus-off)
         self._sync_pending = master.sync_enabled

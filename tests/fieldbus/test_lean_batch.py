@@ -521,7 +521,8 @@ def _master_rig(channel: str, batched: bool, monkeypatch: pytest.MonkeyPatch) ->
                         if i == 1 and k in (60, 61, 300):
                             continue  # no SYNC in this cycle: the frames wait for the next
                         target = 0.0 if k < 50 else 0.02 * (i + 1) * min(k - 50, 200) / 200
-                        reset = k in (270, 271)
+                        # (k 260: the first write after bus-off, drive 2 sees drive 1's send)
+                        reset = k in (270, 271) or (k == 260 and i == 1)
                         d.write_outputs(
                             t, DriveCommand(position=target, enable=True, fault_reset=reset)
                         )
@@ -586,3 +587,63 @@ def test_master_batch_only_on_the_lockstep_link() -> None:
     finally:
         master.close()
         peer.shutdown()
+
+
+ALL_FIELDS = (*FIELDS, "timestamp", "channel")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    cob_id=st.integers(0, 0x7FF),
+    values=st.lists(st.integers(-(2**15), 2**15 - 1), min_size=1, max_size=4),
+)
+def test_tpdo_message_builder_equals_make_message_of_the_frame(cob_id: int, values: list) -> None:
+    """A step's TPDO frame (``_message_builder``) is ``make_message(cob_id, frame())``."""
+    import struct
+
+    from motionplc.fieldbus.virtual_cia402 import _frame_builder, _message_builder
+
+    pack = struct.Struct("<" + "h" * len(values)).pack
+    getters = tuple((lambda v=v: v) for v in values)
+    frame = _frame_builder(pack, getters)
+    message = _message_builder(pack, getters, cob_id)
+    a, b = message(), fastcan.make_message(cob_id, frame())
+    assert type(a) is type(b) is fastcan.FastMessage
+    assert [getattr(a, f) for f in ALL_FIELDS] == [getattr(b, f) for f in ALL_FIELDS]
+    assert a.data is not message().data  # a buffer of its own per frame
+
+
+@pytest.mark.parametrize("offset", [0, 12_345])
+def test_rpdo_target_equals_saturate_i32_of_the_counts(offset: int) -> None:
+    """write_setpoint's inlined rounding of the target gives saturate_i32's counts (in and
+    out of the INT32 range, at its bounds, infinities and NaN)."""
+    import math
+    import struct
+
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.scaling import saturate_i32
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+
+    ch = _channel("rpdo")
+    rack = VirtualCanBus(can.Bus(interface="virtual", channel=ch), [VirtualCia402Drive(1)])
+    master = CanopenMaster(can.Bus(interface="virtual", channel=ch), peer=rack)
+    drive = CanopenDrive("x", master, CanopenDriveConfig(node_id=1, counts_per_unit=1000.0))
+    sent: list[can.Message] = []
+    try:
+        drive.open()
+        drive._have_feedback = True
+        drive._offset_counts = offset
+        cases = [0.0, 1.2345, -7.5e-4, 2.5e-3, 2147483.6465, 2147483.6475, -2147483.6485]
+        cases += [2147483.647, -2147483.648, 1e300, -1e300, math.inf, -math.inf, math.nan]
+        master.peer = None  # (the frames only recorded)
+        master.network.send_frame = lambda msg, owned=False: sent.append(msg)  # type: ignore
+        for k, position in enumerate(cases):
+            sent.clear()
+            drive.statusword = 0x0237  # OPERATION ENABLED
+            drive.write_setpoint(1.0 + k * 0.001, position, 0.0, 0.0, True, False)
+            (rpdo,) = [m for m in sent if m.arbitration_id == 0x201]
+            (target,) = struct.unpack_from("<i", rpdo.data, 2)
+            assert target == saturate_i32(position * 1000.0 + offset), position
+    finally:
+        master.close()
+        rack.close()
