@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import can
 from can import BusState
 
-from motionplc.fieldbus.fastcan import deliver_owned, drain, send_frame
+from motionplc.fieldbus.fastcan import deliver_owned, drain, lockstep_peer, send_frame
 
 __all__ = ["FaultInjectingBus", "FrameRecord"]
 
@@ -107,7 +107,20 @@ class FaultInjectingBus(can.BusABC):
         (no bus-off, nothing dropped, delayed or corrupted, no recording: every frame's fate
         is "ok") and the inner bus takes them at once
         (:func:`~motionplc.fieldbus.fastcan.deliver_owned`: each frame must own its data)."""
-        if (
+        if self._tx_switched() or not deliver_owned(self._inner, msgs):
+            return False
+        self._tx_count += len(msgs)
+        return True
+
+    def owned_batch_ready(self) -> bool:
+        """:meth:`send_owned_batch` of frames that own their data would be done now (no
+        transmit switch on, the inner bus the lockstep link of
+        :func:`~motionplc.fieldbus.fastcan.lockstep_peer`)."""
+        return not self._tx_switched() and lockstep_peer(self._inner) is not None
+
+    def _tx_switched(self) -> bool:
+        """A transmit switch is on (or frames are recorded): a frame's fate may not be "ok"."""
+        return bool(
             self.bus_off
             or self.drop_tx_ids
             or self.drop_tx_every
@@ -115,11 +128,7 @@ class FaultInjectingBus(can.BusABC):
             or self.corrupt_dlc_ids
             or self.delay_tx
             or self.records is not None
-            or not deliver_owned(self._inner, msgs)
-        ):
-            return False
-        self._tx_count += len(msgs)
-        return True
+        )
 
     def _send(self, msg: can.Message, timeout: float | None, owned: bool) -> None:
         if self.bus_off:

@@ -154,12 +154,14 @@ from motionplc.fieldbus.fastcan import (
     FastMessage,
     GuardedEndpoint,
     RxGuard,
+    deliver_owned,
     drain,
+    lockstep_peer,
     make_message,
     send_frame,
     service_error,
 )
-from motionplc.fieldbus.scaling import Scaling, saturate_i32
+from motionplc.fieldbus.scaling import INT32_MAX, INT32_MIN, Scaling, saturate_i32
 from motionplc.fieldbus.sdo import (
     ABORT_OBJECT_MISSING,
     ABORT_SUBINDEX_MISSING,
@@ -191,6 +193,8 @@ NMT_BOOT_UP = 0x00
 NMT_PRE_OPERATIONAL = 0x7F
 NMT_OPERATIONAL = 0x05  # canopen's NmtBase._state of "OPERATIONAL"
 _HB_OK = (True, "")
+_I32_LO = float(INT32_MIN)  # saturate_i32 returns int(round(x)) for _I32_LO < x < _I32_HI
+_I32_HI = float(INT32_MAX)
 _OE = Cia402State.OPERATION_ENABLED
 _UNKNOWN = Cia402State.UNKNOWN
 _FAULTY = (Cia402State.FAULT, Cia402State.FAULT_REACTION_ACTIVE)
@@ -331,14 +335,69 @@ class _MasterNetwork(canopen.Network):
         self._master = master
         self._owned_for: object = None  # the bus _send_owned was looked up for
         self._send_owned: Callable[[can.Message], None] | None = None
+        # owned frames sent since begin_batch, delivered in order by end_batch
+        self._batch: list[can.Message] | None = None
+
+    def begin_batch(self) -> None:
+        """From now until :meth:`end_batch`, owned frames are collected (each with a data
+        buffer of its own, taken at its send) and delivered in order by :meth:`end_batch`,
+        at once, with one time stamp: only while that delivery cannot fail and nothing can
+        tell the difference, i.e. the bus is the lockstep link to the in-process peer
+        (``fastcan.lockstep_peer``: no third bus on the channel), behind a
+        ``FaultInjectingBus`` only while no transmit switch is on. The master opens a batch at
+        a cycle's first setpoint and ends it before it steps the peer (which alone reads the
+        peer's queue), so the peer receives the same frames in the same order."""
+        if self._batch is not None:
+            return
+        bus = self.bus
+        if isinstance(bus, FaultInjectingBus):
+            ready = bus.owned_batch_ready()
+        else:
+            ready = lockstep_peer(bus) is not None
+        if ready:
+            self._batch = []
+
+    def end_batch(self) -> None:
+        """Deliver the frames collected since :meth:`begin_batch`, in order: at once, or (if
+        the link changed in between, so that it cannot) each as :meth:`send_frame` sends an
+        owned frame, send errors recorded by the master as they are there."""
+        batch = self._batch
+        if batch is None:
+            return
+        self._batch = None
+        if not batch:
+            return
+        bus = self.bus
+        with self.send_lock:
+            if isinstance(bus, FaultInjectingBus):
+                done = bus.send_owned_batch(batch)
+            else:
+                done = deliver_owned(bus, batch)
+        if done:
+            return
+        for msg in batch:
+            try:
+                self.send_frame(msg, owned=True)
+            except can.CanError:
+                pass  # recorded by the master (bus-off)
 
     def send_message(self, can_id: int, data: bytes, remote: bool = False) -> None:
         self.send_frame(make_message(can_id, data, remote), owned=True)
 
     def send_frame(self, msg: can.Message, owned: bool = False) -> None:
         """Send ``msg``; ``owned``: built for this send, never used again by the caller
-        (handed to the receiver instead of copied, see ``fastcan.send_frame``)."""
+        (handed to the receiver instead of copied, see ``fastcan.send_frame``). In a batch
+        (:meth:`begin_batch`) an owned frame is collected, any other send delivers the batch
+        first."""
         master = self._master
+        batch = self._batch
+        if batch is not None:
+            if owned and not master._exchange_now:
+                msg.data = bytearray(msg.data)  # (as the owned send gives it to the peer)
+                batch.append(msg)
+                master.bus_ok = True  # (the delivery cannot fail)
+                return
+            self.end_batch()
         try:
             with self.send_lock:
                 bus = self.bus
@@ -409,6 +468,7 @@ class CanopenMaster(GuardedEndpoint):
         self._pumped_t: float | None = None
         self._written: set[int] = set()
         self._written_t: float | None = None
+        self._batch_t: float | None = None  # the cycle time of the last begin_batch
         self._next_hb_t: float | None = None
         self._exchange_now = False
         self._in_setup = False  # LSS responses are accepted only during run_setup
@@ -433,6 +493,7 @@ class CanopenMaster(GuardedEndpoint):
         self.bus_ok = True
 
     def _exchange(self) -> None:
+        self.network.end_batch()
         if self.peer is not None:
             self.peer.step(self.t)
         self._drain(self.t)
@@ -504,6 +565,7 @@ class CanopenMaster(GuardedEndpoint):
             return
         self._pumped_t = t
         self.t = t
+        self.network.end_batch()  # (a cycle whose SYNC was not sent: its frames go first)
         tick = getattr(self.bus, "tick", None)
         if tick is not None:
             tick()
@@ -538,6 +600,7 @@ class CanopenMaster(GuardedEndpoint):
         for drive in self.drives:
             if drive.config.guard_time > 0:
                 drive._guard(t)
+        self.network.end_batch()  # the cycle's frames, before the peer reads them
         if self.peer is not None:
             self.peer.step(t)
         elif not self.realtime:
@@ -600,6 +663,7 @@ class CanopenMaster(GuardedEndpoint):
             self._in_setup = False
 
     def close(self) -> None:
+        self.network.end_batch()
         for drive in list(self.drives):
             drive.close()
         self.bus.shutdown()
@@ -1395,24 +1459,44 @@ class CanopenDrive(Drive):
                 hm.run_from = self._tpdo_count  # statuswords from the next TPDO on count
         self.controlword = cw
         if state is _OE and enable:
-            # Scaling.position_to_counts, inlined
-            target_counts = saturate_i32(position * self._counts_per_unit + self._offset_counts)
+            # Scaling.position_to_counts, inlined; saturate_i32's own result strictly inside
+            # the range (NaN fails the test)
+            x = position * self._counts_per_unit + self._offset_counts
+            target_counts = int(round(x)) if _I32_LO < x < _I32_HI else saturate_i32(x)
         else:
             target_counts = self.position_counts  # follow the actual position while disabled
-        # the values of the RPDO objects, in _RPDO_SLOTS order
         velocity_counts = (
             saturate_i32(velocity * self._counts_per_unit) if self._needs_velocity else 0
         )
-        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
         master = self.master
-        send = master.network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
+        network = master.network
+        batch = network._batch
+        if batch is None and master._batch_t != t:
+            # the cycle's first setpoint: its frames (RPDOs, SYNC, heartbeat) batched until
+            # end_cycle steps the peer (tried once per cycle)
+            master._batch_t = t
+            if master.peer is not None:
+                network.begin_batch()
+                batch = network._batch
+        if batch is not None and master._exchange_now:
+            batch = None  # (send_frame delivers the batch, then sends and exchanges)
+        send = network.send_frame  # (CanopenMaster.send_pdo: send_message, owned)
+        values: tuple[int, ...] | None = None
         try:
             for c in self._rpdos:
                 slots = c.slots
                 if slots == _CW_TARGET:
-                    send(make_message(c.cob_id, c.pack(cw, target_counts)), True)
+                    data = c.pack(cw, target_counts)
                 else:
-                    send(make_message(c.cob_id, c.pack(*[values[i] for i in slots])), True)
+                    if values is None:  # the values of the RPDO objects, in _RPDO_SLOTS order
+                        values = (cw, target_counts, 0, self._cyclic_mode, velocity_counts)
+                    data = c.pack(*[values[i] for i in slots])
+                if batch is not None:
+                    # send_frame's batch path: make_message's frame owns a copy of the bytes
+                    batch.append(make_message(c.cob_id, data))
+                    master.bus_ok = True
+                else:
+                    send(make_message(c.cob_id, data), True)
         except can.CanError:
             pass  # recorded by the master (bus-off)
         self._sync_pending = master.sync_enabled

@@ -74,6 +74,7 @@ __all__ = [
     "deliver_owned",
     "drain",
     "frame_error",
+    "lockstep_peer",
     "make_message",
     "send_frame",
     "service_error",
@@ -199,14 +200,8 @@ def deliver_owned(bus: can.BusABC, msgs: Sequence[can.Message]) -> bool:
     one time stamp for the frames delivered together), appended in order under one lock.
     Such a delivery cannot fail. Otherwise (another bus on the channel, a bounded queue, a
     closed bus, ...) the caller sends them one by one, with their own errors."""
-    if type(bus) is not VirtualBus or not bus._open or bus.receive_own_messages:
-        return False
-    channel = bus.channel
-    if len(channel) != 2:
-        return False
-    own = bus.queue
-    peer = channel[1] if channel[0] is own else channel[0] if channel[1] is own else None
-    if peer is None or peer.maxsize > 0 or type(peer) is not queue.Queue:
+    peer = lockstep_peer(bus)
+    if peer is None:
         return False
     for msg in msgs:
         if type(msg) is not FastMessage:
@@ -228,6 +223,23 @@ def deliver_owned(bus: can.BusABC, msgs: Sequence[can.Message]) -> bool:
         if peer.not_empty._waiters:  # recv()s waiting (threads only): one wake-up per frame
             peer.not_empty.notify(len(msgs))
     return True
+
+
+def lockstep_peer(bus: can.BusABC) -> queue.Queue | None:
+    """The queue :func:`deliver_owned` delivers to (the lockstep link's one peer), or None
+    where it declines whatever the frames: ``bus`` not an open python-can ``VirtualBus``
+    (exactly that class), receiving its own messages, not alone on its channel with one
+    peer, or the peer's queue bounded or not a plain ``queue.Queue``."""
+    if type(bus) is not VirtualBus or not bus._open or bus.receive_own_messages:
+        return None
+    channel = bus.channel
+    if len(channel) != 2:
+        return None
+    own = bus.queue
+    peer = channel[1] if channel[0] is own else channel[0] if channel[1] is own else None
+    if peer is None or peer.maxsize > 0 or type(peer) is not queue.Queue:
+        return None
+    return peer
 
 
 def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> FastMessage:

@@ -61,6 +61,7 @@ from motionplc.fieldbus.can_faults import FaultInjectingBus
 from motionplc.fieldbus.cia402 import HomingSwitches, OperationMode
 from motionplc.fieldbus.fastcan import (
     DEFAULT_MAX_FRAMES,
+    FastMessage,
     GuardedEndpoint,
     RxGuard,
     drain,
@@ -93,6 +94,7 @@ _KEY_CONTROLWORD = (0x6040, 0)
 _KEY_TARGET = (0x607A, 0)
 _KEY_OFFSET = (0x60B1, 0)
 SDO_MAX_SEGMENTED = 1024  # [bytes] largest segmented download accepted (the OD has no more)
+_new = object.__new__
 
 
 # objects a TPDO can carry -> field of DeviceSnapshot
@@ -267,6 +269,40 @@ def _frame_builder(
     return many
 
 
+def _message_builder(
+    pack: Callable[..., bytes], values: tuple[Callable[[], int], ...], cob_id: int
+) -> Callable[[], FastMessage]:
+    """The frame of one TPDO as a step collects it, ``make_message(cob_id, frame())`` of
+    :func:`_frame_builder`'s ``frame``, in one call for the usual one or two mapped objects
+    (make_message's fields set here: the same values; a frame of its own data buffer)."""
+    frame = _frame_builder(pack, values)
+    if len(values) > 2:
+        return lambda: make_message(cob_id, frame())
+    extended = cob_id > 0x7FF
+    first = values[0]
+    second = values[-1]
+    one = len(values) == 1
+
+    def message() -> FastMessage:
+        data = bytearray(pack(first()) if one else pack(first(), second()))
+        msg = _new(FastMessage)
+        msg.timestamp = 0.0
+        msg.arbitration_id = cob_id
+        msg.is_extended_id = extended
+        msg.is_remote_frame = False
+        msg.is_error_frame = False
+        msg.channel = None
+        msg.is_fd = False
+        msg.is_rx = True
+        msg.bitrate_switch = False
+        msg.error_state_indicator = False
+        msg.data = data
+        msg.dlc = len(data)
+        return msg
+
+    return message
+
+
 class VirtualCia402Drive:
     """One virtual CiA 402 drive (node ``node_id``), attached to a :class:`VirtualCanBus`."""
 
@@ -343,8 +379,9 @@ class VirtualCia402Drive:
         self._tpdo_codecs = [
             PdoCodec(m) for m in self.node.tpdo.map.values() if m.enabled and m.map
         ]
-        # per TPDO: (pack of the values, COB-ID, transmission type, per mapped object the
-        # function giving its live value: a snapshot field's getter, 0 for any other object)
+        # per TPDO: (its data from the live values of the objects it maps, COB-ID,
+        # transmission type, its frame as a step collects it); per mapped object the function
+        # giving its live value: a snapshot field's getter, 0 for any other object
         getters = self.device.field_getters()
         self._tpdo_plan = []
         for codec in self._tpdo_codecs:
@@ -354,7 +391,10 @@ class VirtualCia402Drive:
             if pack is None:  # not byte-aligned: canopen's variables encode it
                 pack = _packer(codec)
             tt = codec.pdo_map.trans_type or 1
-            self._tpdo_plan.append((_frame_builder(pack, values), codec.pdo_map.cob_id, tt))
+            cob_id = codec.pdo_map.cob_id
+            self._tpdo_plan.append(
+                (_frame_builder(pack, values), cob_id, tt, _message_builder(pack, values, cob_id))
+            )
         if self.on_rx_table_changed is not None:
             self.on_rx_table_changed()
 
@@ -609,17 +649,17 @@ class VirtualCia402Drive:
         network = self.network
         assert network is not None
         batch = network._batch
-        if batch is not None:  # in a step: collected (make_message copies the packed bytes)
-            for frame, cob_id, tt in self._tpdo_plan:
+        if batch is not None:  # in a step: collected (each frame with its own data buffer)
+            for _, _, tt, message in self._tpdo_plan:
                 if 1 <= tt <= 240 and self._sync_count % tt:
                     continue
-                batch.append(make_message(cob_id, frame()))
+                batch.append(message())
             return
         send: Callable[[int, bytes], None] | None = network.send_message
         send_owned = network._send_owned
         if network.bus is network._owned_for and send_owned is not None:
             send = None  # network.send_message's owned hand-over, without its call per frame
-        for frame, cob_id, tt in self._tpdo_plan:
+        for frame, cob_id, tt, _ in self._tpdo_plan:
             if 1 <= tt <= 240 and self._sync_count % tt:
                 continue
             if send is not None:

@@ -453,3 +453,197 @@ def test_a_drive_overriding_write_outputs_gets_its_command() -> None:
     finally:
         rt.close()
         master.close()
+
+
+def _master_rig(channel: str, batched: bool, monkeypatch: pytest.MonkeyPatch) -> tuple:
+    """Two master drives (behind a ``FaultInjectingBus``) and two virtual drives in lockstep
+    for 400 cycles with the master's transmit switches flipped (drops, a delay, a cut DLC,
+    recording, bus-off and its reset), cycles whose SYNC is not sent (a drive not written)
+    and a master without the wrapper: every frame the drives received (in order), the
+    feedback of every cycle and the master's counters. ``batched`` False: every frame of the
+    master delivered at its send (``_MasterNetwork.begin_batch`` a no-op)."""
+    from motionplc.fieldbus import virtual_cia402
+    from motionplc.fieldbus.base import DriveCommand
+    from motionplc.fieldbus.canopen_drive import (
+        CanopenDrive,
+        CanopenDriveConfig,
+        CanopenMaster,
+        _MasterNetwork,
+    )
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+
+    out = []
+    for wrapped in (True, False):
+        received: list[tuple] = []
+
+        def recording_drain(bus: can.BusABC, received: list = received) -> list[can.Message]:
+            frames = fastcan.drain(bus)
+            received.extend(_fields(m) for m in frames)
+            return frames
+
+        with monkeypatch.context() as mp:
+            mp.setattr(virtual_cia402, "drain", recording_drain)
+            if not batched:
+                mp.setattr(_MasterNetwork, "begin_batch", lambda self: None)
+            ch = f"{channel}-{wrapped}"
+            rack = VirtualCanBus(
+                can.Bus(interface="virtual", channel=ch),
+                [VirtualCia402Drive(n) for n in (1, 2)],
+            )
+            inner = can.Bus(interface="virtual", channel=ch)
+            bus = FaultInjectingBus(inner) if wrapped else inner
+            master = CanopenMaster(bus, peer=rack, heartbeat_period=0.01)
+            try:
+                drives = [
+                    CanopenDrive(f"ax{n}", master, CanopenDriveConfig(node_id=n)) for n in (1, 2)
+                ]
+                for d in drives:
+                    d.open()
+                log = []
+                for k in range(400):
+                    t = k * 0.001
+                    if wrapped:
+                        bus.drop_tx_every = 7 if 100 <= k < 110 else 0
+                        if k == 120:
+                            bus.delay_tx[0x201] = 2
+                        elif k == 125:
+                            bus.delay_tx.clear()
+                            bus.corrupt_dlc_ids.add(0x202)
+                        elif k == 130:
+                            bus.corrupt_dlc_ids.clear()
+                            bus.records = []
+                        elif k == 135:
+                            bus.records = None
+                        bus.bus_off = 250 <= k < 260
+                    fbs = [d.read_inputs(t) for d in drives]
+                    log.append(tuple(dataclasses.astuple(fb) for fb in fbs))
+                    for i, d in enumerate(drives):
+                        if i == 1 and k in (60, 61, 300):
+                            continue  # no SYNC in this cycle: the frames wait for the next
+                        target = 0.0 if k < 50 else 0.02 * (i + 1) * min(k - 50, 200) / 200
+                        # (k 260: the first write after bus-off, drive 2 sees drive 1's send)
+                        reset = k in (270, 271) or (k == 260 and i == 1)
+                        d.write_outputs(
+                            t, DriveCommand(position=target, enable=True, fault_reset=reset)
+                        )
+                    log.append((master.bus_ok, master.bus_fault_latched, master.sync_sent))
+                out.append((received, log, bus._tx_count if wrapped else None))
+            finally:
+                master.close()
+                rack.close()
+    return tuple(out)
+
+
+def test_master_batch_delivers_what_frame_by_frame_sends_deliver(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    batched = _master_rig(_channel("master"), True, monkeypatch)
+    plain = _master_rig(_channel("master"), False, monkeypatch)
+    for rig in batched:
+        assert len(rig[0]) > 400 * 3  # RPDOs and a SYNC per cycle at least
+    assert batched == plain
+    wrapped_log = batched[0][1]
+    assert any(entry[1] for entry in wrapped_log[1::2])  # the bus-off was latched ...
+    assert not wrapped_log[-1][1]  # ... and reset
+
+
+def test_master_batch_only_on_the_lockstep_link() -> None:
+    """A batch is opened only where its delivery cannot fail: not with a third bus on the
+    channel, nor while a transmit switch of the wrapper is on; a non-owned send delivers the
+    batch first."""
+    from motionplc.fieldbus.canopen_drive import CanopenMaster
+
+    ch = _channel("lockstep")
+    peer = can.Bus(interface="virtual", channel=ch)
+    inner = can.Bus(interface="virtual", channel=ch)
+    bus = FaultInjectingBus(inner)
+    master = CanopenMaster(bus)
+    net = master.network
+    try:
+        net.begin_batch()
+        assert net._batch == []
+        net.send_message(0x201, b"\x01\x02")
+        net.send_message(0x202, bytearray(b"\x03"))
+        assert fastcan.drain(peer) == []  # collected
+        net.send_frame(can.Message(arbitration_id=0x203, is_extended_id=False, data=b"\x04"))
+        assert net._batch is None
+        got = fastcan.drain(peer)
+        assert [(m.arbitration_id, bytes(m.data)) for m in got] == [
+            (0x201, b"\x01\x02"),
+            (0x202, b"\x03"),
+            (0x203, b"\x04"),
+        ]
+        bus.drop_tx_ids.add(0x7FF)
+        net.begin_batch()
+        assert net._batch is None  # a transmit switch is on
+        bus.drop_tx_ids.clear()
+        sniffer = can.Bus(interface="virtual", channel=ch)
+        net.begin_batch()
+        assert net._batch is None  # a third bus on the channel
+        sniffer.shutdown()
+        net.begin_batch()
+        assert net._batch == []
+        net.end_batch()
+    finally:
+        master.close()
+        peer.shutdown()
+
+
+ALL_FIELDS = (*FIELDS, "timestamp", "channel")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    cob_id=st.integers(0, 0x7FF),
+    values=st.lists(st.integers(-(2**15), 2**15 - 1), min_size=1, max_size=4),
+)
+def test_tpdo_message_builder_equals_make_message_of_the_frame(cob_id: int, values: list) -> None:
+    """A step's TPDO frame (``_message_builder``) is ``make_message(cob_id, frame())``."""
+    import struct
+
+    from motionplc.fieldbus.virtual_cia402 import _frame_builder, _message_builder
+
+    pack = struct.Struct("<" + "h" * len(values)).pack
+    getters = tuple((lambda v=v: v) for v in values)
+    frame = _frame_builder(pack, getters)
+    message = _message_builder(pack, getters, cob_id)
+    a, b = message(), fastcan.make_message(cob_id, frame())
+    assert type(a) is type(b) is fastcan.FastMessage
+    assert [getattr(a, f) for f in ALL_FIELDS] == [getattr(b, f) for f in ALL_FIELDS]
+    assert a.data is not message().data  # a buffer of its own per frame
+
+
+@pytest.mark.parametrize("offset", [0, 12_345])
+def test_rpdo_target_equals_saturate_i32_of_the_counts(offset: int) -> None:
+    """write_setpoint's inlined rounding of the target gives saturate_i32's counts (in and
+    out of the INT32 range, at its bounds, infinities and NaN)."""
+    import math
+    import struct
+
+    from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
+    from motionplc.fieldbus.scaling import saturate_i32
+    from motionplc.fieldbus.virtual_cia402 import VirtualCanBus, VirtualCia402Drive
+
+    ch = _channel("rpdo")
+    rack = VirtualCanBus(can.Bus(interface="virtual", channel=ch), [VirtualCia402Drive(1)])
+    master = CanopenMaster(can.Bus(interface="virtual", channel=ch), peer=rack)
+    drive = CanopenDrive("x", master, CanopenDriveConfig(node_id=1, counts_per_unit=1000.0))
+    sent: list[can.Message] = []
+    try:
+        drive.open()
+        drive._have_feedback = True
+        drive._offset_counts = offset
+        cases = [0.0, 1.2345, -7.5e-4, 2.5e-3, 2147483.6465, 2147483.6475, -2147483.6485]
+        cases += [2147483.647, -2147483.648, 1e300, -1e300, math.inf, -math.inf, math.nan]
+        master.peer = None  # (the frames only recorded)
+        master.network.send_frame = lambda msg, owned=False: sent.append(msg)  # type: ignore
+        for k, position in enumerate(cases):
+            sent.clear()
+            drive.statusword = 0x0237  # OPERATION ENABLED
+            drive.write_setpoint(1.0 + k * 0.001, position, 0.0, 0.0, True, False)
+            (rpdo,) = [m for m in sent if m.arbitration_id == 0x201]
+            (target,) = struct.unpack_from("<i", rpdo.data, 2)
+            assert target == saturate_i32(position * 1000.0 + offset), position
+    finally:
+        master.close()
+        rack.close()
