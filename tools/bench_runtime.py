@@ -339,6 +339,14 @@ def against(
             for _ in range(repeats):
                 _, old_cpu, old_core = _child(base, n, cycles, base_calls, drives)
                 _, new_cpu, new_core = _child(here, n, cycles, calls, drives)
+                if old_core.startswith("compiled") != new_core.startswith("compiled"):
+                    raise SystemExit(
+                        f"bench_runtime --against: the two sides run different cores ({ref}: "
+                        f"{old_core}; this checkout: {new_core}): the ratio would compare "
+                        "compiled code with pure Python. With --base-build the worktree is "
+                        "compiled by this interpreter's mypy (install mypy>=2.4 into it: it "
+                        "is a build requirement only, absent from an ordinary venv)"
+                    )
                 old_r.append(old_cpu)
                 new_r.append(new_cpu)
                 cores.add((old_core, new_core))

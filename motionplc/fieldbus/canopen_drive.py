@@ -346,7 +346,10 @@ class _MasterNetwork(canopen.Network):
         (``fastcan.lockstep_peer``: no third bus on the channel), behind a
         ``FaultInjectingBus`` only while no transmit switch is on. The master opens a batch at
         a cycle's first setpoint and ends it before it steps the peer (which alone reads the
-        peer's queue), so the peer receives the same frames in the same order."""
+        peer's queue), so the peer receives the same frames in the same order. Every send of
+        the master's own goes through this network (which delivers an open batch first); a
+        frame put on the master's python-can bus directly (``bus.send``) while a batch is open
+        would overtake the batched ones: nothing in the package does that."""
         if self._batch is not None:
             return
         bus = self.bus
