@@ -42,6 +42,7 @@ COMPILED_MODULES = (
     "motionplc.planning._brake",
     "motionplc.planning._third",
     "motionplc.planning.profile",
+    "motionplc.planning.trajectory",
     "motionplc.planning.plan",
     "motionplc.planning._fixed",
     "motionplc.planning.sync",

@@ -43,14 +43,15 @@ class Trajectory:
         note: str = "",
         independent_min_durations: Sequence[float] = (),
     ) -> None:
-        setattr_ = object.__setattr__
-        profiles = tuple(profiles)
-        setattr_(self, "profiles", profiles)
-        # a list, not a generator (plan_sync builds one per call: ~5 % of a 3-axis plan)
-        setattr_(self, "duration", max([p.duration for p in profiles], default=0.0))
-        setattr_(self, "sync", sync)
-        setattr_(self, "note", note)
-        setattr_(self, "independent_min_durations", tuple(independent_min_durations))
+        # object.__setattr__ spelled out: the compiled build (a native class, as Profile) turns
+        # these into direct stores
+        profs = tuple(profiles)
+        object.__setattr__(self, "profiles", profs)
+        # a list, not a generator (plan_sync builds one per call)
+        object.__setattr__(self, "duration", max([p.duration for p in profs], default=0.0))
+        object.__setattr__(self, "sync", sync)
+        object.__setattr__(self, "note", note)
+        object.__setattr__(self, "independent_min_durations", tuple(independent_min_durations))
 
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError("Trajectory is immutable")
