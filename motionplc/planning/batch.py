@@ -1165,9 +1165,10 @@ def _core_rows(
     """The numpy path's rows for the core (none that the rest-to-rest closed forms solve;
     ``arrs``: p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max; ``index``: their
     problem numbers, None for 0, 1, ...), planned and integrated by
-    :func:`_batchrow.core_segments` (compiled with the core: :func:`_batchrow.plan_rows`'
-    arithmetic, so the same bits as :func:`plan`) ``_ROW_CHUNK`` rows at a time, their
-    inputs and segments passed as little-endian doubles. Returns (the six (m, width) segment
+    :func:`_batchrow.core_segments` (:func:`_batchrow.plan_rows`' arithmetic, so the same
+    bits as :func:`plan`) ``_ROW_CHUNK`` rows at a time, their inputs and segments passed as
+    little-endian doubles. (The numpy path is the pure-Python core's beyond 64 problems; the
+    compiled core plans every batch row by row.) Returns (the six (m, width) segment
     arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,) duration, the
     segment counts, the kinds). Raises the first failing row's error."""
     m = arrs[0].shape[0]
