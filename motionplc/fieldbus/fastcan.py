@@ -262,6 +262,12 @@ def make_message(can_id: int, data: bytes | bytearray, remote: bool = False) -> 
             is_remote_frame=remote,
             check=False,
         )
+    return owned_frame(can_id, frame, remote)
+
+
+def owned_frame(can_id: int, frame: bytearray, remote: bool = False) -> FastMessage:
+    """:func:`make_message` for a ``frame`` the caller built for it (a ``bytearray`` of its
+    own, taken as the message's data): the fields set directly."""
     msg = _new(FastMessage)
     msg.timestamp = 0.0
     msg.arbitration_id = can_id

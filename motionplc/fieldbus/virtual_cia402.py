@@ -66,6 +66,7 @@ from motionplc.fieldbus.fastcan import (
     RxGuard,
     drain,
     make_message,
+    owned_frame,
     service_error,
 )
 from motionplc.fieldbus.pdo_codec import PdoCodec
@@ -94,7 +95,6 @@ _KEY_CONTROLWORD = (0x6040, 0)
 _KEY_TARGET = (0x607A, 0)
 _KEY_OFFSET = (0x60B1, 0)
 SDO_MAX_SEGMENTED = 1024  # [bytes] largest segmented download accepted (the OD has no more)
-_new = object.__new__
 
 
 # objects a TPDO can carry -> field of DeviceSnapshot
@@ -274,31 +274,16 @@ def _message_builder(
 ) -> Callable[[], FastMessage]:
     """The frame of one TPDO as a step collects it, ``make_message(cob_id, frame())`` of
     :func:`_frame_builder`'s ``frame``, in one call for the usual one or two mapped objects
-    (make_message's fields set here: the same values; a frame of its own data buffer)."""
+    (``fastcan.owned_frame`` of a data buffer of its own)."""
     frame = _frame_builder(pack, values)
     if len(values) > 2:
         return lambda: make_message(cob_id, frame())
-    extended = cob_id > 0x7FF
     first = values[0]
     second = values[-1]
     one = len(values) == 1
 
     def message() -> FastMessage:
-        data = bytearray(pack(first()) if one else pack(first(), second()))
-        msg = _new(FastMessage)
-        msg.timestamp = 0.0
-        msg.arbitration_id = cob_id
-        msg.is_extended_id = extended
-        msg.is_remote_frame = False
-        msg.is_error_frame = False
-        msg.channel = None
-        msg.is_fd = False
-        msg.is_rx = True
-        msg.bitrate_switch = False
-        msg.error_state_indicator = False
-        msg.data = data
-        msg.dlc = len(data)
-        return msg
+        return owned_frame(cob_id, bytearray(pack(first()) if one else pack(first(), second())))
 
     return message
 

@@ -51,6 +51,17 @@ def _fields(msg: can.Message) -> tuple[object, ...]:
     return tuple(getattr(msg, f) for f in FIELDS)
 
 
+def _record_drain(mp: pytest.MonkeyPatch, module: object, received: list[tuple]) -> None:
+    """``module.drain`` replaced by fastcan's drain that also records every frame's fields."""
+
+    def recording_drain(bus: can.BusABC) -> list[can.Message]:
+        frames = fastcan.drain(bus)
+        received.extend(_fields(m) for m in frames)
+        return frames
+
+    mp.setattr(module, "drain", recording_drain)
+
+
 def _build(frames: list[tuple[int, bytes, bool]]) -> list[can.Message]:
     return [fastcan.make_message(can_id, data, remote) for can_id, data, remote in frames]
 
@@ -229,14 +240,8 @@ def _rig(channel: str, batched: bool, monkeypatch: pytest.MonkeyPatch) -> tuple:
     )
 
     received: list[tuple] = []
-
-    def recording_drain(bus: can.BusABC) -> list[can.Message]:
-        frames = fastcan.drain(bus)
-        received.extend(_fields(m) for m in frames)
-        return frames
-
     with monkeypatch.context() as mp:
-        mp.setattr(canopen_drive, "drain", recording_drain)
+        _record_drain(mp, canopen_drive, received)
         if not batched:  # every frame delivered at its send
             mp.setattr(SimulatedTimeNetwork, "begin_batch", lambda self: None)
         rack = VirtualCanBus(
@@ -321,14 +326,8 @@ def _runtime_rig(channel: str, shortcut: bool, monkeypatch: pytest.MonkeyPatch) 
     from motionplc.runtime import Runtime
 
     received: list[tuple] = []
-
-    def recording_drain(bus: can.BusABC) -> list[can.Message]:
-        frames = fastcan.drain(bus)
-        received.extend(_fields(m) for m in frames)
-        return frames
-
     with monkeypatch.context() as mp:
-        mp.setattr(canopen_drive, "drain", recording_drain)
+        _record_drain(mp, canopen_drive, received)
         rack = VirtualCanBus(
             can.Bus(interface="virtual", channel=channel),
             [VirtualCia402Drive(n) for n in (1, 2)],
@@ -475,14 +474,8 @@ def _master_rig(channel: str, batched: bool, monkeypatch: pytest.MonkeyPatch) ->
     out = []
     for wrapped in (True, False):
         received: list[tuple] = []
-
-        def recording_drain(bus: can.BusABC, received: list = received) -> list[can.Message]:
-            frames = fastcan.drain(bus)
-            received.extend(_fields(m) for m in frames)
-            return frames
-
         with monkeypatch.context() as mp:
-            mp.setattr(virtual_cia402, "drain", recording_drain)
+            _record_drain(mp, virtual_cia402, received)
             if not batched:
                 mp.setattr(_MasterNetwork, "begin_batch", lambda self: None)
             ch = f"{channel}-{wrapped}"
