@@ -61,6 +61,7 @@ from motionplc.planning._batchrow import (
     FIRST,
     KIND_NAMES,
     NONE,
+    ROW_BYTES,
     SECOND,
     VEL,
     BytesWriter,
@@ -839,10 +840,10 @@ _COMPILED_ROWS = not str(getattr(_batchrow, "__file__", "")).endswith(".py")
 _SMALL = sys.maxsize if _COMPILED_ROWS else 64
 
 
-def _plan_small(table: np.ndarray) -> BatchPlan:
-    """plan_batch for the validated problems of ``table`` (:func:`_row_table`), row by row
-    on floats (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
-    out, e, cnt, kinds = _rows(table)
+def _plan_small(chunks: list[bytes], n: int) -> BatchPlan:
+    """plan_batch for ``n`` validated problems given as :func:`_row_chunks`, row by row on
+    floats (:func:`_batchrow.plan_rows`: the numpy path's dispatch and arithmetic)."""
+    out, e, cnt, kinds = _rows(chunks, n)
     return BatchPlan(
         out[:, :, 0], out[:, :, 1], out[:, :, 2], out[:, :, 3], out[:, :, 4], out[:, :, 5],
         cnt, e[:, 3], (e[:, 0], e[:, 1], e[:, 2]), kinds,
@@ -852,37 +853,52 @@ def _plan_small(table: np.ndarray) -> BatchPlan:
 _ROWS_CHUNK = 4096  # rows planned between two copies out of the byte writers (cache-sized)
 
 
-def _rows(table: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """:func:`_batchrow.plan_rows` for the rows of ``table`` (:func:`_row_table`) as arrays,
-    ``_ROWS_CHUNK`` rows at a time: (n, width, 6) segments (start time, duration, jerk, p, v,
-    a; padded with the duration, 0, 0 and the end state; width >= MIN_WIDTH), (n, 5) end
-    state, duration and segment count, (n,) segment counts, kinds. Raises the first failure
-    in the numpy path's order."""
-    n = table.shape[0]
+def _row_chunks(table: np.ndarray) -> list[bytes]:
+    """The rows of ``table`` (:func:`_row_table`) as bytes, ``_ROWS_CHUNK`` rows a piece."""
+    return [table[s : s + _ROWS_CHUNK].tobytes() for s in range(0, table.shape[0], _ROWS_CHUNK)]
+
+
+def _rows(chunks: list[bytes], n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """:func:`_batchrow.plan_rows` for the ``n`` rows of ``chunks`` (:func:`_row_chunks`) as
+    arrays, a chunk at a time (the byte writers reused: their bytes stay in the cache): (n,
+    width, 6) segments (start time, duration, jerk, p, v, a; padded with the duration, 0, 0
+    and the end state; width >= MIN_WIDTH), (n, 5) end state, duration and segment count,
+    (n,) segment counts, kinds. Raises the first failure in the numpy path's order."""
     seg, ends, wide = BytesWriter(), BytesWriter(), BytesWriter()
     wide_rows: list[int] = []
     kinds: list[str] = []
     errors: list[PlanningError | None] = [None, None, None]
-    if n <= _ROWS_CHUNK:
-        plan_rows(table.tobytes(), n, 0, seg, ends, wide, wide_rows, kinds, errors)
+    if len(chunks) == 1:  # the writers' bytes are the arrays (no copy)
+        plan_rows(chunks[0], n, 0, seg, ends, wide, wide_rows, kinds, errors)
         _raise_first(errors)
         rec = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
         e = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
-    else:  # the writers reused per chunk: their bytes stay in the cache, no growth
+    else:
         rec = _block(n * MIN_WIDTH * 6).reshape(n, MIN_WIDTH, 6)
         e = np.empty((n, 5))
-        for s in range(0, n, _ROWS_CHUNK):
+        for k, src in enumerate(chunks):
+            s = k * _ROWS_CHUNK
             stop = min(s + _ROWS_CHUNK, n)
-            src = table[s:stop].tobytes()
             plan_rows(src, stop - s, s, seg, ends, wide, wide_rows, kinds, errors)
-            if not any(x is not None for x in errors):  # (after one: only the errors count)
-                rec[s:stop] = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
-                e[s:stop] = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
-            seg.truncate(0)
-            ends.truncate(0)
+            if any(x is not None for x in errors):  # (after one: only the errors count)
+                seg.truncate(0)
+                ends.truncate(0)
+            else:
+                _take(seg, ends, rec, e, s, stop)
         _raise_first(errors)
     cnt = e[:, 4].astype(np.intp)
     return _widened(rec, e, cnt, wide, wide_rows), e, cnt, kinds
+
+
+def _take(
+    seg: BytesWriter, ends: BytesWriter, rec: np.ndarray, e: np.ndarray, s: int, stop: int
+) -> None:
+    """Rows ``s`` to ``stop - 1`` of ``rec`` (segments) and ``e`` (ends) from the writers of
+    _batchrow's row output, which are then emptied for the next chunk."""
+    rec[s:stop] = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
+    e[s:stop] = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
+    seg.truncate(0)
+    ends.truncate(0)
 
 
 def _raise_first(errors: list[PlanningError | None]) -> None:
@@ -936,14 +952,9 @@ def _row_table(cols: Sequence[object], n: int) -> np.ndarray:
     return rows
 
 
-def _rows_valid(table: np.ndarray) -> bool:
-    """:func:`_batchrow.rows_valid` of every row of ``table``, ``_ROWS_CHUNK`` at a time."""
-    n = table.shape[0]
-    for s in range(0, n, _ROWS_CHUNK):
-        stop = min(s + _ROWS_CHUNK, n)
-        if not rows_valid(table[s:stop].tobytes(), stop - s):
-            return False
-    return True
+def _rows_valid(chunks: list[bytes]) -> bool:
+    """:func:`_batchrow.rows_valid` of every row of ``chunks`` (:func:`_row_chunks`)."""
+    return all(rows_valid(src, len(src) // ROW_BYTES) for src in chunks)
 
 
 def _small_table(values: tuple[object, ...]) -> np.ndarray | None:
@@ -1003,9 +1014,10 @@ def plan_batch(
     names = ("p0", "v0", "a0", "pf", "vf", "af", "v_max", "a_max", "j_max")
     small = _small_table((p0, v0, a0, pf, vf, af, v_max, a_max, j_max, v_min, a_min))
     if small is not None:
-        if not _rows_valid(small):  # let the vectorised checks name the error
+        chunks = _row_chunks(small)
+        if not _rows_valid(chunks):  # let the vectorised checks name the error
             _validate_arrays([small[:, q] for q in _ROW_COLUMNS], True, True)
-        return _plan_small(small)
+        return _plan_small(chunks, small.shape[0])
     given = [p0, v0, a0, pf, vf, af, v_max, a_max, j_max]
     given += [x for x in (v_min, a_min) if x is not None]
     shape = p0.shape if type(p0) is np.ndarray else None
@@ -1041,10 +1053,10 @@ def plan_batch(
             cols.append(arrs[9] if v_min is not None else -arrs[6])
         if a_min is not None:
             cols.append(arrs[-1])
-        table = _row_table(cols, n)
-        if not _rows_valid(table):
+        chunks = _row_chunks(_row_table(cols, n))
+        if not _rows_valid(chunks):
             _validate_arrays(arrs, v_min is not None, a_min is not None)
-        return _plan_small(table)
+        return _plan_small(chunks, n)
     VMIN, AMIN = _validate_arrays(arrs, v_min is not None, a_min is not None)
     P0, V0, A0, PF, VF, AF, VMAX, AMAX, J = arrs[:9]
     n = P0.shape[0]
@@ -1187,10 +1199,7 @@ def _core_rows(
             blk[:, q] = x[s:stop]
         rows = None if index is None else index[s:stop].tolist()
         core_segments(blk.tobytes(), stop - s, s, rows, seg, ends, wide, wide_rows, kinds)
-        rec[s:stop] = np.frombuffer(seg.getvalue(), dtype="<f8").reshape(-1, MIN_WIDTH, 6)
-        e[s:stop] = np.frombuffer(ends.getvalue(), dtype="<f8").reshape(-1, 5)
-        seg.truncate(0)
-        ends.truncate(0)
+        _take(seg, ends, rec, e, s, stop)
     cnt = e[:, 4].astype(np.intp)
     rec = _widened(rec, e, cnt, wide, wide_rows)
     segs = tuple(rec[:, :, q] for q in range(6))
