@@ -4,11 +4,11 @@
 limit by :func:`rest_row` (the closed forms of ``batch._rest_to_rest`` / ``batch._families``,
 operation for operation on floats, so the same bits as the numpy path), every other row by the
 core (``plan.position_phases``, called directly in C when compiled), and integrates each
-profile as ``Profile.__init__`` does (the same operations: the same bits as :func:`plan`).
-:func:`core_segments` does the same for the numpy path's core rows. Both write their segments
-as little-endian doubles to ``librt.strings`` byte writers (:func:`core_segments` also reads
-its inputs from bytes), which mypyc compiles to inline C: no Python float per value. They
-never touch numpy: :mod:`motionplc.planning.batch` reads the bytes as arrays.
+profile as ``Profile.__init__`` does (the same operations: the same bits as :func:`plan`); the
+numpy path sends it its core rows too. It reads its inputs from bytes and writes its segments
+to ``librt.strings`` byte writers, as little-endian doubles, which mypyc compiles to inline C:
+no Python float per value. It never touches numpy: :mod:`motionplc.planning.batch` reads the
+bytes as arrays.
 
 Compiled, a row costs a few hundred nanoseconds beyond the core's own solver time (no State,
 Profile or phase-array objects per row); as plain Python the same code runs unchanged.
@@ -217,10 +217,10 @@ def rest_row(
     return _NO_REST
 
 
-ROW_BYTES: Final = 88  # an input row of core_segments: eleven little-endian doubles
+ROW_BYTES: Final = 88  # an input row of plan_rows: eleven little-endian doubles
 WIDTH: Final = 7  # segments per row in the ``seg`` output (batch.MIN_WIDTH)
 
-# The output of plan_rows and core_segments, little-endian doubles (batch._assemble reads it):
+# The output of plan_rows, little-endian doubles (batch._rows and batch._core_rows read it):
 # ``seg``: per row its first WIDTH segments (start time, duration, jerk, p, v, a), padded to
 # WIDTH with (duration, 0, 0, end state); ``ends``: per row (end p, v, a, duration, segment
 # count); ``wide``: the segments beyond WIDTH of the rows listed in ``wide_rows``.
@@ -381,18 +381,6 @@ def _row_failure(i: int, exc: Exception) -> PlanningError:
     return err
 
 
-def _states(src: bytes, o: int) -> tuple[float, float, float, float, float, float]:
-    """The start and target states (p0, v0, a0, pf, vf, af) of the row at byte ``o``."""
-    return (
-        read_f64_le(src, o),
-        read_f64_le(src, o + 8),
-        read_f64_le(src, o + 16),
-        read_f64_le(src, o + 24),
-        read_f64_le(src, o + 32),
-        read_f64_le(src, o + 40),
-    )
-
-
 def plan_rows(
     src: bytes,
     rows: int,
@@ -403,11 +391,13 @@ def plan_rows(
     wide_rows: list[int],
     kinds: list[str],
     errors: list[PlanningError | None],
+    numbers: list[int] | None = None,
 ) -> None:
-    """Validated problems: ``rows`` rows of eleven little-endian doubles in ``src`` (as
-    :func:`core_segments` reads them; row ``k`` is problem ``base + k``), row by row, written
-    to ``seg``, ``ends`` and ``wide`` (see above; listed in ``wide_rows`` if wider than
-    WIDTH), their kinds appended to ``kinds``. Rest to rest with a finite jerk limit:
+    """Validated problems: ``rows`` rows of eleven little-endian doubles in ``src`` (p0, v0,
+    a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max; row ``k`` is problem ``base + k``, or
+    ``numbers[k]`` in error messages if given), row by row, written to ``seg``, ``ends`` and
+    ``wide`` (see above; listed in ``wide_rows`` as ``base + k`` if wider than WIDTH), their
+    kinds appended to ``kinds``. Rest to rest with a finite jerk limit:
     :func:`rest_row` (the numpy path's arithmetic); every other row by the core, as the numpy
     path dispatches them. A row that fails writes nothing: ``errors`` (three entries) keeps
     the first failure of each group of the numpy path's order (closed-form rest to rest, rest
@@ -415,8 +405,13 @@ def plan_rows(
     eps = 8.0 * _EPS
     for k in range(rows):  # (rows, not m: compiled, range() reads its bound per step)
         o = ROW_BYTES * k
-        i = base + k
-        p0, v0, a0, pf, vf, af = _states(src, o)
+        i = base + k if numbers is None else numbers[k]
+        p0 = read_f64_le(src, o)
+        v0 = read_f64_le(src, o + 8)
+        a0 = read_f64_le(src, o + 16)
+        pf = read_f64_le(src, o + 24)
+        vf = read_f64_le(src, o + 32)
+        af = read_f64_le(src, o + 40)
         vmax = read_f64_le(src, o + 48)
         vmin = read_f64_le(src, o + 56)
         amax = read_f64_le(src, o + 64)
@@ -457,52 +452,6 @@ def plan_rows(
             if errors[group] is None:
                 errors[group] = _too_long(i, T)
             continue
-        _core_row(i, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
-
-
-def core_segments(
-    src: bytes,
-    m: int,
-    base: int,
-    rows: list[int] | None,
-    seg: BytesWriter,
-    ends: BytesWriter,
-    wide: BytesWriter,
-    wide_rows: list[int],
-    kinds: list[str],
-) -> None:
-    """The numpy path's rows for the core (validated; none that the rest-to-rest closed forms
-    solve), planned and integrated as :func:`plan_rows` plans them (the same bits), read and
-    written as little-endian doubles (compiled: no Python float per value).
-
-    ``src``: ``m`` rows of eleven doubles (p0, v0, a0, pf, vf, af, v_max, v_min, a_max,
-    a_min, j_max); row ``k`` is problem ``base + k`` (``rows[k]`` if given) in error messages
-    and ``base + k`` in ``wide_rows``. The output as :func:`plan_rows`' (an arrived row has
-    no segment and ends at (p0, vf, af)). Raises the first failing row's PlanningError."""
-    for k in range(m):
-        o = ROW_BYTES * k
-        p0, v0, a0, pf, vf, af = _states(src, o)
-        if arrived(p0, v0, a0, pf, vf, af):
-            _end_row(seg, ends, 0, p0, vf, af, 0.0)
-            kinds.append("arrived")
-            continue
-        try:
-            T, phases, kind = position_phases(
-                v0,
-                a0,
-                pf - p0,
-                vf,
-                af,
-                read_f64_le(src, o + 48),
-                read_f64_le(src, o + 56),
-                read_f64_le(src, o + 64),
-                read_f64_le(src, o + 72),
-                read_f64_le(src, o + 80),
-            )
-        except (PlanningError, ArithmeticError) as exc:
-            raise _row_failure(base + k if rows is None else rows[k], exc) from exc
-        if not T <= MAX_DURATION:
-            raise _too_long(base + k if rows is None else rows[k], T)
         _core_row(base + k, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
 
 

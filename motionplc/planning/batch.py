@@ -22,7 +22,7 @@ Dispatch per element:
   holds them to 1e-12) with the same segments and family name.
 * every other element (a non-zero velocity or acceleration, zero distance, and the rare
   rest-to-rest row no closed form accepts) goes through the planning core per
-  element (``plan.position_phases``, called by ``_batchrow.core_segments``: both compiled when
+  element (``plan.position_phases``, called by ``_batchrow.plan_rows``: both compiled when
   the package is built with mypyc; no Profile and, compiled, no Python float per row: the
   inputs are read from and the segments written to bytes as doubles), so it is
   :func:`plan`'s result bit for bit.
@@ -65,7 +65,6 @@ from motionplc.planning._batchrow import (
     SECOND,
     VEL,
     BytesWriter,
-    core_segments,
     plan_rows,
     rows_valid,
 )
@@ -938,10 +937,10 @@ _ROW_COLUMNS = (0, 1, 2, 3, 4, 5, 6, 8, 10, 7, 9)
 
 
 def _row_table(cols: Sequence[object], n: int) -> np.ndarray:
-    """The (n, 11) little-endian table of the rows read by :func:`_batchrow.plan_rows` and
-    :func:`_batchrow.core_segments` (p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min,
-    j_max) from the inputs in plan_batch's order (floats or arrays broadcasting to n; v_min
-    and a_min, if not given, default to -v_max and -a_max)."""
+    """The (n, 11) little-endian table of the rows read by :func:`_batchrow.plan_rows` (p0,
+    v0, a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max) from the inputs in plan_batch's
+    order (floats or arrays broadcasting to n; v_min and a_min, if not given, default to
+    -v_max and -a_max)."""
     rows = np.empty((n, 11), dtype="<f8")
     for q, x in zip(_ROW_COLUMNS, cols, strict=False):
         rows[:, q] = x
@@ -1177,8 +1176,8 @@ def _core_rows(
     """The numpy path's rows for the core (none that the rest-to-rest closed forms solve;
     ``arrs``: p0, v0, a0, pf, vf, af, v_max, v_min, a_max, a_min, j_max; ``index``: their
     problem numbers, None for 0, 1, ...), planned and integrated by
-    :func:`_batchrow.core_segments` (:func:`_batchrow.plan_rows`' arithmetic, so the same
-    bits as :func:`plan`) ``_ROW_CHUNK`` rows at a time, their inputs and segments passed as
+    :func:`_batchrow.plan_rows` (the core for each of them: the same bits as :func:`plan`)
+    ``_ROW_CHUNK`` rows at a time, their inputs and segments passed as
     little-endian doubles. (The numpy path is the pure-Python core's beyond 64 problems; the
     compiled core plans every batch row by row.) Returns (the six (m, width) segment
     arrays padded as the rows of :func:`_rows`, the (3, m) end state, the (m,) duration, the
@@ -1189,6 +1188,7 @@ def _core_rows(
     wide = BytesWriter()
     wide_rows: list[int] = []
     kinds: list[str] = []
+    errors: list[PlanningError | None] = [None, None, None]
     rec = _block(m * MIN_WIDTH * 6).reshape(m, MIN_WIDTH, 6)
     e = np.empty((m, 5))
     src = np.empty((min(m, _ROW_CHUNK), 11), dtype="<f8")
@@ -1197,8 +1197,9 @@ def _core_rows(
         blk = src[: stop - s]
         for q, x in enumerate(arrs):
             blk[:, q] = x[s:stop]
-        rows = None if index is None else index[s:stop].tolist()
-        core_segments(blk.tobytes(), stop - s, s, rows, seg, ends, wide, wide_rows, kinds)
+        numbers = None if index is None else index[s:stop].tolist()
+        plan_rows(blk.tobytes(), stop - s, s, seg, ends, wide, wide_rows, kinds, errors, numbers)
+        _raise_first(errors)  # (all of them the core's: the first row that failed)
         _take(seg, ends, rec, e, s, stop)
     cnt = e[:, 4].astype(np.intp)
     rec = _widened(rec, e, cnt, wide, wide_rows)

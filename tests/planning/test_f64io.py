@@ -4,7 +4,7 @@ plain-Python stand-in ``motionplc.planning._f64io`` for an installation without 
 * The stand-in writes and reads the same bytes as librt (signed zeros, infinities, NaN
   payloads, subnormals), truncates alike and refuses a read past the end alike.
 * Without librt (its import blocked in a subprocess) the core runs as plain Python with the
-  stand-in, says why, and ``plan_batch``'s numpy path (core rows through ``core_segments``)
+  stand-in, says why, and ``plan_batch``'s numpy path (core rows through ``plan_rows``)
   still equals :func:`plan` bit for bit.
 """
 
