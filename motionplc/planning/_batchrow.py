@@ -338,27 +338,6 @@ def phase_segments(
     return m, p, v, a, t
 
 
-def _core_row(
-    k: int,
-    p0: float,
-    v0: float,
-    a0: float,
-    phases: list[tuple[float, ...]],
-    kind: str,
-    seg: BytesWriter,
-    ends: BytesWriter,
-    wide: BytesWriter,
-    wide_rows: list[int],
-    kinds: list[str],
-) -> None:
-    """Row ``k``, planned by the core: its segments, end and kind written."""
-    n, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, seg, wide)
-    if n > WIDTH:
-        wide_rows.append(k)
-    _end_row(seg, ends, n, pe, ve, ae, te)
-    kinds.append(kind)
-
-
 def _too_long(i: int, T: float) -> PlanningError:
     return PlanningError(
         f"problem {i}: the profile would last {T:.6g} s, beyond the supported "
@@ -452,7 +431,11 @@ def plan_rows(
             if errors[group] is None:
                 errors[group] = _too_long(i, T)
             continue
-        _core_row(base + k, p0, v0, a0, phases, kind, seg, ends, wide, wide_rows, kinds)
+        m, pe, ve, ae, te = phase_segments(p0, v0, a0, phases, seg, wide)
+        if m > WIDTH:
+            wide_rows.append(base + k)
+        _end_row(seg, ends, m, pe, ve, ae, te)
+        kinds.append(kind)
 
 
 def rows_valid(src: bytes, n: int) -> bool:
