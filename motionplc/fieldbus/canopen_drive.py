@@ -1023,9 +1023,9 @@ class CanopenDrive(Drive):
         master = self.master
         master.realtime = realtime
         peer = master.peer
-        if peer is not None and hasattr(peer, "stall_proof"):
-            peer.stall_proof = realtime
-            master.stall.active = realtime
+        if realtime and peer is not None and hasattr(peer, "make_stall_proof"):
+            peer.make_stall_proof(self.config.cycle_time)
+            master.stall.activate(self.config.cycle_time)
 
     # ---------------------------------------------------------------- start-up
     def _startup_inputs(self) -> StartupInputs:

@@ -414,8 +414,8 @@ class ModbusDrive(Drive):
         An in-process server (``peer``) then runs its drives' watchdog on a stall-proof time
         (``virtual_device.StallClock``)."""
         self.realtime = bool(realtime)
-        if self.peer is not None and hasattr(self.peer, "stall_proof"):
-            self.peer.stall_proof = self.realtime
+        if self.realtime and self.peer is not None and hasattr(self.peer, "make_stall_proof"):
+            self.peer.make_stall_proof(self.config.cycle_time)
 
     def _wall_bound(self) -> float:
         """[s] wall-clock bound of one blocking wait (connect, a setup request): ``timeout``,

@@ -798,13 +798,13 @@ class VirtualCanBus(GuardedEndpoint):
     def stall_proof(self) -> bool:
         """The drives' supervision (SYNC loss, master heartbeat) on a :class:`StallClock`: a
         stall of this process (which runs the master too) is no loss of communication; a
-        master that stops sending while its cycles go on still is. Set by an in-process
-        master in real time (``CanopenDrive.bind_clock``)."""
+        master that stops sending while its cycles go on still is. Switched on by an
+        in-process master in real time (:meth:`make_stall_proof`, ``CanopenDrive.bind_clock``)."""
         return self.network.stall.active
 
-    @stall_proof.setter
-    def stall_proof(self, on: bool) -> None:
-        self.network.stall.active = bool(on)
+    def make_stall_proof(self, cycle: float) -> None:
+        """Switch :attr:`stall_proof` on, ``cycle`` [s] the master's nominal cycle."""
+        self.network.stall.activate(cycle)
 
     def _relevant_ids(self) -> set[int]:
         return self._cyclic_ids() | self.network.subscribers.keys()

@@ -104,6 +104,12 @@ class StallClock:
         self._points: list[tuple[float, float]] = []  # (time, lag from then on), the last 64
         self._base = 0.0  # the lag before the oldest point kept
 
+    def activate(self, cycle: float) -> None:
+        """On, with ``cycle`` [s] the nominal step (a longer first step is a stall too)."""
+        self.active = True
+        if cycle > 0.0:
+            self._step = min(self._step, cycle)
+
     def note(self, t: float) -> None:
         """A step of the link at time ``t`` (idempotent for the same ``t``)."""
         prev = self._prev

@@ -477,9 +477,9 @@ class VirtualModbusServer:
         time (``ModbusDrive.bind_clock``)."""
         return self.stall.active
 
-    @stall_proof.setter
-    def stall_proof(self, on: bool) -> None:
-        self.stall.active = bool(on)
+    def make_stall_proof(self, cycle: float) -> None:
+        """Switch :attr:`stall_proof` on, ``cycle`` [s] the master's nominal cycle."""
+        self.stall.activate(cycle)
 
     def step(self, t: float) -> None:
         """LockstepPeer: run the drives' time services at time ``t`` and release the parked

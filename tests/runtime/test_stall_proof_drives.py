@@ -109,3 +109,9 @@ def test_stall_clock_counts_one_cycle_per_step_and_takes_stalls_out() -> None:
     for k in range(2, 200):
         c.note(0.1 + k * 0.001)
     assert c.elapsed(0.101, 0.299) == pytest.approx(0.198)
+    # a stall in the very first steps (start-up): the nominal cycle given says so
+    c = StallClock()
+    c.activate(0.002)
+    for t in (0.0, 0.08, 0.082, 0.084):
+        c.note(t)
+    assert c.elapsed(0.0, 0.084) == pytest.approx(0.006)
