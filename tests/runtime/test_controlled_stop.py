@@ -180,3 +180,26 @@ def test_stop_time_estimate_bounds_a_planned_stop() -> None:
         prof = plan_velocity(State(0.0, v, a), 0.0, lim)
         assert prof.duration <= stop_time(v, a, 2.0, 20.0) + 1e-12
     assert stop_time(1.0, 0.0, 2.0, math.inf) == pytest.approx(0.5)
+
+
+def test_a_machine_with_block_stops_its_can_axis_and_switches_the_drive_off(tmp_path: Any) -> None:
+    from motionplc.config import build, load_config
+
+    cfg = tmp_path / "m.yaml"
+    cfg.write_text(
+        "runtime:\n  tick: 0.001\n  tasks:\n    motion: {period: 0.001}\n"
+        "buses:\n  can0: {type: can, interface: virtual, channel: ctlstop, drives: simulated}\n"
+        "axes:\n  x:\n    limits: {v_max: 0.5, a_max: 2.0, j_max: 20.0}\n"
+        "    drive: {bus: can0, node_id: 3, counts_per_unit: 1.0e6}\n"
+    )
+    with build(load_config(cfg)) as machine:
+        x = machine.axes["x"]
+        power = MC_Power(axis=x, enable=True)
+        mv = MC_MoveVelocity(axis=x, velocity=0.4)
+        machine.attach(lambda ctx: (power(), mv(execute=power.status)))
+        machine.runtime.run(seconds=0.6)
+        assert x.v == pytest.approx(0.4) and x.drive_enabled
+    report = machine.runtime.stop_report
+    assert report is not None and report.ok and report.reason == "end of block"
+    assert x.state is AxisState.DISABLED and not x.drive_enabled
+    assert max(_within(machine.runtime, "x", (0.5, 2.0, 20.0))) <= 1 + 1e-6
