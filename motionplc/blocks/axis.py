@@ -319,6 +319,7 @@ class Axis(AxisCore):
         # the last one and the lengths of the steps to them (None: no history yet), the last
         self._lg_hist: tuple[float, float, float, float] | None = None
         self._lg_last = 0.0
+        self._lg_after_group: tuple[float, float, float, float, float] | None = None
 
     def apply_config(self, config: AxisConfig) -> None:
         """Replace the applied configuration (MC_WriteParameter) and refresh the kernel's
@@ -897,14 +898,32 @@ class Axis(AxisCore):
                             f"set position {p:.9g} moving beyond the software limits [{lo}, {hi}]",
                         )
             group = self.group
-            if group is None or not group.moving:  # (a moving group's members: after it)
+            if group is None or not group.moving:
                 self.guard_limits(dt, p0, v0, a0, j0, off0)
+            else:  # a moving group's member: after the group's step (Runtime._run_tick)
+                self._lg_after_group = (p0, v0, a0, j0, off0)
         except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
             self._kernel_failed(exc)
 
     # -- limit supervision -------------------------------------------------------------------
+    def guard_after_group(self, dt: float) -> None:
+        """:meth:`guard_limits` of a moving group's member, after the group wrote its set
+        values: beyond its limits the member reports SET_VALUE_LIMIT (ErrorStop) in this
+        cycle and its group brakes along the path from the next (the group's own stop)."""
+        prev = self._lg_after_group
+        if prev is not None:
+            self._lg_after_group = None
+            self.guard_limits(dt, *prev, revert=False)
+
     def guard_limits(
-        self, dt: float, p0: float, v0: float, a0: float, j0: float, off0: float
+        self,
+        dt: float,
+        p0: float,
+        v0: float,
+        a0: float,
+        j0: float,
+        off0: float,
+        revert: bool = True,
     ) -> bool:
         """The one supervision of every set value the kernel writes for this axis (moves,
         couplings, superimposed motion, ramps; a moving group's members after the group's
@@ -975,6 +994,9 @@ class Axis(AxisCore):
         if not why:
             return True
         reason = f"set value beyond the axis' limits: {why}"
+        if not revert:
+            self.raise_axis_error("SET_VALUE_LIMIT", reason)
+            return False
         self.p, self.v, self.a, self.j = p0, v0, a0, 0.0
         if job is not None and job.sync and not job.handle.terminal:
             self._fail_command(job.handle, ErrorID.SLAVE_LIMITS_EXCEEDED, reason)

@@ -582,6 +582,8 @@ class Runtime:
                 for g in task.groups:
                     g.step(dt)
                 for ax in axes:
+                    if ax._lg_after_group is not None:  # the limit supervision of members
+                        ax.guard_after_group(dt)
                     try:
                         ax.write_outputs(t_virtual)
                     except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
