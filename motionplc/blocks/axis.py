@@ -851,6 +851,7 @@ class Axis(AxisCore):
             state = self.state
             if state is S.DISABLED:
                 self._resync()
+                self._lg_hist = None  # the limit supervision starts afresh at power-on
                 return
             job = mq.active
             if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
@@ -975,6 +976,12 @@ class Axis(AxisCore):
             why = f"v {v:.6g} (differenced {vd:.6g}) beyond [{-cfg.v_neg:.6g}, {cfg.v_max:.6g}]"
         job = self.mq.active
         actual = job is not None and getattr(job, "actual", False)
+        ts = self.ts
+        if job is not None and not job.no_override and (ts.prof is not None or ts.f != 1.0):
+            # MC_SetOverride scaling a running job: its acceleration and jerk are not held
+            # here yet (the override's time scaling changes them beyond a_max by
+            # differencing: a known kernel defect, see the report of issue 31); v is
+            return True if not why else self._limit_exceeded(job, why, dt, p0, v0, a0, revert)
         if not why:
             vd0 = (p0 - p1) / h0
             ad = 2.0 * (vd - vd0) / (dt + h0)
@@ -993,6 +1000,19 @@ class Axis(AxisCore):
                     why = f"j {j:.6g} (differenced {jd:.6g}) beyond +-{cfg.j_max:.6g}"
         if not why:
             return True
+        return self._limit_exceeded(job, why, dt, p0, v0, a0, revert)
+
+    def _limit_exceeded(
+        self,
+        job: AxisJob | None,
+        why: str,
+        dt: float,
+        p0: float,
+        v0: float,
+        a0: float,
+        revert: bool,
+    ) -> bool:
+        """guard_limits found ``why``: report it and stop within the limits (see there)."""
         reason = f"set value beyond the axis' limits: {why}"
         if not revert:
             self.raise_axis_error("SET_VALUE_LIMIT", reason)
