@@ -631,6 +631,9 @@ _MAX_EXTRA = 512  # extra intervals one piece may get for its curvature
 _REFINE_TOL = 1e-4  # intervals exceeding a limit by more than this are split (else tightened)
 _MAX_REFINE = 8  # rounds of splitting
 _MAX_GRID_FACTOR = 16  # splitting stops at this many times the initial interval count
+_ACC_ROUNDS = 2  # rounds of splitting where the discretisation loses the most time
+_ACC_GROWTH = 2.0  # ... up to this many times the initial interval count
+_ACC_TOL = 2e-5  # ... until the estimated loss left is below this share of the duration
 
 
 @dataclass(frozen=True, slots=True)
@@ -703,16 +706,16 @@ def _piece_grid(chain: Chain, n: int, stop_pieces: set[int]) -> _PieceGrid:
     )
 
 
-def _split(grid: _PieceGrid, rows: np.ndarray) -> _PieceGrid:
-    """``grid`` with the intervals ``rows`` halved."""
+def _split(grid: _PieceGrid, rows: np.ndarray, parts: np.ndarray | int = 2) -> _PieceGrid:
+    """``grid`` with the intervals ``rows`` cut into ``parts`` equal parts each."""
     k = np.ones(grid.n, dtype=int)
-    k[rows] = 2
+    k[rows] = parts
     idx = np.repeat(np.arange(grid.n), k)
-    second = np.zeros(len(idx), dtype=bool)
-    second[1:] = idx[1:] == idx[:-1]
+    first = np.concatenate([[0], np.cumsum(k)[:-1]])
+    j = np.arange(len(idx)) - first[idx]  # part number inside the old interval
     h = grid.h[idx] / k[idx]
-    t0 = grid.t0[idx] + np.where(second, h, 0.0)
-    stop = grid.stop[idx] & ~second
+    t0 = grid.t0[idx] + j * h
+    stop = grid.stop[idx] & (j == 0)
     return _PieceGrid(grid.piece[idx], t0, h, stop)
 
 
@@ -753,11 +756,78 @@ def _solve_on_pieces(
     chain: Chain, lim: PathLimits, vs: float, ve: float, n: int, stop_pieces: set[int]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
     """The feasible second-order optimum on a grid of the path's pieces, refined where a
-    limit is exceeded between grid points. Returns grid nodes ``u``, ``x`` there, the interval
-    maximum-velocity curve and diagnostics."""
+    limit is exceeded between grid points and where the discretisation loses the most time.
+    Returns grid nodes ``u``, ``x`` there, the interval maximum-velocity curve and
+    diagnostics."""
     grid = _piece_grid(chain, n, stop_pieces)
     n_max = _MAX_GRID_FACTOR * max(grid.n, n)
-    info: dict[str, float] = {"repairs": 0.0, "refinements": 0.0}
+    n_acc = int(_ACC_GROWTH * grid.n)  # the accuracy refinement's budget
+    info: dict[str, float] = {"repairs": 0.0, "refinements": 0.0, "accuracy_refinements": 0.0}
+    for acc_round in range(_ACC_ROUNDS + 1):
+        grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max)
+        if acc_round == _ACC_ROUNDS or grid.n >= n_acc or "fallback_scale" in info:
+            break
+        rows = _lossy(sol.x, grid.h, grid.n)
+        if not len(rows):
+            break
+        info["accuracy_refinements"] += 1.0
+        grid = _split(grid, rows[: max(0, n_acc - grid.n)])
+    if xe > 0.0 and sol.x[-1] < xe * (1.0 - 1e-9):
+        reach = math.sqrt(sol.x[-1] * s2_e)
+        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
+    xs = sol.x.copy()
+    if xe > 0.0:
+        xs[-1] = xe
+    info["grid_intervals"] = float(grid.n)
+    return grid.nodes(chain), xs, sol.mvc, info
+
+
+def _lossy(x: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
+    """Intervals where a constant path acceleration loses the most time, largest first.
+
+    Where the admissible path acceleration changes along the path, a constant one per
+    interval falls short of the reachable ``x`` by about ``h |a_next - a|``. The shortfall
+    carries along the accelerating (or braking) stretch it lies in, downstream (upstream)
+    until the stretch's peak, and there costs ``sum dt / (2 x)`` time per unit of ``x``. The
+    intervals returned carry the largest estimated losses until what is left is below
+    ``_ACC_TOL`` of the duration."""
+    sig = np.sqrt(x)
+    a = (x[1:] - x[:-1]) / (2.0 * h)
+    da = np.zeros(n)
+    if n > 1:
+        d = np.abs(np.diff(a))
+        da[:-1] = d
+        da[1:] = np.maximum(da[1:], d)
+    ssum = np.maximum(sig[1:] + sig[:-1], 1e-300)
+    dt = 2.0 * h / ssum
+    xm = np.maximum(0.25 * ssum * ssum, 1e-300)
+    w = dt / (2.0 * xm)  # time per unit of x on every interval
+    up = a > 0.0
+    # sums of w over the rest of each accelerating stretch (downstream) or over the braking
+    # stretch before each interval (upstream)
+    S = np.zeros(n)
+    acc = 0.0
+    for i in range(n - 1, -1, -1):
+        acc = acc + w[i] if up[i] else 0.0
+        if up[i]:
+            S[i] = acc
+    acc = 0.0
+    for i in range(n):
+        acc = acc + w[i] if not up[i] else 0.0
+        if not up[i]:
+            S[i] = acc
+    e = np.nan_to_num(h * da * S, nan=0.0, posinf=0.0)
+    total = float(dt.sum())
+    order = np.argsort(-e, kind="stable")
+    tail = np.cumsum(e[order][::-1])[::-1]  # loss left when splitting from here on
+    k = int(np.searchsorted(-tail, -_ACC_TOL * total))
+    return order[:k]
+
+
+def _solve_feasible(chain, grid, lim, vs, ve, info, n_max):
+    """Solve on ``grid``; split the intervals that exceed a limit between grid points by more
+    than ``_REFINE_TOL`` and solve again (at most ``_MAX_REFINE`` times), then tighten what is
+    left (:func:`_solve_repaired`)."""
     for rnd in range(_MAX_REFINE + 1):
         q1, q2 = _dense_pieces(chain, grid)
         s2_0 = float(q1[0, 0] @ q1[0, 0])
@@ -790,23 +860,18 @@ def _solve_on_pieces(
             chk = _check((q1, q2), sol.x, lim, grid.h)
             if chk.worst <= 1.0 + _ACCEPT:
                 info["worst_ratio"] = chk.worst
-                break
+                return grid, sol, s2_e, xe
             excess = np.maximum(chk.acc.max(axis=1, initial=0.0), chk.speed) - 1.0
             bad = np.flatnonzero(excess > _REFINE_TOL)
             if len(bad):
                 info["refinements"] += 1.0
-                grid = _split(grid, bad)
+                # the excess falls with h^2: enough parts for about a tenth of _REFINE_TOL
+                parts = np.clip(np.ceil(np.sqrt(excess[bad] / (0.1 * _REFINE_TOL))), 2, 8)
+                grid = _split(grid, bad, parts.astype(int))
                 continue
         sol = _solve_repaired(solver, (q1, q2), lim, grid.h, A, C, (s2_0, s2_e), info)
-        break
-    if xe > 0.0 and sol.x[-1] < xe * (1.0 - 1e-9):
-        reach = math.sqrt(sol.x[-1] * s2_e)
-        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
-    xs = sol.x.copy()
-    if xe > 0.0:
-        xs[-1] = xe
-    info["grid_intervals"] = float(grid.n)
-    return grid.nodes(chain), xs, sol.mvc, info
+        return grid, sol, s2_e, xe
+    raise AssertionError("unreachable")  # pragma: no cover
 
 
 def _speed_to_x(name: str, speed: float, s2: float, where: str) -> float:
