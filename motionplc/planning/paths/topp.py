@@ -761,10 +761,12 @@ def _solve_on_pieces(
     diagnostics."""
     grid = _piece_grid(chain, n, stop_pieces)
     n_max = _MAX_GRID_FACTOR * max(grid.n, n)
-    n_acc = int(_ACC_GROWTH * grid.n)  # the accuracy refinement's budget
     info: dict[str, float] = {"repairs": 0.0, "refinements": 0.0, "accuracy_refinements": 0.0}
+    n_acc = 0
     for acc_round in range(_ACC_ROUNDS + 1):
         grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max)
+        if acc_round == 0:
+            n_acc = int(_ACC_GROWTH * grid.n)  # the accuracy refinement's budget
         if acc_round == _ACC_ROUNDS or grid.n >= n_acc or "fallback_scale" in info:
             break
         rows = _lossy(sol.x, grid.h, grid.n)
