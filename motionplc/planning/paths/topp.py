@@ -1,10 +1,9 @@
 """Time-optimal motion along a path (second order: axis velocity and acceleration limits).
 
 Method: reachability analysis on a grid of the path parameter (TOPP-RA, Pham & Pham 2018; the
-same forward/backward passes as seed 004's GAVS(s, v) in the ``(u, du^2)`` plane). The grid
-``u_i = i * h`` has ``n_grid`` intervals; on each interval the path acceleration ``d2u/dt2 = a_i``
-is constant, so ``x = (du/dt)^2`` is linear in ``u`` and ``u(t)`` is exactly quadratic in time.
-With ``q = p(u)`` each axis obeys::
+same forward/backward passes as seed 004's GAVS(s, v) in the ``(u, du^2)`` plane). On each grid
+interval the path acceleration ``d2u/dt2 = a_i`` is constant, so ``x = (du/dt)^2`` is linear in
+``u`` and ``u(t)`` is exactly quadratic in time. With ``q = p(u)`` each axis obeys::
 
     v_k = q'_k du            a_k = q'_k a_i + q''_k x
 
@@ -14,14 +13,30 @@ points, as toppra does), which turns each interval into a set of lines ``lo_c(x)
 hi_d(x)`` in closed form: the maximum-velocity curve, the backward pass (controllable sets) and
 the forward pass (greedy maximal ``a_i``) need no LP solver.
 
+The grid (:func:`plan_path`'s second order) lies on the path's own smooth pieces
+(:class:`~motionplc.planning.paths._chain.Chain`: segments of composites, Hermite sections,
+B-spline knot spans): every break is a grid point and every interval is evaluated on its own
+piece, so the derivatives at its ends are one-sided. A curvature jump (a line meeting an arc) is
+then a switch of the active constraint at a grid point, never a violation inside an interval.
+A tangent jump (an unblended corner, a reversal, a zero tangent on one side of a break) is an
+exact stop: ``x = 0`` at that grid point (or a :class:`PlanningError` with ``stops="forbid"``).
+About ``n_grid`` intervals of equal length are laid out first, with more where the tangent turns
+quickly (at most ``_PHI`` rad per interval: arcs, corner blends, tight spline bends).
+
 Between the three points a limit could still be exceeded by a term of order ``h^2``. After
 solving, every interval is checked on 8 sub-intervals with a conservative bound (largest sample
 plus a quarter of the largest second difference, i.e. twice the interpolation error of a smooth
-function); intervals that may exceed a limit get that limit tightened by the excess and the
-problem is solved again. The result is therefore feasible on any resampling, at the price of a
-duration a few ``h^2`` above the discretised optimum. Points where the path derivative vanishes
-(duplicate points), switching points where the maximum-velocity curve is touched, and a non-zero
-start speed need no special handling in this formulation.
+function). Intervals exceeding a limit by more than ``_REFINE_TOL`` are cut (locally refined
+grid, never a global scale-down); what is left is removed by tightening those intervals' limits
+by the excess. Then the intervals where a constant path acceleration loses the most time
+(:func:`_lossy`) are cut and the problem solved again, twice. The result is feasible on any
+resampling (differenced 1 ms samples stay inside the limits to rounding), within the
+discretisation of the optimum. Points where the path derivative vanishes inside a smooth piece,
+switching points where the maximum-velocity curve is touched, and a non-zero start speed need
+no special handling in this formulation.
+
+The uniform-grid solver (:func:`solve_second_order`, one grid of ``n`` equal intervals over the
+whole path) is kept for the jerk-limited planner's base law.
 """
 
 from __future__ import annotations
@@ -626,7 +641,7 @@ def solve_second_order(
 
 # -- the second-order planner on the path's own pieces ---------------------------------------
 
-_PHI = 0.05  # [rad] tangent turning (or log |p'| change) per grid interval, at most
+_PHI = 0.03  # [rad] tangent turning (or log |p'| change) per grid interval, at most
 _MAX_EXTRA = 512  # extra intervals one piece may get for its curvature
 _REFINE_TOL = 1e-4  # intervals exceeding a limit by more than this are split (else tightened)
 _MAX_REFINE = 8  # rounds of splitting
@@ -764,16 +779,19 @@ def _solve_on_pieces(
     info: dict[str, float] = {"repairs": 0.0, "refinements": 0.0, "accuracy_refinements": 0.0}
     n_acc = 0
     for acc_round in range(_ACC_ROUNDS + 1):
-        grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max)
+        final = acc_round == _ACC_ROUNDS
+        grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max, final)
         if acc_round == 0:
             n_acc = int(_ACC_GROWTH * grid.n)  # the accuracy refinement's budget
-        if acc_round == _ACC_ROUNDS or grid.n >= n_acc or "fallback_scale" in info:
+        if final:
             break
-        rows = _lossy(sol.x, grid.h, grid.n)
+        rows = _lossy(sol.x, grid.h, grid.n)[: max(0, n_acc - grid.n)]
         if not len(rows):
+            # nothing (more) to refine: the last solve, repaired where needed
+            grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max, True)
             break
         info["accuracy_refinements"] += 1.0
-        grid = _split(grid, rows[: max(0, n_acc - grid.n)])
+        grid = _split(grid, rows)
     if xe > 0.0 and sol.x[-1] < xe * (1.0 - 1e-9):
         reach = math.sqrt(sol.x[-1] * s2_e)
         raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
@@ -826,10 +844,11 @@ def _lossy(x: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
     return order[:k]
 
 
-def _solve_feasible(chain, grid, lim, vs, ve, info, n_max):
+def _solve_feasible(chain, grid, lim, vs, ve, info, n_max, final=True):
     """Solve on ``grid``; split the intervals that exceed a limit between grid points by more
     than ``_REFINE_TOL`` and solve again (at most ``_MAX_REFINE`` times), then tighten what is
-    left (:func:`_solve_repaired`)."""
+    left (:func:`_solve_repaired`; not when ``final`` is false: an intermediate solution only
+    guides the next refinement)."""
     for rnd in range(_MAX_REFINE + 1):
         q1, q2 = _dense_pieces(chain, grid)
         s2_0 = float(q1[0, 0] @ q1[0, 0])
@@ -865,6 +884,8 @@ def _solve_feasible(chain, grid, lim, vs, ve, info, n_max):
                 return grid, sol, s2_e, xe
             excess = np.maximum(chk.acc.max(axis=1, initial=0.0), chk.speed) - 1.0
             bad = np.flatnonzero(excess > _REFINE_TOL)
+            if not final and not len(bad):
+                return grid, sol, s2_e, xe
             if len(bad):
                 info["refinements"] += 1.0
                 # the excess falls with h^2: enough parts for about a tenth of _REFINE_TOL
