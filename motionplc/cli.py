@@ -1,7 +1,7 @@
 """The ``motionplc`` command line.
 
 ``motionplc run CONFIG [SEQUENCE|PROGRAM|GCODE] [--group NAME]``, ``validate``, ``plot``,
-``drives``, ``plan``, ``schema``; ``motionplc --version``.
+``drives``, ``plan``, ``schema``, ``examples DIR``; ``motionplc --version``.
 
 Exit codes (also in ``motionplc --help``):
 
@@ -1028,6 +1028,17 @@ def _cmd_schema(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# ---------------------------------------------------------------------------- examples
+def _cmd_examples(args: argparse.Namespace) -> int:
+    from motionplc.examples import copy_examples
+
+    written = copy_examples(args.dir, overwrite=args.force)
+    print(f"wrote {len(written)} example files to {args.dir}")
+    d = Path(args.dir)
+    print(f"  try: motionplc run {d / 'demo.yaml'} {d / 'demo_sequence.yaml'}")
+    return EXIT_OK
+
+
 # ---------------------------------------------------------------------------- parser
 _VERBOSE_HELP = (
     "show the log of the fieldbus libraries (pymodbus, canopen, python-can): -v warnings and "
@@ -1262,6 +1273,13 @@ def build_parser() -> argparse.ArgumentParser:
         "-o", "--output", metavar="FILE", help="write to FILE instead of stdout (default: stdout)"
     )
     sc.set_defaults(func=_cmd_schema)
+
+    ex = command("examples", "copy the shipped example machines and programs into a folder")
+    ex.add_argument("dir", metavar="DIR", help="destination folder (created if missing)")
+    ex.add_argument(
+        "--force", action="store_true", help="replace files that exist (default: refuse)"
+    )
+    ex.set_defaults(func=_cmd_examples)
     return parser
 
 
