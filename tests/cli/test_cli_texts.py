@@ -140,7 +140,7 @@ def test_drives_of_a_config_without_can_drives_announce_no_can(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """issue 14: ``drives configs/gantry.yaml`` reported socketcan/vcan0 for a virtual bus."""
-    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2"]) == 0
+    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2", "--json"]) == 0
     out, err = capsys.readouterr()
     info = json.loads(out.strip().splitlines()[-1])
     assert set(info) == {"modbus"} and list(info["modbus"]) == ["1"]
