@@ -25,6 +25,7 @@ import numpy as np
 
 from motionplc.planning.paths.arclength import TabulatedCurve
 from motionplc.planning.paths.base import Path, as_param
+from motionplc.planning.paths.geometry import check_order
 
 __all__ = ["Chain", "Junction", "SubPath"]
 
@@ -190,7 +191,7 @@ class SubPath(Path):
         arr = as_param(u, self._u_end)
         uu = np.atleast_1d(arr).astype(float)
         c = self._chain
-        order_ = int(order)
+        order_ = check_order(order)
         idx = np.argsort(uu, kind="stable")
         k, t = c.locate(uu[idx] + self._u0, self._lo, self._hi)
         (val,) = c.eval(k, t, (order_,))

@@ -138,12 +138,7 @@ def _evaluate_grid(path: Path, n: int) -> _Grid:
 def _speed_caps(grid: _Grid, lim: PathLimits, extra: np.ndarray | None = None) -> np.ndarray:
     """Largest ``x = du^2`` allowed by the velocity and path-speed limits at every half-grid
     point (``inf`` where nothing binds)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v2 = (lim.v_max**2)[None, :] / grid.q1**2
-        v2 = np.where(grid.q1 == 0.0, np.inf, v2)
-        cap = v2.min(axis=1) if v2.shape[1] else np.full(len(grid.u), np.inf)
-        if math.isfinite(lim.v_path):
-            cap = np.minimum(cap, np.where(grid.speed2 > 0.0, lim.v_path**2 / grid.speed2, np.inf))
+    cap = _caps_at(grid.q1, lim)
     if extra is not None:
         cap = np.minimum(cap, extra)
     return cap
@@ -480,15 +475,7 @@ def _validate(
 
 def _boundary_x(name: str, speed: float, grid: _Grid, k: int) -> float:
     """``x = du^2`` of a path speed ``speed`` [m/s] at half-grid index ``k``."""
-    if speed == 0.0:
-        return 0.0
-    s2 = float(grid.speed2[k])
-    if s2 == 0.0:
-        raise PlanningError(
-            f"{name}: the path has a zero tangent at its {'start' if k == 0 else 'end'}; "
-            f"allowed [0, 0], got {speed!r}"
-        )
-    return speed * speed / s2
+    return _speed_to_x(name, speed, float(grid.speed2[k]), "start" if k == 0 else "end")
 
 
 def _law_second_order(
