@@ -320,6 +320,7 @@ class Axis(AxisCore):
         self._lg_hist: tuple[float, float, float, float] | None = None
         self._lg_last = 0.0
         self._lg_after_group: tuple[float, float, float, float, float] | None = None
+        self._lg_off = 0.0  # the coordinate offset of that history
 
     def apply_config(self, config: AxisConfig) -> None:
         """Replace the applied configuration (MC_WriteParameter) and refresh the kernel's
@@ -944,9 +945,13 @@ class Axis(AxisCore):
         p = self.p
         hist = self._lg_hist
         last = self._lg_last
-        shift = self.offset - off0
-        if shift != 0.0:  # MC_SetPosition, homing: the coordinates moved, not the axis
-            p0 += shift
+        # MC_SetPosition, homing: the coordinates moved, not the axis - in the program phase
+        # (before this step: p0 has it) or in the step (a queued one): all in today's
+        shift_in = self.offset - off0
+        shift = shift_in + (off0 - self._lg_off)
+        self._lg_off = self.offset
+        if shift != 0.0:
+            p0 += shift_in
             last += shift
             if hist is not None:
                 hist = (hist[0] + shift, hist[1] + shift, hist[2], hist[3])
