@@ -99,6 +99,7 @@ G = GroupState
 S = AxisState
 MAX_DEFLECTION = math.radians(179.0)
 _SMOOTH = 1e-9  # [rad] a junction deflecting less (with equal curvature) is smooth
+_BLEND_SCALES = (1.0, 0.5, 0.25, 0.0)  # corner distance shares tried when a blend is too late
 
 
 @dataclass(frozen=True, slots=True)
@@ -197,6 +198,7 @@ class AxesGroup:
         self._dropped: set[Axis] = set()  # those members (until the group is at rest)
         self.path_velocity = 0.0
         self.path_s = 0.0  # distance travelled along paths since the start
+        self._blend_scale = 1.0  # share of the corner distance a join may use (see _connect)
         for ax in axes:
             self.add_axis(ax)
 
@@ -821,11 +823,31 @@ class AxesGroup:
         if planning fails the chain is restored as it was (the group keeps running what it
         had) and the error propagates to the command."""
         saved = self._snapshot()
-        try:
-            self._connect_unchecked(job, links)
-        except Exception:
+        fresh = list(links)
+        fresh_fields = [_LINK_GET(lk) for lk in fresh]
+        for scale in _BLEND_SCALES:
+            self._blend_scale = scale
+            try:
+                self._connect_unchecked(job, links)
+                return
+            except _TooLateError:
+                pass
+            except Exception:
+                self._restore(saved)
+                raise
+            finally:
+                self._blend_scale = 1.0
+            # the corner blend trimmed the piece before it so much that the junction speeds
+            # fell below what the running piece is committed to (it could no longer slow down
+            # in time: its successor's profile would overshoot its piece, the freeze-and-jump
+            # of issue 25): undo and join again with a smaller blend, at last an exact corner
+            # (which only adds path behind the old end of the chain: always consistent)
             self._restore(saved)
-            raise
+            for lk, vals in zip(fresh, fresh_fields, strict=True):
+                for f, v in zip(_LINK_STATE, vals, strict=True):
+                    setattr(lk, f, v)
+            links[:] = fresh
+        raise PlanningError("the running motion cannot take the new move")  # pragma: no cover
 
     def _snapshot(self) -> tuple[list[Link], list[tuple[Any, ...]], Any]:
         links = list(self.chain.links)
@@ -838,7 +860,7 @@ class AxesGroup:
         for lk, vals in zip(links, fields, strict=True):
             for f, v in zip(_LINK_STATE, vals, strict=True):
                 setattr(lk, f, v)
-        self.chain.links = links
+        self.chain.links = list(links)  # (the saved list stays as it is: joins are retried)
         self.mq.active = active
         self.mq.queue = deque(queue)
 
@@ -906,6 +928,7 @@ class AxesGroup:
         if room <= 1e-9 * (1.0 + pa.length + pb.length):
             return idx
         d = self._corner_distance(tm, cmd.transition_parameter, theta, ta, tb, seg_a, seg_b, room)
+        d *= self._blend_scale
         if not d > 1e-12 * (1.0 + pa.length):
             return idx
         vm, am, jm = self._limits()
@@ -1047,6 +1070,9 @@ class AxesGroup:
             lk0.w_out = self._replan_running(lk0, want)
             lk0.stale = False
             low = 1
+            if lk0.w_out > want * (1.0 + 1e-9) and self._blend_scale > 0.0:
+                # the running piece cannot slow down to the junction speed that is left
+                raise _TooLateError
         chain.forward(1, lk0.w_out, max(low, 1))
         self._plan_near()
 
@@ -1397,6 +1423,10 @@ _LINK_GET = attrgetter(*_LINK_STATE)
 _DUMMY = LinePiece((0.0,), (1.0,), 1.0)  # the piece of a link whose motion is sampled otherwise
 
 
+class _TooLateError(Exception):
+    """A join lowered a junction speed below what the running piece is committed to."""
+
+
 class _MoveError(Exception):
     def __init__(self, error_id: ErrorID, text: str) -> None:
         super().__init__(text)
@@ -1430,11 +1460,21 @@ def _duration(lk: Link) -> float:
 
 def _guard_plan(lk: Link) -> Profile:
     try:
-        return lk.plan_rest()
+        prof = lk.plan_rest()
     except PlanningError:
         raise
     except Exception as exc:  # noqa: BLE001
         raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+    # a profile that leaves its piece (junction speeds it cannot join) would stand still at
+    # the piece's end and jump: never run it
+    (_, pmax), (vmin, _), _ = prof.extrema()
+    U = lk.piece.U
+    if pmax > U * (1.0 + 1e-9) or vmin < -1e-9 * (1.0 + prof.end.v):
+        raise PlanningError(
+            f"junction speeds {lk.w_in:.9g} -> {lk.w_out:.9g} m/s cannot be joined on a piece "
+            f"of {U:.9g} (the profile reaches {pmax:.9g}, speed {vmin:.3g})"
+        )
+    return prof
 
 
 def _link_end(lk: Link) -> tuple[float, ...]:
