@@ -11,7 +11,9 @@ velocity ran +v -> -v -> +v, then jumped: ~100x the jerk limit by third differen
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -60,8 +62,11 @@ def _program(mode: str, feed: float, r: float) -> str:
     return "\n".join([*lines, "M2", "%"]) + "\n"
 
 
-def run_program(tmp_path: Path, text: str, depth: int) -> tuple[np.ndarray, np.ndarray, float]:
-    """Positions and traced velocities of every cycle, the motion time."""
+def run_program(
+    tmp_path: Path, text: str, depth: int, **group: Any
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """Positions and traced velocities of every cycle, the motion time (``group``: fields of
+    the group's GroupConfig to change)."""
     cfg_p = tmp_path / "cfg.yaml"
     cfg_p.write_text(CONFIG.format(depth=depth))
     prog = tmp_path / "prog.ngc"
@@ -70,6 +75,9 @@ def run_program(tmp_path: Path, text: str, depth: int) -> tuple[np.ndarray, np.n
     job = load_gcode_job(prog, cfg, "xyz")
     machine = build(cfg, realtime=False)
     try:
+        if group:
+            g = machine.axes_groups["xyz"]
+            g.cfg = replace(g.cfg, **group)
         runner = GcodeRunner(job, machine)
         machine.attach(runner, job.task)
         rt = machine.runtime
@@ -112,3 +120,46 @@ def test_fine_segment_wheel_never_freezes_and_holds_the_limits_by_differencing(
     for name, (rv, ra, rj) in zip(LIMITS, differenced_ratios(pos, 0.001), strict=True):
         # (third differences of positions ~0.25 m carry ~1e-8 of rounding at 1 ms)
         assert rv <= 1.0 + 1e-9 and ra <= 1.0 + 1e-6 and rj <= 1.0 + 1e-6, (name, rv, ra, rj)
+
+
+def test_fine_segment_wheel_blended_is_faster_than_exact_stop(tmp_path: Path) -> None:
+    """G64 on 0.001 in chords: the pieces of the rim run as one profile (RunPiece) with the
+    acceleration carried through the joints; never slower than G61, here much faster."""
+    p64, _, t64 = run_program(tmp_path, _program("G64", 20.0, 0.03), 64)
+    p61, _, t61 = run_program(tmp_path, _program("G61", 20.0, 0.03), 64)
+    assert t64 < 0.5 * t61, (t64, t61)
+    for pos in (p64, p61):
+        assert np.abs(pos[-1] - np.array([0.254, 0.254, -0.0254])).max() == 0.0  # exact end
+        for rv, ra, rj in differenced_ratios(pos, 0.001):
+            assert rv <= 1.0 + 1e-9 and ra <= 1.0 + 1e-6 and rj <= 1.0 + 1e-6
+
+
+def _walk(n: int, lo: float, hi: float, seed: int) -> list[tuple[float, float, float]]:
+    """A random walk of ``n`` segments of ``lo..hi`` [in] in 3-D (random corners)."""
+    rng = np.random.default_rng(seed)
+    p = np.array([10.0, 10.0, -1.0])
+    out = [tuple(p)]
+    for _ in range(n):
+        d = rng.normal(size=3) * np.array([1.0, 1.0, 0.3])
+        p = p + d / np.linalg.norm(d) * rng.uniform(lo, hi)
+        out.append(tuple(p))
+    return out
+
+
+@pytest.mark.parametrize(("lo", "hi", "tol"), [(0.2, 0.8, 0.02), (0.004, 0.04, 0.002)])
+def test_random_corners_blended_never_slower_than_exact_stop(
+    tmp_path: Path, lo: float, hi: float, tol: float
+) -> None:
+    """Sharp random corners under jerk limits: a blend the tolerance allows can be slower than
+    stopping at the corner; with GroupConfig.corner_choice the group then makes it smaller or
+    stops (G64 <= G61)."""
+    pts = _walk(25, lo, hi, 7)
+    times = {}
+    for mode in (f"G64 P{tol}", "G61"):
+        lines = ["%", "G20 G90 G17", mode, "G0 X10 Y10 Z-1", "F1200"]
+        lines += [f"G1 X{x:.5f} Y{y:.5f} Z{z:.5f}" for x, y, z in pts[1:]]
+        text = "\n".join([*lines, "M2", "%"]) + "\n"
+        pos, _, times[mode] = run_program(tmp_path, text, 64, corner_choice=True)
+        for rv, ra, rj in differenced_ratios(pos, 0.001):
+            assert rv <= 1.0 + 1e-9 and ra <= 1.0 + 1e-6 and rj <= 1.0 + 1e-6
+    assert times[f"G64 P{tol}"] <= times["G61"] * (1.0 + 1e-9), times
