@@ -14,7 +14,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_solve_banded, cholesky_banded
+from scipy.linalg.lapack import dpbtrf, dpbtrs
 
 from motionplc.planning.paths.base import Path
 from motionplc.planning.paths.trajectory import SpeedLaw
@@ -321,6 +321,7 @@ def coefficients_from_nodes(x: np.ndarray) -> np.ndarray:
 
 @dataclass
 class IpmResult:
+    lam: np.ndarray
     c: np.ndarray
     iterations: int
     converged: bool
@@ -332,7 +333,9 @@ def _direction(fac, rd, rp, s, lam, rc, gmul, gtmul, notfree):
     """One Newton direction of the interior-point method from the factorised normal matrix."""
     rhs = -rd + gtmul((rc - lam * rp) / s)
     rhs[notfree] = 0.0
-    dc = cho_solve_banded((fac, False), rhs, check_finite=False)
+    dc, info = dpbtrs(fac, rhs)
+    if info != 0:
+        raise np.linalg.LinAlgError("banded solve failed")
     dc[notfree] = 0.0
     ds = -rp - gmul(dc)
     dl = (-rc - lam * ds) / s
@@ -394,10 +397,9 @@ def solve_ipm(
         return ab
 
     def step(v: np.ndarray, dv: np.ndarray) -> float:
-        neg = dv < 0.0
-        if not neg.any():
-            return 1.0
-        return float(min(1.0, (v[neg] / -dv[neg]).min()))
+        # the largest step <= 1 keeping v + step dv >= 0 (v > 0): 1 / max(-dv / v)
+        t = float(np.max(-dv / v))
+        return 1.0 if t <= 1.0 else 1.0 / t
 
     c = np.where(free, c0, 0.0)
     s = np.maximum(r - gmul(c), 1e-2)
@@ -423,7 +425,7 @@ def solve_ipm(
         rd_norm = float(np.abs(rd).max()) / (1.0 + float(np.abs(grad).max()))
         # primal feasibility, stationarity, and a duality gap m mu of ``gap`` of the (O(1))
         # objective: the duration to about that (below 1e-7 stalls on the conditioning)
-        if rp_norm <= tol and rd_norm <= max(1e3 * tol, gap) and mu * m <= gap:
+        if rp_norm <= tol and mu * m <= gap and (rd_norm <= 1e-5 or mu * m <= 1e-3 * gap):
             converged = True
             break
         D = lam / s
@@ -431,9 +433,8 @@ def solve_ipm(
         ab = band(Ms)
         ab[2, notfree] = 1.0  # their rows and columns are zero (folded)
         ab[2] += 1e-14 * float(ab[2].max())
-        try:
-            fac = cholesky_banded(ab, lower=False, check_finite=False)
-        except np.linalg.LinAlgError:
+        fac, info = dpbtrf(ab, lower=0)
+        if info != 0:
             break
 
         sl = s * lam
@@ -452,7 +453,7 @@ def solve_ipm(
         c = c + ap * dc
         s = s + ap * ds
         lam = lam + ad * dl
-    return IpmResult(c, it, converged, mu, rp_norm)
+    return IpmResult(lam, c, it, converged, mu, rp_norm)
 
 
 # -- the time law through the node states ---------------------------------------------------

@@ -74,11 +74,10 @@ from motionplc.planning.paths.trajectory import PathTrajectory, SpeedLaw
 
 __all__ = ["plan_jerk_limited"]
 
-_ROUNDS = 3  # successive linearisations of the jerk rows at most
-_ROUND_TOL = 1e-5  # stop when a round gains less (relative duration)
+_ROUNDS = 8  # successive linearisations of the jerk rows at most
+_ROUND_TOL = 1e-4  # stop when a round gains less (relative duration)
 _REPAIRS = 6
-_GAPS = (1e-4, 1e-6, 1e-7)  # duality gap per round (the last ones decide)
-_KEEP = 16  # rows per interval kept after the first round
+_GAPS = (1e-6, 1e-7)  # duality gap per round (relative to the duration)
 _ACCEPT = 1e-9
 
 
@@ -188,36 +187,38 @@ def _scaled(law: SpeedLaw, lam: float) -> SpeedLaw:
 def _solve(path: Path, n: int, lim: k3.Limits3, bnd: k3.Boundary, x2: np.ndarray):
     model = k3.Model(path, n, lim, bnd)
     free = model.free_mask()
-    cs = float(np.max(x2))
-    if not cs > 0.0:
+    if not float(np.max(x2)) > 0.0:
         raise ValueError("second-order profile is zero")
     E, off, w = model.objective_rows()
-    # variable scaling c = cs * chat; objective scaled to O(1)
-    w_s = w / math.sqrt(cs)
+    # variable scaling c = sc * chat with sc the coefficients of the second-order optimum (so
+    # chat ~ 1 everywhere), the objective scaled to O(1), every row to a largest coefficient 1
+    sc = k3.coefficients_from_nodes(0.5 * x2)
+    sc = np.maximum(sc, 1e-6 * float(sc.max()))
+    w_s = w / math.sqrt(float(sc.max()))
     w_s = w_s / (float(np.sum(w_s)) or 1.0)
-    Es, offs = E * cs, off / cs
+    offs = off
     xr = np.stack([x2[:-1], 0.5 * (x2[:-1] + x2[1:]), x2[1:]], axis=1)
-    c = k3.coefficients_from_nodes(0.5 * x2) / cs
+    c = np.ones(n + 2)
     rest = bnd.rest_start and bnd.rest_end
     best: tuple[float, SpeedLaw, np.ndarray] | None = None
     info: dict[str, float] = {"rounds": 0.0, "ipm_iterations": 0.0, "repairs": 0.0}
     prev_T = math.inf
-    keep: np.ndarray | None = None
     for rnd in range(1, _ROUNDS + _REPAIRS + 1):
+        # variables scaled by the previous solution (the second-order one at first)
+        tri = np.stack([sc[:-2], sc[1:-1], sc[2:]], axis=1)[:, None, :]  # (n, 1, 3)
+        Es = E * tri
         G, r = model.rows(xr)
-        Gs = G * cs
+        Gs = G * tri
         rho = np.abs(Gs).max(axis=2)
         rho = np.where(rho > 0.0, rho, 1.0)
         Gs = Gs / rho[:, :, None]
         rs = r / rho
-        if keep is not None:
-            Gs = np.take_along_axis(Gs, keep[:, :, None], axis=1)
-            rs = np.take_along_axis(rs, keep, axis=1)
-        res = k3.solve_ipm(Gs, rs, Es, offs, w_s, free, c, gap=_GAPS[min(rnd, len(_GAPS)) - 1])
+        gap = _GAPS[min(rnd, len(_GAPS)) - 1]
+        res = k3.solve_ipm(Gs, rs, Es, offs, w_s, free, c, gap=gap)
         info["ipm_iterations"] += res.iterations
         info["rounds"] = float(rnd)
         c = res.c
-        cf = model.expand(c * cs)
+        cf = model.expand(c * sc)
         x, a = model.nodes(cf)
         law = k3.law_from_nodes(model.u[::2], np.sqrt(np.maximum(x, 0.0)), a, float(path.u_end))
         chk = k3.check_law(path, law, lim)
@@ -229,8 +230,8 @@ def _solve(path: Path, n: int, lim: k3.Limits3, bnd: k3.Boundary, x2: np.ndarray
                 cand = law
             elif rest and worst < 1.01:
                 # rest to rest: slow the whole law down by the small excess (exact)
-                lam = max(rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 4.0 * _ACCEPT)
-                cand = _scaled(law, lam)
+                stretch = max(rv, math.sqrt(ra), rj ** (1.0 / 3.0)) * (1.0 + 4.0 * _ACCEPT)
+                cand = _scaled(law, stretch)
         if cand is not None and (best is None or cand.duration < best[0]):
             best = (cand.duration, cand, x)
             info["time_scale"] = cand.duration / law.duration
@@ -245,39 +246,24 @@ def _solve(path: Path, n: int, lim: k3.Limits3, bnd: k3.Boundary, x2: np.ndarray
                 if not len(sel):
                     continue
                 f = 1.0 / (2.0 * ratio[sel] - 1.0)  # twice the excess: the solution moves
-                sc = {"v": model.scale_vel, "a": model.scale_acc, "j": model.scale_jerk}[kind]
-                g = sc[sel] * (f * f if kind == "v" else f[:, None])
+                scl = {"v": model.scale_vel, "a": model.scale_acc, "j": model.scale_jerk}[kind]
+                g = scl[sel] * (f * f if kind == "v" else f[:, None])
                 for d in (-1, 0, 1):
                     ii = np.clip(sel + d, 0, n - 1)
-                    sc[ii] = np.minimum(sc[ii], g)
+                    scl[ii] = np.minimum(scl[ii], g)
         converged = rnd >= 2 and prev_T - T < _ROUND_TOL * T
-        if best is not None and (rnd >= _ROUNDS or converged):
-            if not violated or rest:
-                break
-        if rnd >= _ROUNDS and best is not None and rnd >= _ROUNDS + 2:
+        if best is not None and (rnd >= _ROUNDS or converged) and (not violated or rest):
+            break
+        if best is not None and rnd >= _ROUNDS + 2:
             break
         prev_T = T
         info["repairs"] += float(violated)
-        # next round: linearised at this solution, with the rows nearest to active only
-        # (the check of the law catches any other; all rows again after a violation)
+        # next round: linearised at this solution
         xr = model.x_points(cf)
-        if violated and rnd >= _ROUNDS:
-            keep = None
-        else:
-            G2, r2 = model.rows(xr)
-            G2 = G2 * cs
-            rho2 = np.abs(G2).max(axis=2)
-            rho2 = np.where(rho2 > 0.0, rho2, 1.0)
-            slack = (
-                r2
-                - (
-                    G2[:, :, 0] * c[:-2, None]
-                    + G2[:, :, 1] * c[1:-1, None]
-                    + G2[:, :, 2] * c[2:, None]
-                )
-            ) / rho2
-            k = min(_KEEP, slack.shape[1])
-            keep = np.argpartition(slack, k - 1, axis=1)[:, :k]
+        sc_new = np.maximum(np.where(free, cf, 1.0), 1e-6 * float(np.max(cf)))
+        c = c * sc / sc_new
+        sc = sc_new
+        tri = np.stack([sc[:-2], sc[1:-1], sc[2:]], axis=1)[:, None, :]
     if best is None:
         raise ValueError("no feasible third-order solution")
     T, law, x = best
