@@ -96,24 +96,39 @@ class Model:
             raise ValueError("grid too coarse for the constant-jerk start/stop")
         mm = 0.75 * self.m
         self.kappa = (mm - 0.5) / (mm + 0.5)  # c_m = kappa c_{m+1} makes x_m = 1.5 m h a_m
+        # a small boundary speed (with zero path acceleration) behaves like rest: the quadratic
+        # model could only leave it exponentially slowly (a_1 <= 6 x_0 / h). Its first (last)
+        # interval gets the same shape, x_1 = x_0 + 1.5 h a_1 (one interval, m = 1)
+        self.soft_start = self.soft_end = False
+        if self.m == 1 and n >= 4:
+            # (with a boundary acceleration that is zero up to rounding: the time law takes
+            # the exact boundary state, the model's node acceleration is the free one)
+            al = self.rest_amax(range(1), True)
+            if bnd.x0 > 0.0 and abs(bnd.a0) <= 1e-9 * al:
+                self.soft_start = bnd.x0 < 1.5 * self.h * al
+            al = self.rest_amax(range(n - 1, n), False)
+            if bnd.xe > 0.0 and abs(bnd.ae) <= 1e-9 * al:
+                self.soft_end = bnd.xe < 1.5 * self.h * al
+        self.special_start = bnd.rest_start or self.soft_start
+        self.special_end = bnd.rest_end or self.soft_end
 
     # -- fixed and dependent coefficients ----------------------------------------------------
 
-    def fixed(self) -> tuple[dict[int, float], dict[int, tuple[int, float]]]:
+    def fixed(self) -> tuple[dict[int, float], dict[int, tuple[int, float, float]]]:
         """Coefficients fixed by the boundary state (or unused: those only the constant-jerk
-        start/stop intervals see), and those tied to a free one (``c_g = f * c_g2``)."""
+        start/stop intervals see), and those tied to a free one (``c_g = f c_g2 + g0``)."""
         n, h, b, m = self.n, self.h, self.bnd, self.m
         fix: dict[int, float] = {}
-        dep: dict[int, tuple[int, float]] = {}
-        if b.rest_start:
+        dep: dict[int, tuple[int, float, float]] = {}
+        if self.special_start:
             fix.update({g: 0.0 for g in range(m)})
-            dep[m] = (m + 1, self.kappa)
+            dep[m] = (m + 1, self.kappa, (1.0 - self.kappa) * b.x0)
         else:
             fix[0] = b.x0 - h * b.a0
             fix[1] = b.x0 + h * b.a0
-        if b.rest_end:
+        if self.special_end:
             fix.update({g: 0.0 for g in range(n - m + 2, n + 2)})
-            dep[n - m + 1] = (n - m, self.kappa)
+            dep[n - m + 1] = (n - m, self.kappa, (1.0 - self.kappa) * b.xe)
         else:
             fix[n] = b.xe - h * b.ae
             fix[n + 1] = b.xe + h * b.ae
@@ -131,8 +146,8 @@ class Model:
         fix, dep = self.fixed()
         for g, v in fix.items():
             c[g] = v
-        for g, (g2, f) in dep.items():
-            c[g] = f * c[g2]
+        for g, (g2, f, g0) in dep.items():
+            c[g] = f * c[g2] + g0
         return c
 
     def fold(self, G: np.ndarray, r: np.ndarray) -> None:
@@ -145,11 +160,12 @@ class Model:
                 i = g - k
                 r[k] -= G[k, :, i] * v
                 G[k, :, i] = 0.0
-        for g, (g2, f) in dep.items():
+        for g, (g2, f, g0) in dep.items():
             for k in range(max(0, g - 2), min(n, g + 1)):
                 i, i2 = g - k, g2 - k
                 if 0 <= i2 <= 2:
                     G[k, :, i2] += f * G[k, :, i]
+                    r[k] -= G[k, :, i] * g0
                 G[k, :, i] = 0.0
 
     # -- rows --------------------------------------------------------------------------------
@@ -194,17 +210,22 @@ class Model:
             np.broadcast_to(1.5 * Jl * rs, GA.shape[:3]),
         ]
         G = np.concatenate([g.reshape(n, -1, 3) for g in Gs] + [BETA[None].repeat(n, 0)], axis=1)
-        G = np.concatenate([G, -BETA[None, 1:2].repeat(n, 0)], axis=1)
-        r = np.concatenate([x.reshape(n, -1) for x in rs_] + [cap, np.zeros((n, 1))], axis=1)
+        # x >= 0 at the middle; and the two-piece law exists (V^2 >= 4/3 h (a_1 - a_0), see
+        # law_from_nodes), sufficiently as 4/3 h (a_1 - a_0) <= x_0 + x_1 (linear)
+        law_row = np.array([[1.0 / 6.0, -7.0 / 3.0, 1.0 / 6.0]])
+        G = np.concatenate([G, -BETA[None, 1:2].repeat(n, 0), law_row[None].repeat(n, 0)], axis=1)
+        r = np.concatenate(
+            [x.reshape(n, -1) for x in rs_] + [cap, np.zeros((n, 1)), np.zeros((n, 1))], axis=1
+        )
         G = np.ascontiguousarray(G)
         r = np.ascontiguousarray(r, dtype=float)
         # constant-jerk start / stop intervals: a box on the acceleration at their inner node
         m = self.m
-        if self.bnd.rest_start:
+        if self.special_start:
             G[:m] = 0.0
             r[:m] = 1.0
             self._rest_rows(G, r, m - 1, 2, range(m))
-        if self.bnd.rest_end:
+        if self.special_end:
             G[n - m :] = 0.0
             r[n - m :] = 1.0
             self._rest_rows(G, r, n - m, 0, range(n - m, n))
@@ -251,8 +272,9 @@ class Model:
         """The box on |ddu| at the inner node of the constant-jerk start (stop), as rows of
         interval ``k`` on the free coefficient in ``slot``: |ddu| = (1 - kappa) c / (2 h)."""
         h = self.h
+        x_b = self.bnd.x0 if slot == 2 else self.bnd.xe  # 0 at rest
         G[k, 0, slot] = (1.0 - self.kappa) / (2.0 * h)
-        r[k, 0] = self.rest_amax(ints, slot == 2)
+        r[k, 0] = self.rest_amax(ints, slot == 2) + (1.0 - self.kappa) * x_b / (2.0 * h)
         G[k, 1, slot] = -1.0  # x >= 0 there
         r[k, 1] = 0.0
 
@@ -269,10 +291,10 @@ class Model:
         wn = np.full(n + 1, h)
         wn[0] = wn[n] = 0.0
         m = self.m
-        if self.bnd.rest_start:  # the start takes 3 m h / v_m
+        if self.special_start:  # from rest the start takes 3 m h / v_m (an upper bound else)
             wn[:m] = 0.0
             wn[m] = 0.5 * h + 3.0 * m * h
-        if self.bnd.rest_end:
+        if self.special_end:
             wn[n - m + 1 :] = 0.0
             wn[n - m] = 0.5 * h + 3.0 * m * h
         E = np.zeros((n, 2, 3))
@@ -469,6 +491,7 @@ def law_from_nodes(u_nodes: np.ndarray, v: np.ndarray, a: np.ndarray, u_end: flo
     V = v[:-1] + v[1:]
     da = a[1:] - a[:-1]
     disc = V * V - (4.0 / 3.0) * da * h
+    disc = np.where((disc < 0.0) & (disc > -1e-12 * V * V), 0.0, disc)  # rounding
     if np.any(disc < 0.0) or np.any(~np.isfinite(disc)):
         raise ValueError("node states without a two-piece law")
     d = 2.0 * h / (V + np.sqrt(disc))

@@ -109,6 +109,71 @@ def _ddu(name: str, acc: float, x: float, grid, k: int) -> float:
     return (acc - float(q1 @ q2) / sp * x) / sp
 
 
+def _break_candidates(path: Path, offset: float = 0.0, depth: int = 0) -> list[float]:
+    """Parameters where a path may change its second derivative: the breaks of composite
+    paths (and of their segments), the passing points of Hermite curves, B-spline knots."""
+    out: list[float] = []
+    for attr in ("breaks", "point_params", "knots"):
+        v = getattr(path, attr, None)
+        if v is not None:
+            with np.errstate(all="ignore"):
+                arr = np.asarray(v, dtype=float).ravel()
+            out.extend((offset + arr[np.isfinite(arr)]).tolist())
+    segs = getattr(path, "segments", None)
+    breaks = getattr(path, "breaks", None)
+    if segs is not None and breaks is not None and depth < 4:
+        for seg, b0 in zip(segs, np.asarray(breaks, dtype=float)[:-1], strict=False):
+            out.extend(_break_candidates(seg, offset + float(b0), depth + 1))
+    return out
+
+
+def curvature_jumps(path: Path, rtol: float = 1e-7) -> np.ndarray:
+    """Interior parameters where ``q''`` (or ``q'``: a corner) jumps. At such a point the axis
+    acceleration ``q' ddu + q'' du^2`` jumps unless ``du = 0``: a jerk-limited motion stops
+    there. Found among :func:`_break_candidates` by comparing ``q'`` and ``q''`` just left and
+    right of each."""
+    u_end = float(path.u_end)
+    cand = np.unique(np.asarray(_break_candidates(path), dtype=float))
+    tol_u = 1e-9 * max(u_end, 1.0)
+    cand = cand[(cand > 1e3 * tol_u) & (cand < u_end - 1e3 * tol_u)]
+    if not len(cand):
+        return cand
+    grid = np.linspace(0.0, u_end, 257)
+    scale = float(np.abs(np.asarray(path.evaluate(grid, 2), dtype=float)).max())
+    scale = max(scale, float(np.abs(np.asarray(path.evaluate(grid, 1), dtype=float)).max()) ** 2)
+    q3 = float(np.abs(np.asarray(path.evaluate(grid, 3), dtype=float)).max())
+    s1 = float(np.abs(np.asarray(path.evaluate(grid, 1), dtype=float)).max())
+    jumps = np.zeros(len(cand), dtype=bool)
+    for k, sc, d in ((1, s1, scale), (2, scale, q3)):
+        lo = np.asarray(path.evaluate(cand - tol_u, k), dtype=float).reshape(len(cand), -1)
+        hi = np.asarray(path.evaluate(cand + tol_u, k), dtype=float).reshape(len(cand), -1)
+        jumps |= np.abs(hi - lo).max(axis=1) > rtol * sc + 4.0 * tol_u * d
+    return cand[jumps]
+
+
+class _Piece(Path):
+    """``path`` restricted to ``[u0, u1]``, reparametrised to start at 0."""
+
+    __slots__ = ("_p", "_u0", "_len")
+
+    def __init__(self, path: Path, u0: float, u1: float) -> None:
+        self._p = path
+        self._u0 = float(u0)
+        self._len = float(u1) - float(u0)
+
+    @property
+    def dim(self) -> int:
+        return self._p.dim
+
+    @property
+    def u_end(self) -> float:
+        return self._len
+
+    def evaluate(self, u, order: int = 0):
+        uu = np.clip(np.asarray(u, dtype=float), 0.0, self._len) + self._u0
+        return self._p.evaluate(np.minimum(uu, float(self._p.u_end)), order)
+
+
 def plan_jerk_limited(
     path: Path,
     lim: PathLimits,
@@ -122,38 +187,112 @@ def plan_jerk_limited(
     """Jerk-limited motion along ``path`` (validated limits; see the module docstring).
 
     ``vs``/``ve``: path speeds ``|dp/dt|`` at the ends; ``a_start``/``a_end``: tangential path
-    accelerations ``d|dp/dt|/dt`` there [m/s^2].
+    accelerations ``d|dp/dt|/dt`` there [m/s^2]. Where the path's second derivative jumps
+    (:func:`curvature_jumps`) the motion stops: the pieces between are planned one by one (grid
+    intervals shared by length) and joined.
     """
+    jumps = curvature_jumps(path)
+    if not len(jumps):
+        return _plan_piece(path, lim, vs, ve, n, a_start, a_end)
     t_start = time.perf_counter()
+    u_end = float(path.u_end)
+    cuts = np.concatenate([[0.0], jumps, [u_end]])
+    laws, gu, gdu, gmax = [], [], [], []
+    info: dict[str, float] = {"stops": float(len(jumps)), "rounds": 0.0}
+    t_off = 0.0
+    for i in range(len(cuts) - 1):
+        u0, u1 = float(cuts[i]), float(cuts[i + 1])
+        ni = max(8, round(n * (u1 - u0) / u_end))
+        first, last = i == 0, i == len(cuts) - 2
+        tr = _plan_piece(
+            _Piece(path, u0, u1),
+            lim,
+            vs if first else 0.0,
+            ve if last else 0.0,
+            ni,
+            a_start if first else 0.0,
+            a_end if last else 0.0,
+        )
+        if "fallback" in tr.info:
+            info["fallback"] = 1.0
+        info["rounds"] = max(info["rounds"], tr.info.get("rounds", 0.0))
+        lw = tr.law
+        laws.append((lw.t + t_off, lw.u + u0, lw.du, lw.ddu, lw.dddu))
+        t_off += lw.duration
+        gu.append(tr.grid_u[:-1] + u0)
+        gdu.append(tr.grid_du[:-1])
+        gmax.append(tr.grid_du_max[:-1])
+    law = SpeedLaw(*(np.concatenate(c) for c in zip(*laws, strict=True)), t_off, u_end)
     grid = _evaluate_grid(path, n)
     x0 = _boundary_x("v_start", vs, grid, 0)
     xe = _boundary_x("v_end", ve, grid, 2 * n)
-    a0 = _ddu("a_start", float(a_start), x0, grid, 0)
-    ae = _ddu("a_end", float(a_end), xe, grid, 2 * n)
-    if x0 == 0.0 and a0 < 0.0:
-        raise PlanningError(f"a_start: must be >= 0 at zero start speed, got {a_start!r}")
-    if xe == 0.0 and ae > 0.0:
-        raise PlanningError(f"a_end: must be <= 0 at zero end speed, got {a_end!r}")
     sol2, _, _ = solve_second_order(path, lim, x0, xe, n, grid)
     t2 = float(np.sum(2.0 * grid.h / (np.sqrt(sol2.x[:-1]) + np.sqrt(sol2.x[1:]))))
-    lim3 = _limits3(lim)
-    bnd = k3.Boundary(x0, a0, xe, ae)
-    info: dict[str, float] = {"second_order_duration": t2}
-    try:
-        law, xs, info2 = _solve(path, n, lim3, bnd, sol2.x)
-        info.update(info2)
-    except (ValueError, PlanningError, np.linalg.LinAlgError) as exc:
-        info["fallback"] = 1.0
-        law = None
-        err = exc
+    info["second_order_duration"] = t2
+    info["compute_s"] = time.perf_counter() - t_start
+    gu.append([u_end])
+    gdu.append([math.sqrt(max(tr.grid_du[-1], 0.0) ** 2)])
+    gmax.append([tr.grid_du_max[-1]])
+    return PathTrajectory(
+        path, law, 3, np.concatenate(gu), np.concatenate(gdu), np.concatenate(gmax), t2, info
+    )
+
+
+def _grid_sizes(path: Path, n: int) -> list[int]:
+    """Grid sizes to try: ``n``, raised so that every segment of a piecewise path (between
+    :func:`_break_candidates`) spans at least 4 intervals (at most 16 n and 100000), then
+    four times that."""
+    u_end = float(path.u_end)
+    cand = np.unique(np.concatenate([[0.0, u_end], _break_candidates(path)]))
+    cand = cand[(cand >= 0.0) & (cand <= u_end)]
+    gap = float(np.min(np.diff(cand))) if len(cand) > 1 else u_end
+    cap = min(16 * n, 100_000)
+    n1 = n if gap <= 0.0 else min(max(n, math.ceil(4.0 * u_end / gap)), cap)
+    return sorted({n1, min(4 * n1, max(cap, n1))})
+
+
+def _plan_piece(
+    path: Path,
+    lim: PathLimits,
+    vs: float,
+    ve: float,
+    n: int,
+    a_start: float,
+    a_end: float,
+) -> PathTrajectory:
+    """One piece without curvature jumps (see :func:`plan_jerk_limited`)."""
+    t_start = time.perf_counter()
+    law = None
+    err: Exception | None = None
+    info: dict[str, float] = {}
+    for nn in _grid_sizes(path, n):
+        grid = _evaluate_grid(path, nn)
+        x0 = _boundary_x("v_start", vs, grid, 0)
+        xe = _boundary_x("v_end", ve, grid, 2 * nn)
+        a0 = _ddu("a_start", float(a_start), x0, grid, 0)
+        ae = _ddu("a_end", float(a_end), xe, grid, 2 * nn)
+        if x0 == 0.0 and a0 < 0.0:
+            raise PlanningError(f"a_start: must be >= 0 at zero start speed, got {a_start!r}")
+        if xe == 0.0 and ae > 0.0:
+            raise PlanningError(f"a_end: must be <= 0 at zero end speed, got {a_end!r}")
+        sol2, _, _ = solve_second_order(path, lim, x0, xe, nn, grid)
+        t2 = float(np.sum(2.0 * grid.h / (np.sqrt(sol2.x[:-1]) + np.sqrt(sol2.x[1:]))))
+        info = {"second_order_duration": t2, "grid": float(nn)}
+        try:
+            law, xs, info2 = _solve(path, nn, _limits3(lim), k3.Boundary(x0, a0, xe, ae), sol2.x)
+            info.update(info2)
+            break
+        except (ValueError, PlanningError, np.linalg.LinAlgError) as exc:
+            err = exc
     if law is None:
+        info["fallback"] = 1.0
         from motionplc.planning.paths._topp_jerk_filter import plan_filtered
 
         if a0 != 0.0 or ae != 0.0:
             raise PlanningError(
                 f"j_max: no jerk-limited motion found along this path ({err})"
             ) from err
-        tr = plan_filtered(path, lim, vs, ve, n)
+        tr = plan_filtered(path, lim, vs, ve, n)  # on the caller's grid
         info.update(tr.info)
         info["compute_s"] = time.perf_counter() - t_start
         return PathTrajectory(path, tr.law, 3, tr.grid_u, tr.grid_du, tr.grid_du_max, t2, info)
