@@ -48,6 +48,7 @@ Units are SI throughout (m or rad, s).
 
 from __future__ import annotations
 
+import difflib
 import ipaddress
 import math
 import re
@@ -283,11 +284,25 @@ class Checker:
     def keys(self, value: YamlMap, path: str, keys: Mapping[str, bool]) -> None:
         """Unknown and missing keys of a mapping already checked by :meth:`mapping`."""
         allowed = ", ".join(keys)
+        missing = [k for k, required in keys.items() if required and k not in value]
+        typo_of: dict[Any, str] = {}  # an unknown key that is a missing required key mistyped
         for k in value:
-            if k not in keys:
+            if k not in keys and isinstance(k, str):
+                close = difflib.get_close_matches(k, missing, n=1, cutoff=0.75)
+                if close and close[0] not in typo_of.values():
+                    typo_of[k] = close[0]
+        for k in value:
+            if k in typo_of:  # the root cause, once (not also "missing")
+                self.error(
+                    value.key_lines[k],
+                    join(path, k),
+                    f"unknown key (did you mean {typo_of[k]!r}? a required key)",
+                    allowed,
+                )
+            elif k not in keys:
                 self.error(value.key_lines[k], join(path, k), "unknown key", allowed)
-        for k, required in keys.items():
-            if required and k not in value:
+        for k in missing:
+            if k not in typo_of.values():
                 self.error(value.line, join(path, k), "missing", "required key")
 
     def name(self, m: YamlMap, key: Any, path: str) -> bool:
@@ -1294,10 +1309,12 @@ def parse_config(data: Any, file: str | Path) -> Config:
             c.error(am.line, "axes", "no axis", "at least one axis")
         for name, body in am.items():
             if c.name(am, name, "axes"):
+                # every axis defined counts as known, also one with errors of its own: a
+                # reference to it elsewhere is not a second error (the root cause is reported)
+                lines[name] = am.line_of(name)
                 ax = _parse_axis(c, name, am.line_of(name), body, buses, tasks)
                 if ax is not None:
                     axes.append(ax)
-                    lines[name] = am.line_of(name)
         # bus-wide rules: unique node/unit ids, one task per CAN bus
         seen: dict[tuple[str, int], str] = {}
         bus_task: dict[str, tuple[str, str]] = {}
