@@ -436,18 +436,46 @@ def _load_script(path: str, config: Any, group: str | None = None) -> Any:
     return load_sequence(path, config)
 
 
+def _plausibility_warnings(cfg: Any, script: Any = None) -> None:
+    """Print the warnings (accepted, implausible values: motionplc.plausibility) of a
+    configuration (``script`` None) or of its sequence or G-code program ``script``, one
+    ``FILE:LINE: key: warning: ...`` line each, on stderr."""
+    lines = list(getattr(cfg, "warnings", ())) if script is None else []
+    lines += list(getattr(script, "warnings", ()) or ())
+    if script is not None and hasattr(script, "program") and hasattr(script, "group"):
+        from motionplc.plausibility import feed_warning
+
+        units = cfg.axis(script.axes[0]).units if script.axes else "m"
+        last = None
+        try:
+            moves = list(script.program.moves([0.0] * len(script.axes)))
+        except MotionPlcError:
+            moves = []  # reported as an error where the moves are resolved
+        for mv in moves:
+            if mv.feed is None or mv.feed == last:
+                continue
+            last = mv.feed
+            text = feed_warning(mv.feed, units)
+            if text is not None:
+                lines.append(f"{script.path}:{mv.line}: F: warning: {text}")
+    for line in lines:
+        print(line, file=sys.stderr)
+
+
 def _cmd_validate(args: argparse.Namespace) -> int:
     from motionplc.config import load_config
 
     cfg = load_config(args.config)
+    _plausibility_warnings(cfg)
     tasks = ", ".join(f"{t.name} {t.period * 1e3:g} ms" for t in cfg.runtime.tasks)
     print(
         f"{args.config}: ok - {_plural(len(cfg.axes), 'axis', 'axes')} "
         f"({', '.join(a.name for a in cfg.axes)}), {_plural(len(cfg.buses), 'bus', 'buses')}, "
         f"{'task' if len(cfg.runtime.tasks) == 1 else 'tasks'}: {tasks}"
     )
-    if args.script:
-        script = _load_script(args.script, cfg, args.group)
+    script = _load_script(args.script, cfg, args.group) if args.script else None
+    if script is not None:
+        _plausibility_warnings(cfg, script)
         if hasattr(script, "program") and hasattr(script, "group"):  # a G-code job
             from motionplc.gcode_runner import group_moves
 
@@ -825,7 +853,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise MotionPlcError("--group needs a G-code program")
     trace_path = _check_output("--trace", args.trace, TRACE_SUFFIXES)
     plot_path = _check_output("--plot", args.plot, PLOT_SUFFIXES)
+    _plausibility_warnings(cfg)
     script = _load_script(args.script, cfg, args.group) if args.script else None
+    if script is not None:
+        _plausibility_warnings(cfg, script)
     cfg = _apply_realtime_options(cfg, args)
     max_overruns = getattr(cfg.runtime, "max_overruns", None)
     overrun_source = "--max-overruns" if args.max_overruns is not None else "runtime.max_overruns"

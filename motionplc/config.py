@@ -48,6 +48,7 @@ Units are SI throughout (m or rad, s).
 
 from __future__ import annotations
 
+import difflib
 import ipaddress
 import math
 import re
@@ -232,6 +233,21 @@ class Checker:
     def __init__(self, file: str | Path) -> None:
         self.file = str(file)
         self.errors: list[str] = []
+        self.warnings: list[str] = []  # accepted, but implausible (motionplc.plausibility)
+
+    def warn(self, line: int, path: str, text: str) -> None:
+        """A warning, never an error: ``FILE:LINE: key.path: warning: text``."""
+        self.warnings.append(f"{self.file}:{line}: {path}: warning: {text}")
+
+    def plausible(
+        self, m: YamlMap, key: str, path: str, value: float | None, units: str, quantity: str
+    ) -> None:
+        """Warn when ``value`` (of ``m[key]``) is implausible for an axis in ``units``."""
+        from motionplc.plausibility import warning
+
+        text = None if value is None else warning(value, units, quantity, key)
+        if text is not None:
+            self.warn(m.line_of(key), join(path, key), text)
 
     def error(self, line: int, path: str, problem: str, allowed: str | None = None) -> None:
         msg = f"{self.file}:{line}: {path}: {problem}"
@@ -268,11 +284,25 @@ class Checker:
     def keys(self, value: YamlMap, path: str, keys: Mapping[str, bool]) -> None:
         """Unknown and missing keys of a mapping already checked by :meth:`mapping`."""
         allowed = ", ".join(keys)
+        missing = [k for k, required in keys.items() if required and k not in value]
+        typo_of: dict[Any, str] = {}  # an unknown key that is a missing required key mistyped
         for k in value:
-            if k not in keys:
+            if k not in keys and isinstance(k, str):
+                close = difflib.get_close_matches(k, missing, n=1, cutoff=0.75)
+                if close and close[0] not in typo_of.values():
+                    typo_of[k] = close[0]
+        for k in value:
+            if k in typo_of:  # the root cause, once (not also "missing")
+                self.error(
+                    value.key_lines[k],
+                    join(path, k),
+                    f"unknown key (did you mean {typo_of[k]!r}? a required key)",
+                    allowed,
+                )
+            elif k not in keys:
                 self.error(value.key_lines[k], join(path, k), "unknown key", allowed)
-        for k, required in keys.items():
-            if required and k not in value:
+        for k in missing:
+            if k not in typo_of.values():
                 self.error(value.line, join(path, k), "missing", "required key")
 
     def name(self, m: YamlMap, key: Any, path: str) -> bool:
@@ -606,6 +636,7 @@ class Config:
     axes: tuple[AxisSpec, ...]
     groups: tuple[GroupSpec, ...] = ()
     cams: tuple[CamSpec, ...] = ()
+    warnings: tuple[str, ...] = ()  # ``FILE:LINE: key.path: warning: ...`` (plausibility)
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -909,6 +940,14 @@ def _parse_axis(
                 c.error(lm.line_of(key), join(lp, key), f"got {_fmt(val)}", _allowed(node))
         if v_max is not None and a_max is not None:
             lim = LimitsSpec(v_max, a_max, j_max or math.inf, v_min or None, a_min or None)
+        for key, val, qty in (
+            ("v_max", v_max, "velocity"),
+            ("v_min", v_min, "velocity"),
+            ("a_max", a_max, "acceleration"),
+            ("a_min", a_min, "acceleration"),
+            ("j_max", j_max, "jerk"),
+        ):
+            c.plausible(lm, key, lp, val, units or "m", qty)
     sw_min = sw_max = None
     if m.get("software_limits") is not None:
         sp = join(path, "software_limits")
@@ -916,6 +955,8 @@ def _parse_axis(
         if sm is not None:
             sw_min = c.field(sm, "min", sp, S.SOFTWARE_LIMITS["min"])
             sw_max = c.field(sm, "max", sp, S.SOFTWARE_LIMITS["max"])
+            for key, val in (("min", sw_min), ("max", sw_max)):
+                c.plausible(sm, key, sp, val, units or "m", "position")
             if sw_min is not None and sw_max is not None and not sw_min < sw_max:
                 c.error(
                     sm.line_of("max"),
@@ -934,6 +975,8 @@ def _parse_axis(
     fe = c.field(m, "following_error", path, S.AXIS["following_error"])
     qd = c.field(m, "queue_depth", path, S.AXIS["queue_depth"])
     jogs = {k: c.field(m, k, path, S.AXIS[k]) for k in ("jog_velocity_slow", "jog_velocity_fast")}
+    for k, val in jogs.items():
+        c.plausible(m, k, path, val, units or "m", "velocity")
     if lim is not None:
         v_cap = min(lim.v_max, -lim.v_min if lim.v_min is not None else lim.v_max)
         for k, val in jogs.items():
@@ -957,6 +1000,7 @@ def _parse_axis(
                     "only used by method switch",
                     "method: switch",
                 )
+            c.plausible(hm, "velocity", hp, hv, units or "m", "velocity")
             homing = HomingSpec(method, sw, hv)
             drive_homing = _parse_drive_homing(c, hm, hp)
             if method == "drive":
@@ -1265,10 +1309,12 @@ def parse_config(data: Any, file: str | Path) -> Config:
             c.error(am.line, "axes", "no axis", "at least one axis")
         for name, body in am.items():
             if c.name(am, name, "axes"):
+                # every axis defined counts as known, also one with errors of its own: a
+                # reference to it elsewhere is not a second error (the root cause is reported)
+                lines[name] = am.line_of(name)
                 ax = _parse_axis(c, name, am.line_of(name), body, buses, tasks)
                 if ax is not None:
                     axes.append(ax)
-                    lines[name] = am.line_of(name)
         # bus-wide rules: unique node/unit ids, one task per CAN bus
         seen: dict[tuple[str, int], str] = {}
         bus_task: dict[str, tuple[str, str]] = {}
@@ -1324,7 +1370,13 @@ def parse_config(data: Any, file: str | Path) -> Config:
     c.raise_if_any()
     assert runtime is not None
     return Config(
-        str(file), runtime, tuple(buses.values()), tuple(axes), tuple(groups), tuple(cams)
+        str(file),
+        runtime,
+        tuple(buses.values()),
+        tuple(axes),
+        tuple(groups),
+        tuple(cams),
+        tuple(c.warnings),
     )
 
 

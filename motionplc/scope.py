@@ -1,15 +1,20 @@
 """The PLC scope: a trace drawn as an interactive HTML page (plotly) or a PNG (matplotlib).
 
-Per axis, one column of lanes over a common time axis: position (commanded and actual
-overlaid), velocity (commanded and actual), acceleration, jerk, following error, and a lane of
-rows for the PLCopen axis state (coloured spans, each named once where it fits; the colours in
-the legend) and one row per function block instance (Busy/Active/Valid spans, Done/Error/
-CommandAborted marks from the FB edge events). Every y-axis names its quantity and unit
-("position [m]"; [rad] for a rotary axis), taken from the trace's units (``*.units.json`` next
-to a CSV, the schema of a Parquet file, ``Trace.units`` of a live runtime); a trace without
-units says "m or rad". Per axes group (when the trace has groups): the group's path in space
-coloured by its path speed (XY for two axes, XY and XZ for three or more; equal aspect, start
-and end marked, a colour scale), the path speed over time and the group state and FB lanes.
+The scope is a grid of cards, at most :data:`MAX_GRID_COLUMNS` grid columns wide (an axis card
+one column, a group card two, groups first); more axes wrap into further rows of the same size,
+so a card reads the same from 1 to 16 axes, and the first row (lanes included) fits a 1600 x
+1000 window. A group that was never enabled (GROUP_DISABLED throughout, no FB of it) gets no
+card; the title names it. Per axis, one card of lanes over a common time axis: position
+(commanded and actual overlaid), velocity (commanded and actual), acceleration, jerk, following
+error, and a lane of rows for the PLCopen axis state (coloured spans, each named once where it
+fits; the colours in the legend) and one row per function block instance (Busy/Active/Valid
+spans, Done/Error/CommandAborted marks from the FB edge events). Every y-axis names its
+quantity and unit ("position [m]"; [rad] for a rotary axis), taken from the trace's units
+(``*.units.json`` next to a CSV, the schema of a Parquet file, ``Trace.units`` of a live
+runtime); a trace without units says "m or rad". Per axes group (when the trace has groups): the
+group's path in space coloured by its path speed (XY for two axes, XY and XZ side by side for
+three or more; equal aspect, start and end marked, a colour scale in its own room right of
+them), the path speed over time and the group state and FB lanes.
 
 The HTML page is self-contained (plotly.js inlined, it opens offline): every time axis is linked
 (zoom or pan one, all follow; scroll zooms; double-click resets), a unified hover cursor reads
@@ -939,21 +944,117 @@ def _row_domains(weights: Sequence[float], gap: float) -> list[tuple[float, floa
     return out
 
 
+# ---------------------------------------------------------------------------- the grid
+MAX_GRID_COLUMNS = 4
+"""Grid columns per row of the scope (an axis card is one column wide, a group card two): more
+axes wrap into further rows of the same size, so a card keeps its size from 1 to 16 axes."""
+
+
+@dataclass(frozen=True, slots=True)
+class _Cell:
+    """Where a card (a :class:`_Column`) sits: its grid row, first grid column and width."""
+
+    col: _Column
+    row: int
+    start: int
+    span: int
+
+
+def _grid(cols: Sequence[_Column]) -> tuple[int, int, list[_Cell]]:
+    """(grid columns, grid rows, cells): the cards in order (groups first), row by row; a
+    group card spans two grid columns. Rows are balanced: 6 units give 2 rows of 3, not 4 + 2."""
+    spans = [2 if c.kind == "group" else 1 for c in cols]
+    units = sum(spans)
+    limit = MAX_GRID_COLUMNS + 1 if units == MAX_GRID_COLUMNS + 1 else MAX_GRID_COLUMNS
+    nrows = -(-units // limit)
+    ncols = max(-(-units // nrows), max(spans))
+    while True:  # greedy packing; widen by one column if a group card would not fit a row
+        cells: list[_Cell] = []
+        row = used = 0
+        for col, span in zip(cols, spans, strict=True):
+            if used + span > ncols:
+                row, used = row + 1, 0
+            cells.append(_Cell(col, row, used, span))
+            used += span
+        if row + 1 <= nrows or ncols >= limit:
+            return ncols, row + 1, cells
+        ncols += 1
+
+
+def _drawn_columns(cols: list[_Column]) -> tuple[list[_Column], list[_Column]]:
+    """(drawn, left out): a group that was never enabled (its state GROUP_DISABLED throughout
+    and no FB of it ever switched) has nothing to show and gets no card."""
+    import numpy as np
+
+    drawn, idle = [], []
+    for col in cols:
+        never = (
+            col.kind == "group"
+            and col.state is not None
+            and not col.fbs
+            and bool(np.all(np.asarray(col.state) == 0))
+        )
+        (idle if never else drawn).append(col)
+    return drawn, idle
+
+
+def _idle_note(idle: Sequence[_Column]) -> str:
+    if not idle:
+        return ""
+    names = "; ".join(f"{c.name} ({', '.join(c.members)})" for c in idle)
+    return (
+        f"; never enabled, not drawn: group {names}"
+        if len(idle) == 1
+        else (f"; never enabled, not drawn: groups {names}")
+    )
+
+
+# HTML geometry in pixels (the page is responsive in width; NOMINAL_WIDTH is the plot width the
+# horizontal gaps are sized for, a 1600 px window less margins and the legend)
+_NOMINAL_WIDTH = 1330.0
+_GAP_X_PX = 78.0  # between cards: the next card's y tick labels and title
+_HEADER_PX = 92.0  # page title and its note (the top margin)
+_BOTTOM_PX = 20.0
+_TITLE_PX = 30.0  # a card row's titles
+_VALUE_PX = 500.0  # the five value lanes of an axis card (with their gaps)
+_VALUE_GAP_PX = 14.0
+_LANES_GAP_PX = 16.0
+_LANE_PX = 19.0  # one state/FB row
+_LANES_MIN_PX = 58.0
+_TIME_AXIS_PX = 44.0  # the time axis' tick labels and title below the lanes
+_ROW_GAP_PX = 26.0
+_VIEW_AXIS_PX = 48.0  # a path view's x tick labels and title, above the path speed lane
+_COLOURBAR_PX = 74.0  # right of a group's path views: the speed colour bar and its labels
+_VIEW_GAP_PX = 70.0  # between two path views: the second one's y tick labels and title
+
+
+def _row_px(n_lanes: int) -> float:
+    lanes = max(_LANES_MIN_PX, _LANE_PX * n_lanes)
+    return _TITLE_PX + _VALUE_PX + _LANES_GAP_PX + lanes + _TIME_AXIS_PX + _ROW_GAP_PX
+
+
 def _html_figure(
     go: Any, t: Any, cols: list[_Column], title: str, max_points: int, max_segments: int
 ) -> Any:
-    """The plotly figure: one column of lanes per group and axis, time axes linked."""
+    """The plotly figure: a card per group and axis on a grid, every time axis linked."""
     import numpy as np
 
     n = len(t)
     t = np.asarray(t, dtype=float)
-    n_lanes = max(len(c.lane_labels()) for c in cols)
-    weights = [w for _, _, w in _AXIS_ROWS] + [max(0.35, _LANE_ROW_WEIGHT * n_lanes)]
-    gap = 0.2
-    rows = _row_domains(weights, gap)
-    ncol = len(cols)
-    gap_x = 0.07 if ncol > 1 else 0.0
-    width = (1.0 - gap_x * (ncol - 1)) / ncol
+    cols, idle = _drawn_columns(cols)
+    ncol, nrow, cells = _grid(cols)
+    lanes_of_row = [max(len(c.col.lane_labels()) for c in cells if c.row == r) for r in range(nrow)]
+    row_top = [float(sum(_row_px(k) for k in lanes_of_row[:r])) for r in range(nrow)]
+    plot_px = sum(_row_px(k) for k in lanes_of_row)
+    height = _HEADER_PX + plot_px + _BOTTOM_PX
+
+    def py(px: float) -> float:  # pixels from the top of the plot area -> paper y
+        return min(1.0, max(0.0, 1.0 - px / plot_px))
+
+    gap_x = _GAP_X_PX / _NOMINAL_WIDTH if ncol > 1 else 0.0
+    unit_w = (1.0 - gap_x * (ncol - 1)) / ncol
+    weights = [w for _, _, w in _AXIS_ROWS]
+    value_px = _VALUE_PX - _VALUE_GAP_PX * (len(weights) - 1)
     grid = np.unique(np.linspace(0, n - 1, min(n, max_points)).round().astype(int)) if n else []
     grid_t = t[grid] if n else np.zeros(0)
     bucket = (float(t[-1] - t[0]) / max_points) if n > 1 else 0.0
@@ -962,7 +1063,7 @@ def _html_figure(
     annotations: list[dict[str, Any]] = []
     shown: set[str] = set()  # legend entries shown once (states, FB outputs)
     ny = 0
-    nx = ncol  # x axes 1..ncol are the columns' time axes
+    nx = len(cols)  # x axes 1..len(cols) are the cards' time axes
 
     def new_y(domain: tuple[float, float], anchor: str, **kw: Any) -> str:
         nonlocal ny
@@ -999,15 +1100,28 @@ def _html_figure(
             }
         )
 
-    for c, col in enumerate(cols):
-        x0 = c * (width + gap_x)
-        dom_x = [x0, x0 + width]
+    for c, cell in enumerate(cells):
+        col = cell.col
+        x0 = cell.start * (unit_w + gap_x)
+        x1 = x0 + cell.span * unit_w + (cell.span - 1) * gap_x
+        dom_x = [x0, x1]
+        top_px = row_top[cell.row] + _TITLE_PX
+        value_rows, at = [], top_px  # (bottom, top) paper y of the five value lanes
+        for w in weights:
+            h = value_px * w / sum(weights)
+            value_rows.append((py(at + h), py(at)))
+            at += h + _VALUE_GAP_PX
+        value_bottom_px = top_px + _VALUE_PX
+        lanes_top_px = value_bottom_px + _LANES_GAP_PX
+        # each card's lanes as high as its own rows need (the same bar height in every card)
+        own = max(_LANES_MIN_PX, _LANE_PX * len(col.lane_labels()))
+        lanes_dom = (py(lanes_top_px + own), py(lanes_top_px))
         tkey, tx = _axis_key("x", c + 1)
         annotations.append(
             {
                 "text": f"<b>{col.title}</b>",
-                "x": x0 + width / 2,
-                "y": 1.0,
+                "x": (x0 + x1) / 2,
+                "y": py(top_px - 6),
                 "xref": "paper",
                 "yref": "paper",
                 "yanchor": "bottom",
@@ -1019,32 +1133,38 @@ def _html_figure(
             for r, (qty, fields, _w) in enumerate(_AXIS_ROWS):
                 unit = col.units[fields[0]]
                 present = [f for f in fields if f in col.signals]
-                ty = new_y(rows[r], tx, title=ytitle(f"{qty} [{unit}]"))
+                ty = new_y(value_rows[r], tx, title=ytitle(f"{qty} [{unit}]"))
                 for f in present:
                     signal(col, f, tx, ty, unit)
                 if not present:
                     layout[_axis_key("y", ny)[0]]["title"] = ytitle(f"{qty} (not in trace)")
         else:
             proj = col.projections()
-            top, bottom = rows[0][1], rows[2][0]
             pos = np.asarray(col.positions, dtype=float)
             speed = np.asarray(_colour_speed(col), dtype=float)
             segs = min(max_segments, 4 * max_points)
             keep = decimate_path(pos, speed, segs) if len(pos) else np.arange(0)
             v_top = _speed_scale(speed[keep]) if len(keep) else 1.0
             unit = col.units["path_velocity"]
-            views = _row_domains([1.0] * len(proj), 0.12 if len(proj) > 1 else 0.0)
+            # the path views side by side over the position..acceleration lanes, the colour
+            # bar right of them in its own space; the path speed over the jerk and FE lanes
+            views_top = value_rows[0][1]
+            views_bottom_px = top_px + _VALUE_PX * 0.68
+            dom_y = [py(views_bottom_px), views_top]
+            bar_w = _COLOURBAR_PX / _NOMINAL_WIDTH
+            vgap = _VIEW_GAP_PX / _NOMINAL_WIDTH
+            k_views = max(len(proj), 1)
+            view_w = (x1 - x0 - bar_w - vgap * (k_views - 1)) / k_views
             for k, (i, j) in enumerate(proj):
-                lo_, hi_ = views[k]
-                dom_y = [bottom + lo_ * (top - bottom), bottom + hi_ * (top - bottom)]
+                vx0 = x0 + k * (view_w + vgap)
                 nx += 1
                 pkey, px = _axis_key("x", nx)
                 ny += 1
-                qkey, py = _axis_key("y", ny)
+                qkey, pyr = _axis_key("y", ny)
                 mu = [col.member_units[i], col.member_units[j]]
                 layout[pkey] = {
-                    "domain": [dom_x[0], dom_x[0] + 0.72 * width],  # the colour bar right of it
-                    "anchor": py,
+                    "domain": [vx0, vx0 + view_w],
+                    "anchor": pyr,
                     "title": ytitle(f"{col.members[i]} position [{mu[0]}]"),
                     "automargin": True,
                 }
@@ -1065,7 +1185,7 @@ def _html_figure(
                         "x": xs,
                         "y": ys,
                         "xaxis": px,
-                        "yaxis": py,
+                        "yaxis": pyr,
                         "name": f"{col.name} path ({col.members[i]}, {col.members[j]})",
                         "legendgroup": col.name,
                         "legendgrouptitle": {"text": col.title},
@@ -1079,11 +1199,12 @@ def _html_figure(
                             "showscale": k == 0,
                             "colorbar": {
                                 "title": {"text": f"speed<br>[{unit}]", "side": "top"},
-                                "x": dom_x[1],
-                                "xanchor": "right",
-                                "y": (top + bottom) / 2,
-                                "len": (top - bottom),
+                                "x": x1 - bar_w + 8.0 / _NOMINAL_WIDTH,
+                                "xanchor": "left",
+                                "y": (dom_y[0] + dom_y[1]) / 2,
+                                "len": (dom_y[1] - dom_y[0]),
                                 "thickness": 10,
+                                "tickfont": {"size": 10},
                             },
                         },
                         "hovertemplate": (
@@ -1093,7 +1214,7 @@ def _html_figure(
                     }
                 )
                 if len(xs):
-                    for label, at, sym, colour in (
+                    for label, at_, sym, colour in (
                         ("start", 0, "circle-open", "#2ca02c"),
                         ("end", -1, "square", "#d62728"),
                     ):
@@ -1101,10 +1222,10 @@ def _html_figure(
                             {
                                 "type": "scatter",
                                 "mode": "markers",
-                                "x": [xs[at]],
-                                "y": [ys[at]],
+                                "x": [xs[at_]],
+                                "y": [ys[at_]],
                                 "xaxis": px,
-                                "yaxis": py,
+                                "yaxis": pyr,
                                 "name": f"{col.name} {label}",
                                 "legendgroup": col.name,
                                 "showlegend": False,
@@ -1120,12 +1241,13 @@ def _html_figure(
             if len(keep) < len(pos):
                 annotations[-1]["text"] += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
             note = " (norm of member velocities)" if col.speed_derived else ""
-            ty = new_y((rows[4][0], rows[3][1]), tx, title=ytitle(f"path speed [{unit}]{note}"))
+            speed_dom = (value_rows[4][0], py(views_bottom_px + _VIEW_AXIS_PX + 14.0))
+            ty = new_y(speed_dom, tx, title=ytitle(f"path speed [{unit}]{note}"))
             signal(col, "path_velocity", tx, ty, unit)
         # the state and FB lane rows (the time axis is anchored here, at the bottom)
         labels = col.lane_labels()
         ty = new_y(
-            rows[-1],
+            lanes_dom,
             tx,
             range=[len(labels) - 0.5, -0.5],
             tickmode="array",
@@ -1155,14 +1277,14 @@ def _html_figure(
     layout.update(
         {
             "title": {
-                "text": f"{title}<br><sup>{ncycles}; {_decimation_note(n, max_points)}. "
-                "Drag: zoom (all time axes follow), double-click: reset, scroll: zoom, "
-                "legend click: show/hide a channel</sup>",
+                "text": f"{title}<br><sup>{ncycles}; {_decimation_note(n, max_points)}"
+                f"{_idle_note(idle)}. Drag: zoom (all time axes follow), double-click: reset, "
+                "scroll: zoom, legend click: show/hide a channel</sup>",
                 "x": 0.01,
                 "font": {"size": 15},
             },
-            "height": int(160 + 150 * (sum(weights) + gap * len(_AXIS_ROWS))),
-            "margin": {"l": 60, "r": 20, "t": 90, "b": 50},
+            "height": int(round(height)),
+            "margin": {"l": 60, "r": 20, "t": int(_HEADER_PX), "b": int(_BOTTOM_PX)},
             "hovermode": "x unified",
             "hoversubplots": "axis",
             "hoverlabel": {"font": {"size": 11}},
@@ -1323,8 +1445,11 @@ def _speed_scale(values: Any) -> float:
 
 # ---------------------------------------------------------------------------- PNG
 PNG_DPI = 90
-PNG_COLUMN_WIDTH = 6.5  # inches per column
-PNG_HEIGHT = 13.0  # inches
+PNG_COLUMN_WIDTH = 4.6  # inches per grid column (an axis card; a group card spans two)
+PNG_ROW_HEIGHT = 9.0  # inches per grid row of cards
+PNG_HEADER = 0.5  # inches: the title
+PNG_FOOTER = 0.5  # inches per line of the legend below the cards
+_PNG_LEGEND_COLUMNS = 6
 
 
 def _png(
@@ -1336,25 +1461,38 @@ def _png(
     max_points: int,
     max_segments: int,
 ) -> None:
-    """The PNG scope: the same columns and lanes as the HTML page, state names that fit."""
+    """The PNG scope: the same grid of cards and lanes as the HTML page, state names that fit."""
     import numpy as np
 
-    n_lanes = max(len(c.lane_labels()) for c in cols)
-    ratios = [w for _, _, w in _AXIS_ROWS] + [max(0.45, _LANE_ROW_WEIGHT * 1.4 * n_lanes)]
+    cols, idle = _drawn_columns(cols)
+    ncol, nrow, cells = _grid(cols)
+    n_legend = len({*_state_legend_names(cols), *_fb_legend_names(cols)})
+    legend_rows = -(-max(n_legend, 1) // _PNG_LEGEND_COLUMNS)
     fig = plt.figure(
-        figsize=(PNG_COLUMN_WIDTH * len(cols), PNG_HEIGHT), layout="constrained", dpi=PNG_DPI
+        figsize=(
+            PNG_COLUMN_WIDTH * ncol,
+            PNG_HEADER + PNG_ROW_HEIGHT * nrow + PNG_FOOTER * (0.6 + 0.4 * legend_rows),
+        ),
+        layout="constrained",
+        dpi=PNG_DPI,
     )
-    gs = fig.add_gridspec(len(ratios), len(cols), height_ratios=ratios)
+    outer = fig.add_gridspec(nrow, ncol)
     t = np.asarray(t, dtype=float)
     labels: list[tuple[Any, Any, float, float]] = []  # (text, axes, t_from, t_to)
     share = None
     legend: dict[str, Any] = {}
-    for c, col in enumerate(cols):
-        lane = fig.add_subplot(gs[-1, c], sharex=share)
+    for cell in cells:
+        col = cell.col
+        n_lanes = len(col.lane_labels())
+        ratios = [w for _, _, w in _AXIS_ROWS] + [max(0.45, _LANE_ROW_WEIGHT * 1.4 * n_lanes)]
+        gs = outer[cell.row, cell.start : cell.start + cell.span].subgridspec(
+            len(ratios), 1, height_ratios=ratios
+        )
+        lane = fig.add_subplot(gs[-1, 0], sharex=share)
         share = share or lane
         if col.kind == "axis":
             for r, (qty, fields, _w) in enumerate(_AXIS_ROWS):
-                a = fig.add_subplot(gs[r, c], sharex=share)
+                a = fig.add_subplot(gs[r, 0], sharex=share)
                 unit = col.units[fields[0]]
                 for f in fields:
                     if f not in col.signals:
@@ -1371,23 +1509,23 @@ def _png(
                         label=f"{col.name}.{f}",
                     )
                 present = [f for f in fields if f in col.signals]
-                a.set_ylabel(f"{qty} [{unit}]" if present else f"{qty} (not in trace)", fontsize=9)
+                a.set_ylabel(f"{qty} [{unit}]" if present else f"{qty} (not in trace)", fontsize=8)
                 if len(present) > 1:
-                    a.legend(fontsize=7, loc="best")
+                    a.legend(fontsize=6, loc="best")
                 a.grid(True, alpha=0.3)
-                a.tick_params(labelbottom=False, labelsize=8)
+                a.tick_params(labelbottom=False, labelsize=7)
                 if r == 0:
-                    a.set_title(col.title, fontsize=11)
+                    a.set_title(col.title, fontsize=10)
         else:
-            _png_group(fig, gs, c, col, t, share, max_points, max_segments)
+            _png_group(fig, gs, col, t, share, max_points, max_segments)
         _png_lanes(lane, col, t, labels, legend, max_points)
-    note = _decimation_note(len(t), max_points)
+    note = _decimation_note(len(t), max_points) + _idle_note(idle)
     fig.suptitle(f"{title}  ({note})", fontsize=10)
     fig.legend(
         list(legend.values()),
         list(legend),
         loc="outside lower center",
-        ncol=min(len(legend), 12),
+        ncol=min(len(legend), _PNG_LEGEND_COLUMNS),
         fontsize=8,
         frameon=False,
     )
@@ -1403,6 +1541,21 @@ def _png(
             text.set_visible(False)
     fig.savefig(out, dpi=PNG_DPI)
     plt.close(fig)
+
+
+def _state_legend_names(cols: Sequence[_Column]) -> set[str]:
+    import numpy as np
+
+    names = set()
+    for col in cols:
+        if col.state is not None:
+            table = _state_table(col.kind)
+            names |= {table.get(int(s), (str(int(s)), ""))[0] for s in np.unique(col.state)}
+    return names
+
+
+def _fb_legend_names(cols: Sequence[_Column]) -> set[str]:
+    return {f"FB {o}" for col in cols for spans in col.fbs.values() for o, _a, _b in spans}
 
 
 def _short_names(name: str) -> list[str]:
@@ -1477,14 +1630,14 @@ def _png_lanes(
 def _png_group(
     fig: Any,
     gs: Any,
-    c: int,
     col: _Column,
     t: Any,
     share: Any,
     max_points: int,
     max_segments: int,
 ) -> None:
-    """A group's column: its path views (rows 0-2), the path speed (rows 3-4)."""
+    """A group's card: its path views side by side (rows 0-2 of ``gs``), the path speed (rows
+    3-4); one speed colour bar right of the views."""
     import numpy as np
     from matplotlib.collections import LineCollection
     from matplotlib.colors import Normalize
@@ -1496,9 +1649,12 @@ def _png_group(
     values = speed[keep[:-1]]
     norm = Normalize(0.0, _speed_scale(values))
     unit = col.units["path_velocity"]
-    sub = gs[0:3, c].subgridspec(max(len(proj), 1), 1, hspace=0.25)
+    sub = gs[0:3, 0].subgridspec(1, max(len(proj), 1), wspace=0.08)
+    views = []
+    lc = None
     for k, (i, j) in enumerate(proj):
-        a = fig.add_subplot(sub[k, 0])
+        a = fig.add_subplot(sub[0, k])
+        views.append(a)
         ends = pos[keep][:, [i, j]]
         segs = np.stack([ends[:-1], ends[1:]], axis=1)
         lc = LineCollection(segs, cmap="viridis", norm=norm, linewidths=2.0)
@@ -1512,24 +1668,27 @@ def _png_group(
             a.legend(fontsize=7, loc="best")
         a.autoscale_view()
         a.set_aspect("equal", adjustable="datalim")
-        a.set_xlabel(f"{col.members[i]} position [{col.member_units[i]}]", fontsize=9)
-        a.set_ylabel(f"{col.members[j]} position [{col.member_units[j]}]", fontsize=9)
-        a.tick_params(labelsize=8)
+        a.set_xlabel(f"{col.members[i]} position [{col.member_units[i]}]", fontsize=8)
+        a.set_ylabel(f"{col.members[j]} position [{col.member_units[j]}]", fontsize=8)
+        a.tick_params(labelsize=7)
         a.grid(True, alpha=0.3)
-        fig.colorbar(lc, ax=a, label=f"speed [{unit}]")
-        if k == 0:
-            title = col.title
-            if len(keep) < len(pos):
-                title += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
-            a.set_title(title, fontsize=11)
-    a = fig.add_subplot(gs[3:5, c], sharex=share)
+    if views and lc is not None:
+        fig.colorbar(lc, ax=views, label=f"speed [{unit}]", shrink=0.9, pad=0.02)
+        title = col.title
+        if len(keep) < len(pos):
+            title += f" ({len(keep) - 1} of {len(pos) - 1} segments drawn)"
+        fig.add_subplot(sub[0, :], frameon=False).set_axis_off()  # room for the title
+        views[0].figure.axes[-1].set_title(title, fontsize=10)
+    a = fig.add_subplot(gs[3:5, 0], sharex=share)
     path_speed = np.asarray(col.signals["path_velocity"], dtype=float)  # the group's channel
     idx = minmax_indices(path_speed, max_points)
     a.plot(t[idx], path_speed[idx], lw=1.2, color=_SIGNAL_COLORS["path_velocity"])
     note = " (norm of member velocities)" if col.speed_derived else ""
-    a.set_ylabel(f"path speed [{unit}]{note}", fontsize=9 if not note else 7)
-    a.tick_params(labelbottom=False, labelsize=8)
+    a.set_ylabel(f"path speed [{unit}]{note}", fontsize=8 if not note else 7)
+    a.tick_params(labelbottom=False, labelsize=7)
     a.grid(True, alpha=0.3)
+    if not views:
+        a.set_title(col.title, fontsize=10)
 
 
 # ---------------------------------------------------------------------------- series

@@ -60,7 +60,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -215,6 +215,7 @@ class Sequence:
     timeout: float
     blocks: tuple[BlockDecl, ...]
     steps: tuple[Step, ...]
+    warnings: tuple[str, ...] = ()  # ``FILE:LINE: key.path: warning: ...`` (plausibility)
 
 
 # ------------------------------------------------------------------------ parsing
@@ -734,7 +735,7 @@ def parse_sequence(data: Any, file: str | Path, config: Config) -> Sequence:
     prefix = len(c.file) + 1
     c.errors.sort(key=lambda e: int(e[prefix:].partition(":")[0] or 0))
     c.raise_if_any()
-    return seq
+    return replace(seq, warnings=tuple(c.warnings)) if c.warnings else seq
 
 
 def load_sequence(path: str | Path, config: Config) -> Sequence:

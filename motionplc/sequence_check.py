@@ -256,6 +256,7 @@ class _Check:
         given = dict(call.inputs)
         if given.get("execute") is False:
             return False
+        self.plausibility(call, decl, given)
         if decl.type == SYNC_MOVE:
             self.sync_move(call, decl.axis, dict(given.get("position", ())), ss)
             return True
@@ -267,6 +268,29 @@ class _Check:
         else:
             self.axis_call(call, cls, decl.type, decl.axis, eff, given, ss)
         return True
+
+    def plausibility(self, call: Call, decl: Any, given: dict[str, Any]) -> None:
+        """Warn on a velocity, acceleration, deceleration or jerk input beyond any machine
+        for the axis' units (a group's: its first member's)."""
+        from motionplc.plausibility import warning
+
+        name = self.groups.get(decl.axis, (decl.axis,))[0]
+        spec = next((a for a in self.config.axes if a.name == name), None)
+        if spec is None:
+            return
+        lines = dict(call.lines)
+        for pin, qty in (
+            ("velocity", "velocity"),
+            ("acceleration", "acceleration"),
+            ("deceleration", "acceleration"),
+            ("jerk", "jerk"),
+        ):
+            value = given.get(pin)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                continue
+            text = warning(float(value), spec.units, qty, pin)
+            if text is not None:
+                self.c.warn(lines.get(pin, call.line), f"{call.path}.{pin}", text)
 
     def fb(self, cls: type, eff: dict[str, Any]) -> Any:
         fb = cls()

@@ -401,7 +401,7 @@ OBJECT_PATTERN = rf"^\s*({_OBJ_INDEX})\s*(?::\s*({_OBJ_INDEX})\s*)?$"
 
 def _pdo_object(kind: str, table: dict[int, tuple[str, str]]) -> OneOf:
     listed = ", ".join(f"0x{i:04X} ({name})" for i, (_, name) in table.items())
-    choice = Choice(options=tuple(table), description=f"An object index: {listed}.")
+    choice = Choice(options=tuple(table), description=f"An object index: {listed}.", hex_digits=4)
     return OneOf(
         description=f"An object of the {kind.upper()}: an index (`0x6041`), a string "
         '(`"0x6041"`, `"0x6041:0"`) or `{index, sub, optional}`.',
@@ -507,7 +507,8 @@ HEARTBEAT = Obj(
                 ge=0.0,
                 le=65.535,
                 unit="s",
-                description="The drive's heartbeat period (0x1017).",
+                default_text="0.05 (50 ms; none with `node_guarding`)",
+                description="The drive's heartbeat period (0x1017); 0 = none.",
                 checks=("exclusive with `node_guarding`",),
             ),
         ),
@@ -517,7 +518,9 @@ HEARTBEAT = Obj(
                 ge=0.0,
                 le=65.535,
                 unit="s",
-                description="The drive watches the master's heartbeat with this time (0x1016).",
+                default_text="0 (off)",
+                description="The drive watches the master's heartbeat with this time (0x1016); "
+                "0 = off.",
             ),
         ),
     ),

@@ -155,12 +155,19 @@ class Integer(Node):
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Choice(Node):
-    """One of ``options`` (strings or integers)."""
+    """One of ``options`` (strings or integers); ``hex_digits`` > 0: integers are object
+    indices, shown in hexadecimal (``0x6040``) in the reference."""
 
     options: tuple[Any, ...]
+    hex_digits: int = 0
+
+    def option_text(self, o: Any) -> str:
+        if self.hex_digits and isinstance(o, int) and not isinstance(o, bool):
+            return f"0x{o:0{self.hex_digits}X}"
+        return str(o)
 
     def range_text(self) -> str:
-        return ", ".join(f"`{o}`" for o in self.options)
+        return ", ".join(f"`{self.option_text(o)}`" for o in self.options)
 
     def type_text(self) -> str:
         return "one of"

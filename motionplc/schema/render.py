@@ -253,6 +253,8 @@ class _Page:
             rng = node_r.range_text()
             return "integer" + ("" if rng == "any" else f" ({rng})")
         if isinstance(node_r, Choice):
+            if node_r.hex_digits:
+                return "one of " + ", ".join(f"`{node_r.option_text(o)}`" for o in node_r.options)
             return "one of " + ", ".join(f"`{_val(o)}`" for o in node_r.options)
         if isinstance(node_r, String):
             return "string" + (f" ({node_r.what})" if node_r.what else "")

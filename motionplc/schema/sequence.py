@@ -222,8 +222,13 @@ _PIN_TEXT = {
     "jerk_factor": "Jerk override factor.",
     "source": "Source of the values.",
     "acc_window": "Window of the acceleration estimate.",
-    "transition_mode": "Transition to the next path move.",
-    "transition_parameter": "Parameter of the transition mode.",
+    "transition_mode": "The corner between the move before and this one (PLCopen: the "
+    "issued move's TransitionMode shapes its junction with the previous move): TM_NONE keeps "
+    "the corner exact, the others blend it; only with a blending `buffer_mode` and after a "
+    "line or arc.",
+    "transition_parameter": "Parameter of this move's `transition_mode` (TM_CORNER_DISTANCE: "
+    "the distance from the corner [m]; TM_MAX_CORNER_DEVIATION: the largest deviation [m], 0 = "
+    "the group's tolerance; TM_START_VELOCITY / TM_CONSTANT_VELOCITY: the speed [m/s]).",
     "circ_mode": "How `aux_point` defines the arc.",
     "aux_point": "Auxiliary point (or a number: the radius, CircMode RADIUS).",
     "end_point": "End point of the arc.",
@@ -268,7 +273,21 @@ _PIN_TEXT = {
     "value": "The value to write.",
 }
 # texts of a pin that means something else in one FB type
+_NO_TRANSITION = (
+    "Accepted as PLCopen defines it, without effect: this move starts and ends at rest (a "
+    "blending `buffer_mode` acts like BUFFERED), so no corner is blended into or out of it."
+)
 _PIN_TEXT_OF = {
+    **{
+        (fb, pin): _NO_TRANSITION
+        for fb in (
+            "MC_MoveDirectAbsolute",
+            "MC_MoveDirectRelative",
+            "MC_MovePassingPoints",
+            "MC_MoveBSpline",
+        )
+        for pin in ("transition_mode", "transition_parameter")
+    },
     ("MC_Jog", "position"): "Inching step [m or rad] (INCHING: the distance per press; "
     "INCHING_MODULO: the grid the axis moves to).",
     ("MC_Jog", "velocity"): "Velocity of modes CONTINUOUS and INCHING [m/s or rad/s].",

@@ -27,7 +27,7 @@ from motionplc.scope import (
     HTML_DIV_ID,
     PNG_COLUMN_WIDTH,
     PNG_DPI,
-    PNG_HEIGHT,
+    PNG_ROW_HEIGHT,
     ScopeTrace,
     decimate_path,
     groups_sidecar_path,
@@ -160,7 +160,7 @@ def path_traces(data: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 # ---------------------------------------------------------------------------- PNG
-def test_png_has_one_more_column_per_group(
+def test_png_group_card_spans_two_grid_columns(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     plain = tmp_path / "plain.csv"
@@ -172,9 +172,9 @@ def test_png_has_one_more_column_per_group(
     assert f"wrote {tmp_path / 'grouped.png'}" in capsys.readouterr().out
     w0, h0 = png_size(tmp_path / "plain.png")
     w1, h1 = png_size(tmp_path / "grouped.png")
-    col, height = round(PNG_COLUMN_WIDTH * PNG_DPI), round(PNG_HEIGHT * PNG_DPI)
-    assert (w0, h0) == (2 * col, height)  # two axis columns
-    assert h1 == h0 and w1 == 3 * col  # plus one group column
+    col, row = round(PNG_COLUMN_WIDTH * PNG_DPI), round(PNG_ROW_HEIGHT * PNG_DPI)
+    assert w0 == 2 * col and row < h0 < row + 2 * PNG_DPI  # two axis cards in one row
+    assert w1 == 4 * col and row < h1 < row + 2 * PNG_DPI  # plus a group card, two wide
     assert (tmp_path / "grouped.png").stat().st_size > 30_000  # not an empty canvas
 
 
@@ -240,10 +240,9 @@ def test_html_three_axis_group_has_xy_and_xz(tmp_path: Path) -> None:
     assert np.array_equal(views[1]["y"], views[0]["x"] / 2)
     assert [v["marker"]["showscale"] for v in views] == [True, False]  # one colour scale
     write_plot(tmp_path / "t.png", tr, "t")
-    assert png_size(tmp_path / "t.png") == (
-        round(4 * PNG_COLUMN_WIDTH * PNG_DPI),
-        round(PNG_HEIGHT * PNG_DPI),
-    )
+    w, h = png_size(tmp_path / "t.png")  # one row: the group card (two columns), x, y, z
+    assert w == round(5 * PNG_COLUMN_WIDTH * PNG_DPI)
+    assert PNG_ROW_HEIGHT * PNG_DPI < h < (PNG_ROW_HEIGHT + 2) * PNG_DPI
 
 
 def test_speed_from_member_velocities_without_a_speed_column(tmp_path: Path) -> None:
