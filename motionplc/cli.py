@@ -16,7 +16,16 @@ Exit codes (also in ``motionplc --help``):
   package;
 * 3 internal error: an unexpected exception, one line ``motionplc: internal error: ... (run
   with --debug for the traceback)``; ``--debug`` prints the traceback as well;
-* 130 interrupted (Ctrl-C): ``run`` still writes its trace and summary.
+* 130 interrupted (Ctrl-C): ``run`` still writes its trace and summary;
+* 143 terminated (SIGTERM), the same.
+
+Every end of ``run`` (a failure, Ctrl-C, SIGTERM, the end of ``--seconds`` or of the script, a
+program that raised) is a controlled stop first (:meth:`motionplc.runtime.Runtime.shutdown`):
+every group brakes along its path, every other axis with MC_Stop at its own deceleration and
+jerk limits, then the drives are switched off (CiA 402 / Modbus shutdown sequence); those
+cycles are in the trace and the summary says how long the stop took against its bound. A
+second Ctrl-C (or SIGTERM) during the stop is a quick stop (ErrorStop QUICK_STOP, reported). An
+axis not at rest or a drive not disabled within the bound is reported and left to its drive.
 
 Nothing a user can reach prints a traceback without ``--debug``.
 
@@ -78,6 +87,7 @@ EXIT_FAILED = 1
 EXIT_INVALID = 2
 EXIT_INTERNAL = 3
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143  # SIGTERM (128 + 15)
 
 EXIT_CODES_HELP = (
     "exit codes:\n"
@@ -88,7 +98,11 @@ EXIT_CODES_HELP = (
     "       options, files that cannot be read or written, a bus that cannot start\n"
     "       (port in use, CAN interface missing), a missing optional package\n"
     "  3    internal error (run with --debug for the traceback)\n"
-    "  130  interrupted (Ctrl-C)"
+    "  130  interrupted (Ctrl-C)\n"
+    "  143  terminated (SIGTERM)\n"
+    "  every end of a run is a controlled stop first: axes and groups brake to rest within\n"
+    "  their limits, the drives are switched off, the trace holds those cycles; a second\n"
+    "  Ctrl-C during it is a quick stop"
 )
 
 TRACE_SUFFIXES = (".csv", ".parquet")
@@ -547,9 +561,16 @@ class _Progress:
 
 
 def _summary(
-    machine: Any, runner: Any, timer: _TickTimer | None = None, realtime: bool = False
+    machine: Any,
+    runner: Any,
+    timer: _TickTimer | None = None,
+    realtime: bool = False,
+    states: dict[str, str] | None = None,
 ) -> list[str]:
-    """Per-axis table, groups, drive warnings and task statistics (see the module docs)."""
+    """Per-axis table, groups, drive warnings and task statistics (see the module docs).
+    ``states``: the axis and group states at the end of the run (before its controlled stop
+    switched everything off); positions are the final ones."""
+    states = states or {}
     import numpy as np
 
     rt = machine.runtime
@@ -569,7 +590,7 @@ def _summary(
         except KeyError:
             max_fe = float("nan")
         lines.append(
-            f"{name:<10} {done.get(name, 0):>10} {ax.state.name:<20} "
+            f"{name:<10} {done.get(name, 0):>10} {states.get(name, ax.state.name):<20} "
             f"{_num(ax.position, '.9g'):>14} {_num(ax.actual_position, '.9g'):>14} "
             f"{_num(max_fe, '.3g'):>12}"
         )
@@ -589,7 +610,7 @@ def _summary(
         for name, g in groups.items():
             lines.append(
                 f"{name:<10} {','.join(g.axis_names):<20} {done.get(name, 0):>10} "
-                f"{g.state.name:<20}"
+                f"{states.get(name, g.state.name):<20}"
             )
     lines.append("")
     stats = list(rt.stats().values())
@@ -752,6 +773,48 @@ def _build(cfg: Any, realtime: bool | None) -> Any:
         raise located from exc
 
 
+class _Ending:
+    """SIGINT and SIGTERM during ``run``: the first ends the run after the current tick (a
+    flag the stop predicate reads: never an exception inside a cycle), one during the stop at
+    the end asks for a quick stop (``Runtime.quick_stop_requested``)."""
+
+    def __init__(self, rt: Any) -> None:
+        self.rt = rt
+        self.signal = ""  # "SIGINT" / "SIGTERM": the run was ended by it
+        self.stopping = False  # the controlled stop runs
+        self._old: dict[int, Any] = {}
+
+    def install(self) -> None:
+        import signal as sig
+
+        for num in (sig.SIGINT, sig.SIGTERM):
+            try:
+                self._old[num] = sig.signal(num, self._handle)
+            except (ValueError, OSError):  # not the main thread: the defaults stay
+                pass
+
+    def restore(self) -> None:
+        import signal as sig
+
+        for num, old in self._old.items():
+            sig.signal(num, old)
+        self._old = {}
+
+    def _handle(self, num: int, frame: Any) -> None:
+        import signal as sig
+
+        name = "SIGINT" if num == sig.SIGINT else "SIGTERM"
+        if self.stopping or self.signal:
+            self.rt.quick_stop_requested = True
+        else:
+            self.signal = name
+
+    def words(self) -> str:
+        return {"SIGINT": "interrupted", "SIGTERM": "terminated (SIGTERM)"}.get(
+            self.signal, self.signal
+        )
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from motionplc.blocks import AxisState
     from motionplc.config import load_config
@@ -803,12 +866,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
             # the bus in real time; called after every tick, so it only reads flags (and the
             # stopwatch: the simulated time is not touched)
             timer.tick()
-            if runner is not None and runner.over:
+            if ending.signal or (runner is not None and runner.over):
                 return True
             progress.update(rt.time)
             return False
 
+        ending = _Ending(rt)
         try:
+            ending.install()
             if not args.quiet:  # inside the try: Ctrl-C once this is shown gives the summary
                 what = f" with {args.script}" if args.script else ""
                 print(
@@ -817,25 +882,59 @@ def _cmd_run(args: argparse.Namespace) -> int:
             if rt.time < limit - 1e-9:
                 timer.restart()
                 rt.run_until(stop_now, max_seconds=limit - rt.time)
-        except KeyboardInterrupt:
-            interrupted = True
-            failures.append(f"interrupted at t = {rt.time:.3f} s")
+        except KeyboardInterrupt:  # (before the handler was in place)
+            ending.signal = ending.signal or "SIGINT"
         except ProgramError as exc:  # the task halted, its axes are at rest
             program_error = str(exc)
             if runner is None or not runner.failures:
                 failures.append(program_error)
         except MotionPlcError as exc:  # a drive that does not open at the start of the run
+            ending.restore()
             located = _located_build_error(cfg, exc)
             if located is exc:
                 raise
             raise located from exc
         finally:
             progress.close()
+        if ending.signal:
+            interrupted = ending.signal == "SIGINT"
+            failures.append(f"{ending.words()} at t = {rt.time:.3f} s")
+        # every way out is a controlled stop: axes and groups to rest, drives switched off,
+        # those cycles in the trace (a second Ctrl-C meanwhile: a quick stop)
+        t_run = rt.time  # the run's end; the stop's cycles follow
+        end_states = {n: ax.state.name for n, ax in rt.axes.items()}
+        end_states.update({n: g.state.name for n, g in rt.groups.items()})
+        over = runner is not None and runner.over
+        why = (
+            ending.words()
+            if ending.signal
+            else "program error"
+            if program_error
+            else "a failure"
+            if failures or (runner is not None and runner.failed)
+            else "end of the run"
+            if over or runner is None
+            else "end of --seconds"
+            if args.seconds is not None
+            else "timeout"
+        )
+        ending.stopping = True
+        try:
+            stop = rt.shutdown(why)
+        finally:
+            ending.restore()
+        if stop.quick and not ending.signal:
+            interrupted = True
+            failures.append("quick stop (Ctrl-C during the stop at the end of the run)")
+        elif stop.quick:
+            failures.append("quick stop (a second signal during the stop at the end of the run)")
+        for line in stop.lines()[1:]:
+            failures.append(line)
         if runner is not None:
             failures.extend(runner.failures)
             if not runner.finished and not runner.failed and not failures:
                 failures.append(
-                    f"{args.script}: did not finish within {rt.time:g} s"
+                    f"{args.script}: did not finish within {t_run:g} s"
                     + ("" if args.seconds is None else " (--seconds)")
                 )
         for name, ax in machine.axes.items():
@@ -860,8 +959,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
         report = _realtime_report(rt.clock)
         if not args.quiet or failures:
             print()
-            for line in _summary(machine, runner, timer, realtime):
+            for line in _summary(machine, runner, timer, realtime, end_states):
                 print(line)
+            print(stop.lines()[0])
             if report is not None:
                 print(report)
             print()
@@ -871,13 +971,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if failures:
             for f in failures:
                 print(f"FAILED: {f}", file=sys.stderr)
+            if ending.signal == "SIGTERM":
+                return EXIT_TERMINATED
             return EXIT_INTERRUPTED if interrupted else EXIT_FAILED
         if runner is not None and hasattr(runner, "report"):
             print(f"ok: {runner.report()}")
         elif runner is not None:
             print(f"ok: {args.script} finished at t = {t_end:.3f} s, all expectations met")
         else:
-            print(f"ok: ran {rt.time:g} s")
+            print(f"ok: ran {t_run:g} s")
         return EXIT_OK
     finally:
         machine.close()

@@ -1596,11 +1596,24 @@ class Machine:
             except Exception:  # noqa: BLE001 - best effort at shutdown
                 pass
 
+    def shutdown(self, reason: str = "end of run") -> Any:
+        """The controlled stop at the end of a run (:meth:`Runtime.shutdown`): every axis and
+        group to rest within its limits, the drives switched off; returns the
+        :class:`~motionplc.runtime.runtime.StopReport`."""
+        return self.runtime.shutdown(reason)
+
     def __enter__(self) -> Machine:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.close()
+        """The end of a ``with`` block (also by an exception) is a controlled stop, then
+        :meth:`close`."""
+        try:
+            if not self._closed and self.runtime._started:
+                kind = exc[0] if exc else None
+                self.shutdown("end of block" if kind is None else f"exception {kind.__name__}")  # type: ignore[union-attr]
+        finally:
+            self.close()
 
     def __iter__(self) -> Iterator[Axis]:
         return iter(self.axes.values())

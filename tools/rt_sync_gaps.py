@@ -12,8 +12,11 @@ run, so no extra thread runs beside the cycle): the gaps
 between consecutive SYNC frames are the bus' view of the cycle. Printed: SYNC count, gap
 percentiles and maximum in cycles, the gaps above 1.5 cycles, the runtime's own lateness
 statistics, and the same figures for an empty loop on the same clock (the host's own noise
-floor: a VM without real-time scheduling wakes late by itself). Exit code 1 if any gap of the
-run exceeds ``--limit`` cycles (default 1.5).
+floor: a VM without real-time scheduling wakes late by itself), measured in the same run (half
+just before, half just after the runtime's run); the ``FIGURE`` line compares both (gaps per
+10^4 cycles, p99.9, max). Exit code 1 if any gap of the run exceeds ``--limit`` cycles
+(default 1.5), or with ``--against-baseline`` only if the run has more than twice the empty
+loop's rate of such gaps (the benchmark form, on a shared host).
 """
 
 from __future__ import annotations
@@ -95,6 +98,21 @@ def _config(d: Path, channel: str, cycle: float) -> Path:
     return path
 
 
+def _empty_loop(seconds: float, cycle: float) -> np.ndarray:
+    """Gaps [cycles] between the wake-ups of a loop that only waits for 1-cycle deadlines on
+    the runtime's real-time clock (the host's own noise floor)."""
+    from motionplc.runtime.clock import RealtimeClock
+
+    clock = RealtimeClock()
+    clock.start()
+    tick = round(cycle * 1e9)
+    n = max(2, round(seconds / cycle))
+    starts = np.empty(n)
+    for k in range(n):
+        starts[k] = clock.wait_until(k * tick)
+    return np.diff(starts) / tick
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0, help="run length [s] (default 60)")
@@ -106,7 +124,13 @@ def main(argv: list[str] | None = None) -> int:
         action="store_false",
         help="skip the empty-loop measurement of the host's own wake-up noise",
     )
+    ap.add_argument(
+        "--against-baseline",
+        action="store_true",
+        help="exit code 1 only if the run has more gaps than twice the empty loop's rate",
+    )
     args = ap.parse_args(argv)
+    before = _empty_loop(args.seconds / 2.0, args.cycle) if args.baseline else np.empty(0)
     channel = f"rtgaps-{os.getpid()}"
     stamps: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -169,24 +193,29 @@ def main(argv: list[str] | None = None) -> int:
         )
     )
     if args.baseline:
-        # the host's own noise floor: a loop that does nothing but wait for the same 1-cycle
-        # deadlines on the same clock, for as long (a VM without real-time scheduling wakes
-        # late by itself; gaps at that level are not the runtime's)
-        from motionplc.runtime.clock import RealtimeClock
-
-        clock = RealtimeClock()
-        clock.start()
-        tick = round(args.cycle * 1e9)
-        n = round(args.seconds / args.cycle)
-        starts = np.empty(n)
-        for k in range(n):
-            starts[k] = clock.wait_until(k * tick)
-        bare = np.diff(starts) / tick
+        # the figure: ours against the host's own noise floor, measured in the same run - an
+        # empty loop waiting for the same 1-cycle deadlines on the same clock, half of the
+        # run's length just before the run and half just after (bracketing the host's load
+        # as it was during the run)
+        bare = np.concatenate([before, _empty_loop(args.seconds / 2.0, args.cycle)])
+        b_over = int((bare > args.limit).sum())
+        q_ours = float(np.percentile(gaps, 99.9))
+        q_bare = float(np.percentile(bare, 99.9))
         print(
-            f"baseline, an empty loop on the same clock for {args.seconds:g} s: gaps above "
-            f"{args.limit} cycles: {(bare > args.limit).sum()}, p99.9 "
-            f"{np.percentile(bare, 99.9):.3f}, max {bare.max():.3f} cycles"
+            f"empty loop on the same clock, {args.seconds / 2:g} s before and after the run: "
+            f"gaps above {args.limit} cycles: {b_over}, p99.9 {q_bare:.3f}, "
+            f"max {bare.max():.3f} cycles"
         )
+        per_ours = over.size / max(1, gaps.size) * 1e4
+        per_bare = b_over / max(1, bare.size) * 1e4
+        print(
+            f"FIGURE rt_sync_gaps: gaps above {args.limit} cycles per 10^4 cycles: runtime "
+            f"{per_ours:.2f} vs empty loop {per_bare:.2f}; p99.9 {q_ours:.3f} vs "
+            f"{q_bare:.3f} ({q_ours / q_bare:.3f}x); max {gaps.max():.2f} vs {bare.max():.2f}"
+        )
+        if args.against_baseline:
+            # gaps at the host's own level are not the runtime's: fail only beyond it
+            return 0 if code == 0 and per_ours <= max(2.0 * per_bare, 1.0) else 1
     return 0 if over.size == 0 and code == 0 else 1
 
 

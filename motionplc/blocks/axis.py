@@ -164,6 +164,11 @@ except TypeError:  # DriveCommand changed: the normal constructor (slower, same 
     _drive_command = DriveCommand  # type: ignore[assignment]
 
 
+def _back_p(p: float, v: float, a: float, j: float, h: float) -> float:
+    """The position ``h`` seconds earlier along a constant-jerk motion."""
+    return p - h * (v - h * (0.5 * a - h * j / 6.0))
+
+
 def _is_stop(job: AxisJob) -> bool:
     """An MC_Stop job (kept Busy when other motion is aborted)."""
     return job.kind == "stop"
@@ -310,6 +315,12 @@ class Axis(AxisCore):
         # drive homing to look after in READ INPUTS (one test per cycle otherwise)
         self.drive_homing_job: AxisJob | None = None
         self._io_watch = False
+        # the limit supervision (guard_limits): the set positions one and two steps before
+        # the last one and the lengths of the steps to them (None: no history yet), the last
+        self._lg_hist: tuple[float, float, float, float] | None = None
+        self._lg_last = 0.0
+        self._lg_after_group: tuple[float, float, float, float, float] | None = None
+        self._lg_off = 0.0  # the coordinate offset of that history
 
     def apply_config(self, config: AxisConfig) -> None:
         """Replace the applied configuration (MC_WriteParameter) and refresh the kernel's
@@ -821,6 +832,7 @@ class Axis(AxisCore):
         INTERNAL_ERROR otherwise; the reason in ``axis_error_reason``) with a controlled stop
         using the axis' own limits.
         """
+        p0, v0, a0, j0, off0 = self.p, self.v, self.a, self.j, self.offset
         try:
             sup = self.sup
             if sup is not None:  # the set values become the underlying ones (superimposed.py)
@@ -840,6 +852,7 @@ class Axis(AxisCore):
             state = self.state
             if state is S.DISABLED:
                 self._resync()
+                self._lg_hist = None  # the limit supervision starts afresh at power-on
                 return
             job = mq.active
             if not self._feed_all and job is not None and not self._dir_enabled(job.dir):
@@ -886,8 +899,141 @@ class Axis(AxisCore):
                             "SW_LIMIT",
                             f"set position {p:.9g} moving beyond the software limits [{lo}, {hi}]",
                         )
+            group = self.group
+            if group is None or not group.moving:
+                self.guard_limits(dt, p0, v0, a0, j0, off0)
+            else:  # a moving group's member: after the group's step (Runtime._run_tick)
+                self._lg_after_group = (p0, v0, a0, j0, off0)
         except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
             self._kernel_failed(exc)
+
+    # -- limit supervision -------------------------------------------------------------------
+    def guard_after_group(self, dt: float) -> None:
+        """:meth:`guard_limits` of a moving group's member, after the group wrote its set
+        values: beyond its limits the member reports SET_VALUE_LIMIT (ErrorStop) in this
+        cycle and its group brakes along the path from the next (the group's own stop)."""
+        prev = self._lg_after_group
+        if prev is not None:
+            self._lg_after_group = None
+            self.guard_limits(dt, *prev, revert=False)
+
+    def guard_limits(
+        self,
+        dt: float,
+        p0: float,
+        v0: float,
+        a0: float,
+        j0: float,
+        off0: float,
+        revert: bool = True,
+    ) -> bool:
+        """The one supervision of every set value the kernel writes for this axis (moves,
+        couplings, superimposed motion, ramps; a moving group's members after the group's
+        step): the new set state against the axis' system limits (``cfg_system``; asymmetric
+        sides as configured), both as the kernel's own v / a / j and *by differencing the set
+        positions* (the last three steps and this one: what the drive receives). Within them
+        (to rounding): True. Beyond: the set values go back to the previous set state (which
+        passed), the axis reports it in this very step and stops within its limits from there
+        (a coupling ends with Error SLAVE_LIMITS_EXCEEDED and the slave's controlled stop; any
+        other motion: ErrorStop SET_VALUE_LIMIT and its error ramp), and this step's set value
+        is the stop's first. Not supervised: ErrorStop (its ramp starts from where the error
+        found the axis), homing (the set values follow the drive), Disabled; a coupling on
+        the master's actual values is held to the kernel's v / a only (the differenced
+        acceleration and jerk of measured positions are their quantisation noise). A
+        coordinate shift (MC_SetPosition, homing) is taken out of the history; steps of
+        different lengths (ticks skipped after an overrun) are divided differences."""
+        p = self.p
+        hist = self._lg_hist
+        last = self._lg_last
+        # MC_SetPosition, homing: the coordinates moved, not the axis - in the program phase
+        # (before this step: p0 has it) or in the step (a queued one): all in today's
+        shift_in = self.offset - off0
+        shift = shift_in + (off0 - self._lg_off)
+        self._lg_off = self.offset
+        if shift != 0.0:
+            p0 += shift_in
+            last += shift
+            if hist is not None:
+                hist = (hist[0] + shift, hist[1] + shift, hist[2], hist[3])
+        if hist is None or last != p0:
+            # (first step, or steps of the compiled fast path in between: that samples a
+            # planned profile) the history from the kernel's state, for velocity only
+            p1, p2 = _back_p(p0, v0, a0, j0, dt), _back_p(p0, v0, a0, j0, 2.0 * dt)
+            h0 = h1 = dt
+            fresh = False
+        else:
+            p1, p2, h0, h1 = hist
+            fresh = True
+        self._lg_hist = (p0, p1, dt, h0)
+        self._lg_last = p
+        state = self.state
+        if state is S.ERROR_STOP or state is S.HOMING or state is S.DISABLED:
+            return True
+        cfg = self.cfg_system
+        v, a, j = self.v, self.a, self.j
+        scale = 1.0 + abs(p) + abs(p0)
+        why = ""
+        # divided differences of the set positions (the steps may differ: skipped ticks)
+        vd = (p - p0) / dt
+        v_hi, v_lo = cfg.v_max * (1 + 1e-9) + 1e-12, -cfg.v_neg * (1 + 1e-9) - 1e-12
+        tv = 4e-16 * scale / dt
+        if not (v_lo - tv <= vd <= v_hi + tv) or not (v_lo <= v <= v_hi):
+            why = f"v {v:.6g} (differenced {vd:.6g}) beyond [{-cfg.v_neg:.6g}, {cfg.v_max:.6g}]"
+        job = self.mq.active
+        actual = job is not None and getattr(job, "actual", False)
+        ts = self.ts
+        if job is not None and not job.no_override and (ts.prof is not None or ts.f != 1.0):
+            # MC_SetOverride scaling a running job: its acceleration and jerk are not held
+            # here yet (the override's time scaling changes them beyond a_max by
+            # differencing: a known kernel defect, see the report of issue 31); v is
+            return True if not why else self._limit_exceeded(job, why, dt, p0, v0, a0, revert)
+        if not why:
+            vd0 = (p0 - p1) / h0
+            ad = 2.0 * (vd - vd0) / (dt + h0)
+            a_hi, a_lo = cfg.a_max * (1 + 1e-9) + 1e-9, -cfg.a_neg * (1 + 1e-9) - 1e-9
+            ta = 8e-16 * scale / (dt * min(dt, h0))
+            ok_d = not fresh or actual or a_lo - ta <= ad <= a_hi + ta
+            if not ok_d or not (a_lo <= a <= a_hi):
+                why = f"a {a:.6g} (differenced {ad:.6g}) beyond [{-cfg.a_neg:.6g}, {cfg.a_max:.6g}]"
+            elif math.isfinite(cfg.j_max):
+                ad0 = 2.0 * (vd0 - (p1 - p2) / h1) / (h0 + h1)
+                jd = 3.0 * (ad - ad0) / (dt + h0 + h1)
+                j_hi = cfg.j_max * (1 + 1e-6) + 1e-9
+                hm = min(dt, h0, h1)
+                tj = 16e-16 * scale / (hm * hm * hm)
+                if (fresh and not actual and abs(jd) > j_hi + tj) or abs(j) > j_hi:
+                    why = f"j {j:.6g} (differenced {jd:.6g}) beyond +-{cfg.j_max:.6g}"
+        if not why:
+            return True
+        return self._limit_exceeded(job, why, dt, p0, v0, a0, revert)
+
+    def _limit_exceeded(
+        self,
+        job: AxisJob | None,
+        why: str,
+        dt: float,
+        p0: float,
+        v0: float,
+        a0: float,
+        revert: bool,
+    ) -> bool:
+        """guard_limits found ``why``: report it and stop within the limits (see there)."""
+        reason = f"set value beyond the axis' limits: {why}"
+        if not revert:
+            self.raise_axis_error("SET_VALUE_LIMIT", reason)
+            return False
+        self.p, self.v, self.a, self.j = p0, v0, a0, 0.0
+        if job is not None and job.sync and not job.handle.terminal:
+            self._fail_command(job.handle, ErrorID.SLAVE_LIMITS_EXCEEDED, reason)
+            if self.mq.active is None and (v0 != 0.0 or a0 != 0.0):
+                self._start_ramp("feedstop", 0.0, 0.0, self.cfg.j_max)
+        else:
+            self.raise_axis_error("SET_VALUE_LIMIT", reason)
+        act = self.mq.active
+        if act is not None:
+            self._advance(act, dt, dt)
+        self._lg_last = self.p
+        return False
 
     def _kernel_failed(self, exc: Exception) -> None:
         """A failure inside the kernel: ErrorStop with a controlled stop (or, if even the

@@ -227,6 +227,11 @@ class ErrorID(NamedIntEnum):
     COMM_EXCEPTION = 0x400C  # exception response from the drive (Modbus)
     SETPOINT_LOST = 0x400D  # the drive faulted because setpoints stopped (RPDO timeout, SYNC loss)
     MASTER_LOST = 0x400E  # the drive faulted because the master went silent (heartbeat, watchdog)
+    # a set value the kernel computed for the axis was beyond its v/a/j limits (a coupling
+    # law, a catch-up, a superimposed sum): the axis stops within its limits instead
+    SET_VALUE_LIMIT = 0x4010
+    # the operator asked for a quick stop (a second Ctrl-C during the stop at the end of a run)
+    QUICK_STOP = 0x4011
     # the planner could not plan a command whose inputs passed validation (PlanningError; the
     # reason is in the FB's error_text / the axis' axis_error_reason)
     PLANNING_FAILED = 0x5001

@@ -80,12 +80,20 @@ from motionplc.blocks.motion_queue import Handle, MotionQueue, Status, junction_
 from motionplc.errors import PlanningError
 from motionplc.planning import Limits, Profile, State, plan, plan_velocity
 from motionplc.planning.paths.geometry import Arc, Line, _Circular
-from motionplc.planning.paths.lookahead import Chain, Link, max_speed_change
+from motionplc.planning.paths.lookahead import (
+    LINK_STATE,
+    Chain,
+    Link,
+    max_speed_change,
+    traverse_time,
+)
 from motionplc.planning.paths.pieces import (
     BlendPiece,
+    CircularPiece,
     CurvePiece,
     LinePiece,
     Piece,
+    RunPiece,
     SubPiece,
     path_caps,
     piece_for,
@@ -99,6 +107,7 @@ G = GroupState
 S = AxisState
 MAX_DEFLECTION = math.radians(179.0)
 _SMOOTH = 1e-9  # [rad] a junction deflecting less (with equal curvature) is smooth
+_BLEND_SCALES = (1.0, 0.5, 0.25, 0.0)  # corner distance shares tried when a blend is too late
 
 
 @dataclass(frozen=True, slots=True)
@@ -111,6 +120,14 @@ class GroupConfig:
     v_share: float = 0.7  # share of the acceleration / jerk budget the curvature may use
     blend_share: float = 0.95  # the same on corner blends (passed near their top speed)
     blend_parts: int = 1  # a line-line blend is planned as this many parts (own speed caps)
+    # consecutive pieces joined with equal curvature (blends and the lines and arcs they join)
+    # whose speed caps differ by less than this factor run as one piece (RunPiece): one profile
+    # through the joints, the acceleration carried over (1: never merged)
+    merge_ratio: float = 0.8
+    max_run: int = 256  # pieces per run at most
+    # a line-line corner blend is made smaller (1/4, 1/16) or an exact stop where that passes
+    # the corner faster (see AxesGroup._corner_share); off: the blend uses the tolerance
+    corner_choice: bool = False
     task: str | None = None
 
 
@@ -197,6 +214,11 @@ class AxesGroup:
         self._dropped: set[Axis] = set()  # those members (until the group is at rest)
         self.path_velocity = 0.0
         self.path_s = 0.0  # distance travelled along paths since the start
+        self._blend_scale = 1.0  # share of the corner distance a join may use (see _connect)
+        self._merges: list[tuple[int, Link, Link]] = []  # runs made by the join under way
+        self._wait_inbox: Any = None  # the inbox whose waiting jobs were counted (submit)
+        self._wait_seen = self._wait_n = 0
+        self._wait_last: Any = None
         for ax in axes:
             self.add_axis(ax)
 
@@ -404,7 +426,7 @@ class AxesGroup:
         busy = not mq.idle() or self.moving
         immediate = cmd.mode is BufferMode.ABORTING or cmd.kind in ("stop", "halt", "interrupt")
         if busy and not immediate:
-            if mq.full(self.cfg.queue_depth):
+            if len(mq.queue) + self._inbox_waiting() >= self.cfg.queue_depth:
                 h._finish(Status.ERROR, ErrorID.QUEUE_FULL)
                 return h
             job.waiting = True
@@ -413,6 +435,24 @@ class AxesGroup:
         if cmd.kind == "stop":
             mq.stops.append(h)
         return h
+
+    def _inbox_waiting(self) -> int:
+        """The inbox's waiting jobs (MotionQueue.waiting_count without the queue), counted
+        incrementally: submitting n moves in one cycle costs O(n), not O(n^2)."""
+        inbox = self.mq.inbox
+        seen = self._wait_seen
+        if (
+            inbox is not self._wait_inbox
+            or len(inbox) < seen
+            or (seen and inbox[seen - 1] is not self._wait_last)
+        ):
+            self._wait_inbox, seen, self._wait_n = inbox, 0, 0
+        n = self._wait_n
+        for job in inbox[seen:] if seen < len(inbox) else ():
+            n += job.waiting
+        self._wait_n, self._wait_seen = n, len(inbox)
+        self._wait_last = inbox[-1] if inbox else None
+        return n
 
     def continue_(self) -> Handle:
         """MC_GroupContinue: resume an interrupted path from where it stopped."""
@@ -821,30 +861,60 @@ class AxesGroup:
         if planning fails the chain is restored as it was (the group keeps running what it
         had) and the error propagates to the command."""
         saved = self._snapshot()
-        try:
-            self._connect_unchecked(job, links)
-        except Exception:
+        fresh = list(links)
+        fresh_fields = [_LINK_GET(lk) for lk in fresh]
+        for scale in _BLEND_SCALES:
+            self._blend_scale = scale
+            try:
+                self._connect_unchecked(job, links)
+                self.chain.journal = None
+                return
+            except _TooLateError:
+                pass
+            except Exception:
+                self._restore(saved)
+                self.chain.journal = None
+                raise
+            finally:
+                self._blend_scale = 1.0
+            # the corner blend trimmed the piece before it so much that the junction speeds
+            # fell below what the running piece is committed to (it could no longer slow down
+            # in time: its successor's profile would overshoot its piece, the freeze-and-jump
+            # of issue 25): undo and join again with a smaller blend, at last an exact corner
+            # (which only adds path behind the old end of the chain: always consistent)
             self._restore(saved)
-            raise
+            for lk, vals in zip(fresh, fresh_fields, strict=True):
+                for f, v in zip(_LINK_STATE, vals, strict=True):
+                    setattr(lk, f, v)
+            links[:] = fresh
+        self.chain.journal = None  # pragma: no cover - the exact corner always fits
+        raise PlanningError("the running motion cannot take the new move")  # pragma: no cover
 
-    def _snapshot(self) -> tuple[list[Link], list[tuple[Any, ...]], Any]:
-        links = list(self.chain.links)
-        get = _LINK_GET
-        fields = [get(lk) for lk in links]
-        return links, fields, (self.mq.active, list(self.mq.queue))
+    def _snapshot(self) -> tuple[int, Any, int]:
+        """Start journalling the links a join changes (the undo costs what it touched)."""
+        self.chain.journal = {}
+        self._merges = []
+        return len(self.chain.links), self.mq.active, len(self.mq.queue)
 
-    def _restore(self, saved: tuple[list[Link], list[tuple[Any, ...]], Any]) -> None:
-        links, fields, (active, queue) = saved
-        for lk, vals in zip(links, fields, strict=True):
-            for f, v in zip(_LINK_STATE, vals, strict=True):
-                setattr(lk, f, v)
-        self.chain.links = links
+    def _restore(self, saved: tuple[int, Any, int]) -> None:
+        n, active, nq = saved
+        chain = self.chain
+        chain.undo()
+        links = chain.links
+        for k, x, y in reversed(self._merges):
+            links[k : k + 1] = [x, y]
+        self._merges = []
+        del links[n:]
         self.mq.active = active
-        self.mq.queue = deque(queue)
+        q = self.mq.queue
+        while len(q) > nq:
+            q.pop()
 
     def _connect_unchecked(self, job: _GJob, links: list[Link]) -> None:
         chain = self.chain
         prev = chain.links[-1] if chain.links else None
+        if prev is not None:
+            chain.touch(prev)  # (the join may change its end, piece and caps)
         cmd = job.cmd
         dirty = len(chain.links)
         if prev is not None and prev.sampled is None and links[0].sampled is None:
@@ -855,11 +925,79 @@ class AxesGroup:
                 prev.cap_out = 0.0
         elif prev is not None:
             prev.cap_out = 0.0
+        n_old = len(chain.links)
         for lk in links:
             chain.links.append(lk)
         self.mq.queue.append(job)
         links[-1].cap_out = 0.0
+        if self.cfg.merge_ratio < 1.0:
+            dirty = min(dirty, self._merge_runs(max(2, n_old - 3)))
         self._replan_from(dirty, 0.0, rest=not self._running)
+
+    # -- runs: pieces merged into one profile ---------------------------------------------
+    def _merge_runs(self, k: int) -> int:
+        """Merge neighbours from link ``k`` on into runs where :meth:`_mergeable` (never the
+        last link: the next move may still trim it for its blend); returns the lowest index
+        changed (``len`` if none). Every merge is recorded for :meth:`_restore`."""
+        links = self.chain.links
+        low = len(links)
+        while k + 2 < len(links):
+            x, y = links[k], links[k + 1]
+            run = self._merged(x, y) if self._mergeable(x, y) else None
+            if run is not None:
+                self._merges.append((k, x, y))
+                links[k : k + 2] = [run]
+                low = min(low, k)
+            else:
+                k += 1
+        return low
+
+    def _mergeable(self, x: Link, y: Link) -> bool:
+        if x.cap_out <= 0.0 or x.sampled is not None or y.sampled is not None:
+            return False
+        if x.stopping or y.stopping or x.stale or y.stale:
+            return False
+        if x.profile is not None or y.profile is not None:
+            return False
+        if not (_runnable(x.piece) and _runnable(y.piece)):
+            return False
+        if abs(x.piece.g1 - 1.0) > 1e-9 or abs(y.piece.g0 - 1.0) > 1e-9:
+            return False
+        nx = len(x.members) if x.members is not None else 1
+        ny = len(y.members) if y.members is not None else 1
+        if nx + ny > self.cfg.max_run:
+            return False
+        return True
+
+    def _merged(self, x: Link, y: Link) -> Link | None:
+        """The run of ``x`` followed by ``y`` with the caps of its bounds (the maxima of the
+        parts'), or None if that is too slow: below ``merge_ratio`` of the speed either
+        piece could reach on its own between two joints at the run's speed."""
+        piece = RunPiece([x.piece, y.piece])
+        cx, cy = x.caps, y.caps
+        vm, am, jm = self._limits()
+        owner = x.members[0][2].owner if x.members is not None else x.owner
+        try:
+            run = self._link(piece, owner, *map(min, cx, cy), vm, am, jm)
+        except PlanningError:
+            return None
+        r = self.cfg.merge_ratio
+        ux, uy = x.piece.U, y.piece.U
+        for lk, other in ((x, uy), (y, ux)):
+            # (a sliver left between two blends is as fast as its neighbour, whatever its cap)
+            if lk.piece.U > 1e-2 * other and run.V < r * lk.V:
+                return None
+        if x.cap_out < run.V:
+            return None
+        members = _members(x) + _members(y, x.piece.U)
+        ends = piece.ends  # the members end exactly where the run's parts end
+        if len(ends) == len(members):
+            starts = (0.0, *ends[:-1])
+            members = [(a, b, m) for a, b, (_, _, m) in zip(starts, ends, members, strict=True)]
+        run.members = members
+        run.cap_out = y.cap_out
+        run.full_length = x.full_length + y.full_length
+        return run
 
     def _junction_velocity(self, prev: Link, job: _GJob) -> float:
         v1 = (prev.owner.cmd.velocity or _INF) if prev.owner is not None else 0.0
@@ -906,12 +1044,21 @@ class AxesGroup:
         if room <= 1e-9 * (1.0 + pa.length + pb.length):
             return idx
         d = self._corner_distance(tm, cmd.transition_parameter, theta, ta, tb, seg_a, seg_b, room)
+        d *= self._blend_scale
         if not d > 1e-12 * (1.0 + pa.length):
             return idx
         vm, am, jm = self._limits()
         parts: list[Piece]
         if lines:
-            parts = BlendPiece(pa.end, ta, tb, d).split(self.cfg.blend_parts)
+            bp = BlendPiece(pa.end, ta, tb, d)
+            if self.cfg.corner_choice:
+                share = self._corner_share(prev, first, bp, vj, vm, am, jm)
+                if share == 0.0:
+                    return idx  # the exact corner is faster (prev.cap_out is 0)
+                if share != 1.0:
+                    d *= share
+                    bp = BlendPiece(pa.end, ta, tb, d)
+            parts = bp.split(self.cfg.blend_parts)
         else:
             blend = self._bounded_blend(seg_a, seg_b, d, tm, cmd.transition_parameter)
             if blend is None:
@@ -939,6 +1086,55 @@ class AxesGroup:
             prev.stale = True  # its running profile ends at the old end point
         links[0:0] = blinks
         return idx
+
+    def _corner_share(
+        self,
+        prev: Link,
+        first: Link,
+        bp: BlendPiece,
+        vj: float,
+        vm: list[float],
+        am: list[float],
+        jm: list[float],
+    ) -> float:
+        """The share of the corner distance that passes a line-line corner fastest: 1, 1/4,
+        1/16 of the blend, or 0 (an exact stop). Estimated over the halves of the two lines
+        next to the corner (from and to the speed an exact stop reaches there, zero path
+        acceleration at the joints, :func:`traverse_time`): under jerk limits a blend is
+        passed slowly (its curvature changes fast), and a stop at the corner can be faster
+        than the blend the tolerance allows. The blend's caps scale with its size (``b2`` as
+        ``1/d``, ``b3`` as ``1/d^2``). A blend passed at least as fast as the lines reach
+        next to an exact stop is always kept (fine segments: the speed is carried over many
+        of them)."""
+        la = min(0.5 * prev.full_length, prev.piece.U)
+        lb = 0.5 * first.piece.U
+        wa = min(prev.V, max_speed_change(0.0, la, prev.A_dec, prev.J))
+        wb = min(first.V, max_speed_change(0.0, lb, first.A_acc, first.J))
+        t_stop = traverse_time(wa, 0.0, la, prev.V, prev.A_dec, prev.J) + traverse_time(
+            0.0, wb, lb, first.V, first.A_acc, first.J
+        )
+        ca, cb = prev.caps, first.caps
+        a_prog = min(ca[1], cb[1], ca[2], cb[2])
+        j_prog = min(ca[3], cb[3])
+        best, share = t_stop, 0.0
+        d = bp.distance
+        for s in (1.0, 0.25, 0.0625):
+            view = _ScaledBlend(bp, s)
+            try:
+                V, _, _ = path_caps(view, vm, am, jm, vj, a_prog, j_prog, self.cfg.blend_share)
+            except PlanningError:
+                continue
+            w = V * bp.g0
+            if s == 1.0 and w >= min(wa, wb):
+                return 1.0  # the blend is passed as fast as an exact stop gets next to it
+            t = (
+                traverse_time(wa, w, la - s * d, prev.V, prev.A_dec, prev.J)
+                + s * bp.U / V
+                + traverse_time(w, wb, lb - s * d, first.V, first.A_acc, first.J)
+            )
+            if t < best * (1.0 - 1e-9):
+                best, share = t, s
+        return share
 
     def _bounded_blend(self, seg_a: Any, seg_b: Any, d: float, tm: TransitionMode, par: float):  # noqa: ANN202
         """The corner blend of two segments (one of them curved) with corner distance at most
@@ -1044,9 +1240,13 @@ class AxesGroup:
         lk0 = links[0]
         want = lk0.w_back
         if lk0.sampled is None and not lk0.stopping and (want != lk0.w_out or lk0.stale):
+            chain.touch(lk0)
             lk0.w_out = self._replan_running(lk0, want)
             lk0.stale = False
             low = 1
+            if lk0.w_out > want * (1.0 + 1e-9) and self._blend_scale > 0.0:
+                # the running piece cannot slow down to the junction speed that is left
+                raise _TooLateError
         chain.forward(1, lk0.w_out, max(low, 1))
         self._plan_near()
 
@@ -1054,8 +1254,10 @@ class AxesGroup:
         """Profiles are planned one piece ahead: the running (or next) piece and the one after
         it; the others when the piece before them starts (their speeds may still change with
         every move queued behind them)."""
-        for lk in self.chain.links[:2]:
+        chain = self.chain
+        for lk in chain.links[:2]:
             if lk.profile is None and lk.sampled is None:
+                chain.touch(lk)
                 lk.profile = _guard_plan(lk)
 
     def _state_on(self, lk: Link) -> State:
@@ -1159,6 +1361,14 @@ class AxesGroup:
                     last=lk0.last,
                     caps=lk0.caps,
                 )
+                if lk0.members is not None:  # a run: the members still ahead, shifted
+                    tail.members = [
+                        (max(0.0, u0 - u_stop), u1 - u_stop, _event_link(m))
+                        for u0, u1, m in lk0.members[lk0.m_next :]
+                        if u1 > u_stop
+                    ] or None
+                    tail.owner = tail.members[0][2].owner if tail.members else None
+                    tail.last = False
                 rest = [tail, *rest]
             lk0.profile = _Offset(prof, self._tau)
             lk0.stopping = True
@@ -1210,15 +1420,21 @@ class AxesGroup:
         ``status``) or kept for MC_GroupContinue (``keep``: its commands stay busy)."""
         self.chain.links = kept
         if keep:  # only what a busy command still has to do can be resumed
-            rest = [lk for lk in rest if lk.owner is not None and not lk.owner.handle.terminal]
+            rest = [
+                lk
+                for lk in rest
+                if any(o is not None and not o.handle.terminal for o in _owners(lk))
+            ]
         kept_jobs = []
         for lk in kept:
-            if lk.owner is not None and lk.owner not in kept_jobs:
-                kept_jobs.append(lk.owner)
+            for o in _owners(lk):
+                if o is not None and o not in kept_jobs:
+                    kept_jobs.append(o)
         rest_jobs = []
         for lk in rest:
-            if lk.owner is not None and lk.owner not in rest_jobs:
-                rest_jobs.append(lk.owner)
+            for o in _owners(lk):
+                if o is not None and o not in rest_jobs:
+                    rest_jobs.append(o)
         mq = self.mq
         for job in mq.jobs():  # jobs without links left (none normally)
             if job not in kept_jobs and job not in rest_jobs and job not in mq.inbox:
@@ -1233,11 +1449,16 @@ class AxesGroup:
             for lk in kept:
                 if lk.owner in rest_jobs:
                     lk.last = False
+                for _, _, m in lk.members or ():
+                    if m.owner in rest_jobs:
+                        m.last = False
             return
         for job in kept_jobs + rest_jobs:
             job.handle._finish(status, eid, reason)
         for lk in kept:
             lk.owner = None  # the stop belongs to nobody (a Halt is tracked separately)
+            for _, _, m in lk.members or ():
+                m.owner = None
         mq.active = None
         mq.queue.clear()
 
@@ -1283,11 +1504,16 @@ class AxesGroup:
             lk = links[0]
             self._tau = excess
             self._activate(lk)
-        self._sample(lk, self._tau)
+        u = self._sample(lk, self._tau)
+        if lk.members is not None:
+            self._member_events(lk, u)
 
     def _activate(self, lk: Link) -> None:
         self._plan_near()  # this piece (planned ahead already) and the next one
-        job = lk.owner
+        self._start_job(lk.owner)
+
+    def _start_job(self, job: _GJob | None) -> None:
+        """The move of the piece the group enters becomes Active."""
         if job is not None and not job.started:
             job.started = True
             if job.handle.status is Status.QUEUED:
@@ -1321,6 +1547,14 @@ class AxesGroup:
             ax.p = p
             ax.v = v
             ax.a = ax.j = 0.0
+        if lk.members is not None:
+            e = lk.profile.end
+            self._member_events(lk, e.p if lk.stopping and e.p < lk.piece.U else _INF)
+        self._end_jobs(lk)
+
+    def _end_jobs(self, lk: Link) -> None:
+        """The group has passed the end of ``lk``: its move is Done if it was its last piece,
+        and so are the zero-length moves queued behind it."""
         if lk.last:
             job = lk.owner
             if job is not None:
@@ -1334,7 +1568,21 @@ class AxesGroup:
             job.handle.status = Status.ACTIVE
             job.handle._finish(Status.DONE)
 
-    def _sample(self, lk: Link, tau: float) -> None:
+    def _member_events(self, lk: Link, u: float) -> None:
+        """The pieces merged into the run ``lk`` whose end lies at or before ``u``: their moves
+        end (and the next member's starts) as if they ran as pieces of their own."""
+        mem = lk.members
+        i = lk.m_next
+        n = len(mem)
+        while i < n and u >= mem[i][1]:
+            self._end_jobs(mem[i][2])
+            i += 1
+            if i < n:
+                self._start_job(mem[i][2].owner)
+        lk.m_next = i
+
+    def _sample(self, lk: Link, tau: float) -> float:
+        """Write the members' set values at ``tau`` on ``lk``; returns the piece parameter."""
         sampled = lk.sampled
         axes = self.axes
         if sampled is not None:
@@ -1345,7 +1593,7 @@ class AxesGroup:
                 if ax.state is not S.DISABLED and ax not in self._dropped:  # switched off
                     ax.p, ax.v, ax.a, ax.j = s.p, s.v, s.a, s.j
             self.path_velocity = math.sqrt(sp)
-            return
+            return 0.0
         prof = lk.profile
         assert prof is not None
         u, du, ddu, dddu = prof.at(tau)
@@ -1363,6 +1611,7 @@ class AxesGroup:
             ax.a = d1 * ddu + d2 * du2
             ax.j = d1 * dddu + 3.0 * d2 * du * ddu + d3 * du2 * du
         self.path_velocity = math.sqrt(sp)
+        return u
 
     # -- diagnostics -----------------------------------------------------------------------
     def emit_fb_edges(self, trace: Trace, cycle: int) -> None:
@@ -1375,26 +1624,27 @@ class AxesGroup:
                     fb._dirty = False
 
 
-_LINK_STATE = (
-    "piece",
-    "V",
-    "A_acc",
-    "A_dec",
-    "J",
-    "cap_out",
-    "w_back",
-    "w_out",
-    "w_in",
-    "profile",
-    "last",
-    "seg",
-    "stale",
-    "stopping",
-)
-
+_LINK_STATE = LINK_STATE
 _LINK_GET = attrgetter(*_LINK_STATE)
 
 _DUMMY = LinePiece((0.0,), (1.0,), 1.0)  # the piece of a link whose motion is sampled otherwise
+
+
+class _ScaledBlend:
+    """The bounds of a line-line blend scaled to ``share`` of its corner distance (for
+    :func:`path_caps`)."""
+
+    __slots__ = ("b1", "b2", "b3", "gmax")
+
+    def __init__(self, bp: BlendPiece, share: float) -> None:
+        self.b1 = bp.b1
+        self.b2 = tuple(x / share for x in bp.b2)
+        self.b3 = tuple(x / (share * share) for x in bp.b3)
+        self.gmax = bp.gmax
+
+
+class _TooLateError(Exception):
+    """A join lowered a junction speed below what the running piece is committed to."""
 
 
 class _MoveError(Exception):
@@ -1430,11 +1680,21 @@ def _duration(lk: Link) -> float:
 
 def _guard_plan(lk: Link) -> Profile:
     try:
-        return lk.plan_rest()
+        prof = lk.plan_rest()
     except PlanningError:
         raise
     except Exception as exc:  # noqa: BLE001
         raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+    # a profile that leaves its piece (junction speeds it cannot join) would stand still at
+    # the piece's end and jump: never run it
+    (_, pmax), (vmin, _), _ = prof.extrema()
+    U = lk.piece.U
+    if pmax > U * (1.0 + 1e-9) or vmin < -1e-9 * (1.0 + prof.end.v):
+        raise PlanningError(
+            f"junction speeds {lk.w_in:.9g} -> {lk.w_out:.9g} m/s cannot be joined on a piece "
+            f"of {U:.9g} (the profile reaches {pmax:.9g}, speed {vmin:.3g})"
+        )
+    return prof
 
 
 def _link_end(lk: Link) -> tuple[float, ...]:
@@ -1481,3 +1741,28 @@ def _trim_start(lk: Link, u0: float) -> Piece:
     if isinstance(seg, _Circular):
         return piece_for(seg.trim(u0, seg.u_end))
     return SubPiece(pc, u0, pc.U)
+
+
+def _runnable(pc: Piece) -> bool:
+    """Pieces a run may hold: arc-length parameter at both ends, G2 joints."""
+    if isinstance(pc, SubPiece):
+        pc = pc._base  # noqa: SLF001
+    return isinstance(pc, (LinePiece, CircularPiece, BlendPiece, RunPiece))
+
+
+def _members(lk: Link, offset: float = 0.0) -> list[tuple[float, float, Link]]:
+    if lk.members is None:
+        return [(offset, offset + lk.piece.U, lk)]
+    return [(u0 + offset, u1 + offset, m) for u0, u1, m in lk.members]
+
+
+def _owners(lk: Link) -> list[Any]:
+    """The moves a link's motion still belongs to (the members of a run not passed yet)."""
+    if lk.members is None:
+        return [lk.owner]
+    return [m.owner for _, _, m in lk.members[lk.m_next :]]
+
+
+def _event_link(m: Link) -> Link:
+    """A copy of a run member's bookkeeping (move, last piece, followers)."""
+    return Link(m.piece, 1.0, 1.0, 1.0, 1.0, owner=m.owner, last=m.last, followers=m.followers)

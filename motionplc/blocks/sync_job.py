@@ -175,6 +175,50 @@ class PhaseHandle(Handle):
         self._st = value
 
 
+class _NoRoomError(Exception):
+    """The coupling law alone takes the slave's whole acceleration or jerk limit."""
+
+
+def master_peaks(master: Axis, mv: float) -> tuple[float, float, float]:
+    """Peaks of the master's |v|, |a|, |j| over what it has planned from now on: the rest of
+    its running profiles when that is all it will do (a move or velocity job without queued
+    successors, superimposed motion or a running override ramp), else (at rest, or a motion
+    not known ahead: a coupling, a group's path, a queue) its current values: what it does
+    beyond them later is the kernel's limit supervision's (the slave's SLAVE_LIMITS_EXCEEDED
+    and a stop within its limits)."""
+    mq = master.mq
+    job = mq.active
+    v0, a0, j0 = abs(master.v), abs(master.a), abs(master.j)
+    conf = (max(abs(mv), v0), a0, j0)
+    if mq.inbox or mq.queue or mq.pending or master.sup is not None or master.ts.prof is not None:
+        return conf
+    if master.group is not None and master.group.moving:
+        return conf
+    if job is None:
+        return conf
+    if getattr(job, "sync", False) or job.kind == "home" or not job.chain:
+        return conf
+    f = 1.0 if job.no_override else master.ts.f
+    pv, pa, pj = max(abs(mv), v0), a0, j0
+    tau = job.tau
+    t0 = 0.0
+    for prof in job.chain:  # the rest of the chain from trajectory time tau
+        end = t0 + prof.duration
+        if end >= tau:
+            e = prof.end
+            pv, pa = max(pv, abs(e.v) * f), max(pa, abs(e.a) * f * f)
+            ts = prof._t
+            for i in range(len(ts)):
+                nxt = t0 + ts[i + 1] if i + 1 < len(ts) else end
+                if nxt < tau:
+                    continue  # a segment already passed
+                pv = max(pv, abs(prof._v[i]) * f)
+                pa = max(pa, abs(prof._a[i]) * f * f)
+                pj = max(pj, abs(prof._j[i]) * f * f * f)
+        t0 = end
+    return pv, pa, pj
+
+
 def _master_state(job: SyncJob) -> tuple[float, float, float, float]:
     """The master's (p, v, a, j) as the coupling sees them (source, SetPosition shifts out)."""
     m = job.master
@@ -463,27 +507,28 @@ class SyncJob(AxisJob):
             else:
                 s = d.at(t)
                 p, v, a, j = lp + s.p, lv + s.v, la + s.a, lj + s.j
-        if own and not self._within(v, a):
+        if own and not self._within(v, a, j):
             self._fail(
                 ErrorID.SLAVE_LIMITS_EXCEEDED,
-                f"slave {self.slave.name!r}: v {v:.6g} / a {a:.6g} beyond its limits "
-                f"(master {self.master.name!r} at v {m[1]:.6g}, a {m[2]:.6g})",
+                f"slave {self.slave.name!r}: v {v:.6g} / a {a:.6g} / j {j:.6g} beyond its "
+                f"limits (master {self.master.name!r} at v {m[1]:.6g}, a {m[2]:.6g}, "
+                f"j {m[3]:.6g})",
             )
             return None
         return p, v, a, j
 
-    def _within(self, v: float, a: float) -> bool:
-        """The slave's velocity, also after bringing its acceleration to 0 at full jerk (so
-        that a stop from here stays within the limit), and (locked) its acceleration."""
+    def _within(self, v: float, a: float, j: float) -> bool:
+        """The slave's set values (law + catch-up) within its limits: the velocity, also
+        after bringing its acceleration to 0 at full jerk (so that a stop from here stays
+        within the limit), the acceleration and the jerk."""
         cfg = self.slave.cfg
         if math.isfinite(cfg.j_max):
+            if abs(j) > cfg.j_max * (1 + _TOL):
+                return False
             v += a * abs(a) / (2.0 * cfg.j_max)
         if not (-cfg.v_neg * (1 + _TOL) <= v <= cfg.v_max * (1 + _TOL)):
             return False
-        # the ramp's acceleration adds to the law's: only the locked law is held to a_max
-        if self.stage == _LOCKED and not (-cfg.a_neg * (1 + _TOL) <= a <= cfg.a_max * (1 + _TOL)):
-            return False
-        return True
+        return -cfg.a_neg * (1 + _TOL) <= a <= cfg.a_max * (1 + _TOL)
 
     def _start_reached(self, m: tuple[float, float, float, float]) -> bool:
         cmd = self.cmd
@@ -547,6 +592,8 @@ class SyncJob(AxisJob):
                         self.ramp_env = (abs(mv), abs(ma), abs(mj))
         except PlanningError as exc:
             return ErrorID.PLANNING_FAILED, f"planner: {exc}"
+        except _NoRoomError as exc:
+            return ErrorID.SLAVE_LIMITS_EXCEEDED, str(exc)
         return None
 
     def _replan_ramp(self, m: tuple[float, float, float, float]) -> tuple[ErrorID, str] | None:
@@ -563,30 +610,36 @@ class SyncJob(AxisJob):
         b = self.table.slave_peaks_bound(env[0] * q, env[1] * q, env[2] * q)
         self.peaks = (ss * b[0], ss * b[1], ss * b[2])
         d0 = State(s.p, s.v, s.a)
-        lim = self._catch_up_limits(d0, m[1])
-        if lim is None:  # (cams take every direction)
-            return ErrorID.PLANNING_FAILED, "no catch-up limits"
         try:
+            lim = self._catch_up_limits(d0, m[1])
+            if lim is None:  # (cams take every direction)
+                return ErrorID.PLANNING_FAILED, "no catch-up limits"
             self.d = guarded(plan, d0, State(0.0, 0.0, 0.0), lim)
         except PlanningError as exc:
             return ErrorID.PLANNING_FAILED, f"planner: {exc}"
+        except _NoRoomError as exc:
+            return ErrorID.SLAVE_LIMITS_EXCEEDED, str(exc)
         self.d_lim = (max(lim.a_max, -lim.a_min), lim.j_max)  # type: ignore[operator]
         self.d_t0 = self.last_tau
         self.ramp_env = env
         return None
 
     def _room(self, lim: Limits, mv: float) -> Limits:
-        """The catch-up's limits: what the slave's own acceleration and jerk limits leave beside
-        the law's (ratio x the master's configured limits, its velocity at the start; cams: the
-        table's peaks at the master's motion at engagement), where that leaves anything; else
-        ``lim`` as it is (the supervision then guards the slave's limits)."""
+        """The catch-up's limits: what the slave's own limits leave beside the law's, so that
+        law + catch-up stay within them (their accelerations and jerks add). The law's share:
+        gears ``|ratio|`` x the master's peaks over what it has planned (:func:`master_peaks`:
+        its running profiles; its current values when its motion is not known ahead);
+        cams the table's peaks at the master's motion at engagement. A master that leaves that
+        envelope later is caught by the kernel's limit supervision (SLAVE_LIMITS_EXCEEDED and
+        a stop within the slave's limits). Raises :class:`_NoRoomError` when the law alone takes
+        the whole acceleration or jerk limit (nothing left to catch up with)."""
         cfg = self.slave.cfg
         if self.kind == "cam":
             lv, la, lj = self.peaks
         else:
-            mc = self.master.cfg
             r = abs(self.ratio)
-            lv, la, lj = r * abs(mv), r * max(mc.a_max, mc.a_neg), r * mc.j_max
+            pv, pa, pj = master_peaks(self.master, mv)
+            lv, la, lj = r * pv, r * pa, r * pj
         v_room = min(cfg.v_max, cfg.v_neg) - lv
         if v_room > 0.05 * lim.v_max:
             lim = Limits(
@@ -596,11 +649,17 @@ class SyncJob(AxisJob):
                 v_min=max(lim.v_min, -v_room),  # type: ignore[arg-type]
                 a_min=lim.a_min,
             )
-        a_room = min(cfg.a_max, cfg.a_neg) - la
-        j_room = cfg.j_max - lj
-        a = min(lim.a_max, a_room) if a_room > 0.05 * lim.a_max else lim.a_max
-        an = max(lim.a_min, -a_room) if a_room > 0.05 * lim.a_max else lim.a_min
-        j = min(lim.j_max, j_room) if j_room > 0.05 * lim.j_max else lim.j_max
+        a_room = min(cfg.a_max, cfg.a_neg) * (1.0 - 1e-9) - la
+        j_room = cfg.j_max * (1.0 - 1e-9) - lj
+        if not (a_room > 0.0 and j_room > 0.0):
+            raise _NoRoomError(
+                f"slave {self.slave.name!r}: the law needs a {la:.6g} / j {lj:.6g} of its "
+                f"limits a {min(cfg.a_max, cfg.a_neg):.6g} / j {cfg.j_max:.6g} at the master's "
+                f"motion: no room left for the catch-up"
+            )
+        a = min(lim.a_max, a_room)
+        an = max(lim.a_min, -a_room)
+        j = min(lim.j_max, j_room)
         return Limits(lim.v_max, a, j, v_min=lim.v_min, a_min=an)
 
     def _catch_up_limits(self, d0: State, mv: float) -> Limits | None:

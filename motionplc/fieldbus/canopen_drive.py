@@ -172,6 +172,7 @@ from motionplc.fieldbus.sdo import (
     abort_text,
     object_name,
 )
+from motionplc.fieldbus.virtual_device import StallClock
 
 __all__ = [
     "CanopenDrive",
@@ -473,6 +474,8 @@ class CanopenMaster(GuardedEndpoint):
         self._written_t: float | None = None
         self._batch_t: float | None = None  # the cycle time of the last begin_batch
         self._next_hb_t: float | None = None
+        # supervision time of in-process drives (on in real time with a peer: bind_clock)
+        self.stall = StallClock()
         self._exchange_now = False
         self._in_setup = False  # LSS responses are accepted only during run_setup
         self._held: list[can.Message] = []  # received while waiting for external drives
@@ -567,6 +570,7 @@ class CanopenMaster(GuardedEndpoint):
         if self._pumped_t == t:
             return
         self._pumped_t = t
+        self.stall.note(t)
         self.t = t
         self.network.end_batch()  # (a cycle whose SYNC was not sent: its frames go first)
         tick = getattr(self.bus, "tick", None)
@@ -1012,8 +1016,16 @@ class CanopenDrive(Drive):
         self._guard_toggle: int | None = None
 
     def bind_clock(self, realtime: bool) -> None:
-        """Real-time clock: the master never waits for external drives."""
-        self.master.realtime = realtime
+        """Real-time clock: the master never waits for external drives. With in-process
+        drives (``peer``) both sides supervise each other on a stall-proof time
+        (``virtual_device.StallClock``): a stall of the one process running both is no loss
+        of communication; a side that stops sending while the cycles go on still is."""
+        master = self.master
+        master.realtime = realtime
+        peer = master.peer
+        if realtime and peer is not None and hasattr(peer, "make_stall_proof"):
+            peer.make_stall_proof(self.config.cycle_time)
+            master.stall.activate(self.config.cycle_time)
 
     # ---------------------------------------------------------------- start-up
     def _startup_inputs(self) -> StartupInputs:
@@ -1263,7 +1275,7 @@ class CanopenDrive(Drive):
         if cfg.guard_time > 0:
             life = cfg.guard_time * cfg.life_time_factor
             ref = self._guard_answer_t if self._guard_answer_t is not None else self._armed_t
-            if ref is not None and t - ref > life + 1e-9:
+            if ref is not None and self.master.stall.elapsed(ref, t) > life + 1e-9:
                 return False, f"node guarding of node {n}: no answer for {life:g} s"
             if self._guard_answer_t is not None and self.node.nmt.state != "OPERATIONAL":
                 return False, f"node {n} is {self.node.nmt.state}"
@@ -1274,7 +1286,10 @@ class CanopenDrive(Drive):
         nmt = self.node.nmt
         last = nmt.timestamp
         ref = last if last is not None else self._armed_t
-        if ref is not None and t - ref > cfg.heartbeat_timeout_factor * period + 1e-9:
+        if (
+            ref is not None
+            and self.master.stall.elapsed(ref, t) > cfg.heartbeat_timeout_factor * period + 1e-9
+        ):
             return False, f"heartbeat of node {n} lost"
         if last is not None and nmt._state != NMT_OPERATIONAL:  # nmt.state != "OPERATIONAL"
             return False, f"node {n} is {nmt.state}"

@@ -410,8 +410,12 @@ class ModbusDrive(Drive):
         self._param_ops: deque[_ParamOp] = deque()
 
     def bind_clock(self, realtime: bool) -> None:
-        """Real time: never wait for an answer inside the cycle (see the module docstring)."""
+        """Real time: never wait for an answer inside the cycle (see the module docstring).
+        An in-process server (``peer``) then runs its drives' watchdog on a stall-proof time
+        (``virtual_device.StallClock``)."""
         self.realtime = bool(realtime)
+        if self.realtime and self.peer is not None and hasattr(self.peer, "make_stall_proof"):
+            self.peer.make_stall_proof(self.config.cycle_time)
 
     def _wall_bound(self) -> float:
         """[s] wall-clock bound of one blocking wait (connect, a setup request): ``timeout``,

@@ -71,11 +71,16 @@ from motionplc.fieldbus.fastcan import (
 )
 from motionplc.fieldbus.pdo_codec import PdoCodec
 from motionplc.fieldbus.plant import PlantParams, ProbeSensor
-from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device
+from motionplc.fieldbus.virtual_device import ERROR_CODES, Cia402Device, StallClock
 
 __all__ = ["EDS_NAME", "VirtualCanBus", "VirtualCia402Drive", "eds_path", "load_od"]
 
 EDS_NAME = "motionplc_cia402.eds"
+
+
+def _plain_elapsed(since: float, now: float) -> float:
+    return now - since
+
 
 NMT_OPERATIONAL = 5
 NMT_PRE_OPERATIONAL = 127
@@ -151,6 +156,9 @@ class SimulatedTimeNetwork(canopen.Network):
         super().__init__(bus)
         self.unsubscribe(self.lss.LSS_RX_COBID)  # drives are no LSS master (unbounded queue)
         self.now = 0.0
+        # the drives' supervision time (StallClock: on in real time, where the master runs
+        # in this process too: VirtualCanBus.stall_proof)
+        self.stall = StallClock()
         self._tasks: list[_SimPeriodicTask] = []
         # no task (active or stopped) is due before this time: run_periodic returns early
         self._next_due = math.inf
@@ -605,6 +613,7 @@ class VirtualCia402Drive:
         if self.node.nmt._state != NMT_OPERATIONAL:  # not self._operational()
             return
         self.sync_received += 1
+        prev_sync_t = self._last_sync_t
         self._last_sync_t = timestamp
         d = self.device
         if self._rpdo_new:
@@ -622,6 +631,21 @@ class VirtualCia402Drive:
             self._rpdo_missed += 1  # hold the last setpoint
             if self._rpdo_missed > self.rpdo_loss_limit:
                 d.raise_fault(ERROR_CODES["rpdo_timeout"])
+        net = self.network
+        if net is not None and net.stall.active and prev_sync_t is not None:
+            # stall-proof (real time, the master in this process): the process stalled, the
+            # master's setpoint moved on with the time; the drive runs the cycles it missed,
+            # its setpoint interpolated between the last and this one (as if it had run
+            # beside the master all along), at most 1000
+            period = self.interpolation_period
+            n = min(1000, round((timestamp - prev_sync_t) / period)) if period > 0.0 else 1
+            if n > 1 and d.following:
+                end = d.target
+                start = d.demand
+                for i in range(1, n):
+                    d.target = start + (end - start) * (i / n)
+                    d.cycle(period)
+                d.target = end
         d.cycle(self.interpolation_period)
         self._sync_count += 1
         self._send_tpdos()
@@ -669,17 +693,19 @@ class VirtualCia402Drive:
     def advance(self, t: float) -> None:
         """Time-driven supervision at simulated time ``t`` (after the frames of this step)."""
         d = self.device
+        net = self.network
+        elapsed = net.stall.elapsed if net is not None else _plain_elapsed
         if (
             self.comm_cycle_period > 0.0
             and self.node.nmt._state == NMT_OPERATIONAL  # self._operational()
             and self._last_sync_t is not None
-            and t - self._last_sync_t > 1.5 * self.comm_cycle_period + 1e-9
+            and elapsed(self._last_sync_t, t) > 1.5 * self.comm_cycle_period + 1e-9
         ):
             self._last_sync_t = None  # one fault per loss
             if d.powered:
                 d.raise_fault(ERROR_CODES["sync_loss"])
         if self.consumer_heartbeat is not None and self._last_master_hb_t is not None:
-            if t - self._last_master_hb_t > self.consumer_heartbeat[1] + 1e-9:
+            if elapsed(self._last_master_hb_t, t) > self.consumer_heartbeat[1] + 1e-9:
                 self._last_master_hb_t = None
                 d.raise_fault(ERROR_CODES["heartbeat"])
         if d.pending_emcy:  # (flush_emcy's own first test)
@@ -768,6 +794,18 @@ class VirtualCanBus(GuardedEndpoint):
     def _cyclic_ids(self) -> Collection[int]:
         return (self._fast if self._fast is not None else self._fast_table()).keys()
 
+    @property
+    def stall_proof(self) -> bool:
+        """The drives' supervision (SYNC loss, master heartbeat) on a :class:`StallClock`: a
+        stall of this process (which runs the master too) is no loss of communication; a
+        master that stops sending while its cycles go on still is. Switched on by an
+        in-process master in real time (:meth:`make_stall_proof`, ``CanopenDrive.bind_clock``)."""
+        return self.network.stall.active
+
+    def make_stall_proof(self, cycle: float) -> None:
+        """Switch :attr:`stall_proof` on, ``cycle`` [s] the master's nominal cycle."""
+        self.network.stall.activate(cycle)
+
     def _relevant_ids(self) -> set[int]:
         return self._cyclic_ids() | self.network.subscribers.keys()
 
@@ -780,6 +818,7 @@ class VirtualCanBus(GuardedEndpoint):
         """
         self.t = t
         self.network.now = t
+        self.network.stall.note(t)
         self.faults.tick()
         self.network.begin_batch()  # what the drives send in this step: delivered at its end
         try:

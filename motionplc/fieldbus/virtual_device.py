@@ -84,6 +84,66 @@ _SW_BASE: dict[Cia402State, int] = {
 _SW_OE = _SW_BASE[_OE]
 
 
+class StallClock:
+    """Supervision time of an in-process virtual drive (and of the master watching it) that a
+    stall of the shared process cannot advance: while the process stalls neither the master
+    nor its in-process drives run, so the gap is no loss of communication. Each step of the
+    lockstep link advances the supervision time by at most the shortest step seen (one
+    cycle); a longer step's excess is a *stall* and is taken out of every elapsed time
+    (:meth:`elapsed`). A master that really stops sending while the cycles go on still
+    advances it by a cycle per step: its drives fault as on the wire. Off (``active`` False,
+    the simulated clock): elapsed times are plain differences, bit for bit as before."""
+
+    __slots__ = ("active", "_prev", "_step", "_lag", "_points", "_base")
+
+    def __init__(self) -> None:
+        self.active = False
+        self._prev: float | None = None
+        self._step = float("inf")  # the shortest step seen (the cycle)
+        self._lag = 0.0  # stall time taken out so far
+        self._points: list[tuple[float, float]] = []  # (time, lag from then on), the last 64
+        self._base = 0.0  # the lag before the oldest point kept
+
+    def activate(self, cycle: float) -> None:
+        """On, with ``cycle`` [s] the nominal step (a longer first step is a stall too)."""
+        self.active = True
+        if cycle > 0.0:
+            self._step = min(self._step, cycle)
+
+    def note(self, t: float) -> None:
+        """A step of the link at time ``t`` (idempotent for the same ``t``)."""
+        prev = self._prev
+        if not self.active or prev == t:
+            return
+        self._prev = t
+        if prev is None or t < prev:
+            return
+        d = t - prev
+        if d < self._step:
+            self._step = d
+        excess = d - self._step
+        if excess > 0.0:
+            self._lag += excess
+            pts = self._points
+            pts.append((t, self._lag))
+            if len(pts) > 64:
+                self._base = pts.pop(0)[1]
+
+    def _lag_at(self, t: float) -> float:
+        lag = self._base
+        for when, value in self._points:  # (a handful of stalls at most)
+            if when > t:
+                break
+            lag = value
+        return lag
+
+    def elapsed(self, since: float, now: float) -> float:
+        """Supervision time from ``since`` to ``now`` (stalls between them taken out)."""
+        if not self.active or not self._points:
+            return now - since
+        return (now - since) - (self._lag_at(now) - self._lag_at(since))
+
+
 def error_register_for(code: int) -> int:
     """0x1001 bits for an error code: bit 0 generic plus the category bit."""
     reg = 0x01

@@ -61,7 +61,12 @@ from motionplc.fieldbus.modbus_map import (
     to_registers,
 )
 from motionplc.fieldbus.plant import PlantParams
-from motionplc.fieldbus.virtual_device import ERROR_CODES, SUPPORTED_MODES, Cia402Device
+from motionplc.fieldbus.virtual_device import (
+    ERROR_CODES,
+    SUPPORTED_MODES,
+    Cia402Device,
+    StallClock,
+)
 
 __all__ = ["VirtualModbusDrive", "VirtualModbusServer", "check_loopback"]
 
@@ -111,6 +116,9 @@ class VirtualModbusDrive:
         }
         self.life_sign_echo = 0
         self.now = 0.0
+        # the watchdog's time (its server's StallClock once served: stall-proof in real time)
+        self.stall = StallClock()
+        self._last_target_t: float | None = None  # time of the last setpoint written
         self._last_command_t: float | None = None
         self._watchdog_tripped = False
         self._self_run_t = 0.0
@@ -226,12 +234,25 @@ class VirtualModbusDrive:
             d.apply_controlword(new["CONTROLWORD"])
         if "LIFE_SIGN" in new:
             self.life_sign_echo = new["LIFE_SIGN"]
+        prev_t = self._last_target_t
         if any(CMD_BASE <= f.address < CMD_BASE + CMD_COUNT for f in touched):
             self._last_command_t = self.now
             self._watchdog_tripped = False
         if "TARGET_POSITION" in new:
+            self._last_target_t = self.now
+            start = d.demand
             d.latch(new["TARGET_POSITION"], new.get("TARGET_VELOCITY", d.velocity_offset))
-            d.cycle(self.cycle_time)
+            period = self.cycle_time
+            if self.stall.active and prev_t is not None and period > 0.0 and d.following:
+                # stall-proof (real time, the master in this process): the cycles the
+                # process's stall took are run with the setpoint interpolated (at most 1000)
+                n = min(1000, round((self.now - prev_t) / period))
+                end = d.target
+                for i in range(1, n):
+                    d.target = start + (end - start) * (i / n)
+                    d.cycle(period)
+                d.target = end
+            d.cycle(period)
             self.cycles += 1
         return None
 
@@ -250,7 +271,7 @@ class VirtualModbusDrive:
             self.now = t
             wd = self.params["WATCHDOG_MS"] / 1000.0
             last = self._last_command_t
-            if wd > 0 and last is not None and t - last > wd + 1e-9:
+            if wd > 0 and last is not None and self.stall.elapsed(last, t) > wd + 1e-9:
                 if not self._watchdog_tripped:
                     self._watchdog_tripped = True
                     self.device.raise_fault(ERROR_CODES["watchdog"])
@@ -293,6 +314,9 @@ class VirtualModbusServer:
     ) -> None:
         check_loopback(host)
         self.drives = [drives] if isinstance(drives, VirtualModbusDrive) else list(drives)
+        self.stall = StallClock()  # the drives' watchdog time (see stall_proof)
+        for drive in self.drives:
+            drive.stall = self.stall
         if len({d.device_id for d in self.drives}) != len(self.drives):
             raise ValueError("device ids must be unique on one server")
         self.host = host
@@ -445,12 +469,25 @@ class VirtualModbusServer:
                     return p.due
         return None
 
+    @property
+    def stall_proof(self) -> bool:
+        """The drives' communication watchdog on a :class:`StallClock`: a stall of this
+        process (which runs the master too) is no silence of the master; a master that stops
+        sending while its cycles go on still trips it. Set by an in-process master in real
+        time (``ModbusDrive.bind_clock``)."""
+        return self.stall.active
+
+    def make_stall_proof(self, cycle: float) -> None:
+        """Switch :attr:`stall_proof` on, ``cycle`` [s] the master's nominal cycle."""
+        self.stall.activate(cycle)
+
     def step(self, t: float) -> None:
         """LockstepPeer: run the drives' time services at time ``t`` and release the parked
         requests that are due. Idempotent for the same ``t`` (several masters may step it)."""
         if t <= self._now:
             return
         self._now = t
+        self.stall.note(t)
         for drive in self.drives:
             drive.advance(t)
         with self._park_lock:

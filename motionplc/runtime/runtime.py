@@ -27,10 +27,15 @@ import os
 import struct
 import traceback
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from motionplc._fastinit import slot_setters
 from motionplc.blocks.axis import ReplanBudget, planner_calls
+from motionplc.blocks.axis_job import Command
+from motionplc.blocks.enums import AxisState as S
+from motionplc.blocks.enums import ErrorID, GroupState
+from motionplc.blocks.motion_queue import Status
 from motionplc.errors import ProgramError
 from motionplc.runtime.clock import Clock, SimClock
 from motionplc.runtime.context import CycleContext, ProcessImage
@@ -43,6 +48,63 @@ if TYPE_CHECKING:
     from motionplc.fieldbus.base import Drive
 
 CycleHook = Callable[["Runtime", int], None]
+
+STOP_MARGIN = 0.5  # [s] beyond twice the estimated stop time: the bound of a controlled stop
+DISABLE_TIME = 0.5  # [s] for the drives to report disabled after the stop
+
+
+@dataclass
+class StopReport:
+    """What :meth:`Runtime.shutdown` did: ``reason`` (why the run ended), ``quick`` (a quick
+    stop was requested during the stop), ``cycles`` / ``seconds`` of the stop and of the
+    power-off, ``bound`` [s] (the longest the stop was allowed), ``not_at_rest`` (axes still
+    moving when the bound ran out: stopped by their drives' own reaction), ``not_disabled``
+    (drives that did not report disabled in time: left to their own reaction), ``errors``
+    (axes in ErrorStop at the end, with their ErrorID name and reason)."""
+
+    reason: str = ""
+    quick: bool = False
+    cycles: int = 0
+    seconds: float = 0.0
+    bound: float = 0.0
+    not_at_rest: list[str] = field(default_factory=list)
+    not_disabled: list[str] = field(default_factory=list)
+    errors: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        """Every axis at rest and every drive disabled within the bound."""
+        return not self.not_at_rest and not self.not_disabled
+
+    def lines(self) -> list[str]:
+        """A human-readable account (one line, plus one per problem)."""
+        kind = "quick stop" if self.quick else "controlled stop"
+        drives = (
+            "every drive reported disabled"
+            if not self.not_disabled
+            else f"{len(self.not_disabled)} drives not disabled"
+        )
+        out = [
+            f"{kind} ({self.reason}): {self.cycles} cycles, {self.seconds:.3f} s "
+            f"(bound {self.bound:.3f} s), {drives}"
+        ]
+        for name in self.not_at_rest:
+            out.append(f"axis {name!r} not at rest within the bound: left to its drive's reaction")
+        for name in self.not_disabled:
+            out.append(f"drive of axis {name!r} did not report disabled: left to its own reaction")
+        return out
+
+
+def stop_time(v: float, a: float, a_max: float, j_max: float) -> float:
+    """An upper estimate [s] of a jerk-limited stop from velocity ``v`` and acceleration ``a``
+    with deceleration ``a_max`` and jerk ``j_max`` (inf: no jerk limit)."""
+    if not a_max > 0.0 or not math.isfinite(a_max):
+        return 0.0
+    t_j = 0.0 if not math.isfinite(j_max) or j_max <= 0.0 else a_max / j_max
+    t_a = 0.0 if t_j == 0.0 else abs(a) / j_max
+    v_eff = abs(v) + (0.0 if t_j == 0.0 else a * a / (2.0 * j_max))
+    return t_a + v_eff / a_max + 2.0 * t_j
+
 
 OVERRUN_POLICIES = ("skip", "catch_up")
 
@@ -164,10 +226,17 @@ class Runtime:
         self.last_due: list[str] = []  # names of the tasks run in the last tick, in run order
         self.error_reason = ""  # set when a watchdog tripped or a program raised
         self._failed_tasks: list[Task] = []  # programs that raised, their axes still stopping
+        # the controlled stop at the end of a run (shutdown): programs are no longer called
+        self._stopping = False
+        self.stop_report: StopReport | None = None
+        # set (by a signal handler, another thread) during shutdown: quick stop now
+        self.quick_stop_requested = False
         # real time: garbage collection outside the cycle's work (see _loop / _idle_gc)
         self._gc_primed = False
         self._gc_tick = 0
         self._gc_every = max(1, round(1.0 / self.cycle))  # ticks between idle collections
+        # real time: the tasks' watchdogs arm after this many cycles (start-up: _warm_up)
+        self.startup_cycles = max(10, round(0.05 / self.cycle))
         self.gc_stats = {"collections": 0, "freed": 0, "max_ns": 0, "total_ns": 0}
         if check_invariants:
             from motionplc.runtime.invariants import InvariantChecker
@@ -378,6 +447,7 @@ class Runtime:
         # stall the bus at each slice), everything alive then frozen out of later collections,
         # and young garbage collected in the idle slack of a cycle (see _idle_gc).
         if not self._gc_primed:
+            self._warm_up()
             gc.collect()
             self._gc_primed = True
         gc.freeze()
@@ -389,6 +459,28 @@ class Runtime:
             if was_enabled:
                 gc.enable()
             gc.unfreeze()
+
+    def _warm_up(self) -> None:
+        """Real time, before the first cycle: the start-up work that would otherwise land in
+        the first cycles - the modules the kernel imports on first use, a first plan per axis
+        (the planner's code paths), then one full collection (``_loop``) - and the tasks'
+        watchdogs arm only after ``startup_cycles`` cycles (their first FB scans, drive
+        state machines and first plans are the start-up, not the cycle time)."""
+        import motionplc.blocks.cam_select  # noqa: F401 - imported by the kernel on first use
+        import motionplc.blocks.superimposed  # noqa: F401
+        import motionplc.blocks.sync_job  # noqa: F401
+        from motionplc.planning import Limits, State, plan, plan_velocity
+
+        for ax in self._axis_list:
+            cfg = ax.cfg
+            lim = Limits(cfg.v_max, cfg.a_max, cfg.j_max, v_min=-cfg.v_neg, a_min=-cfg.a_neg)
+            try:  # (thrown away: only the code paths are warmed)
+                plan(State(ax.p, 0.0, 0.0), State(ax.p + 1e-3 * cfg.v_max, 0.0, 0.0), lim)
+                plan_velocity(State(ax.p, 0.0, 0.0), 0.5 * cfg.v_max, lim)
+            except Exception:  # noqa: BLE001 - a warm-up never fails a run
+                pass
+        for task in self.tasks:
+            task.arm_after = max(task.arm_after, self.startup_cycles)
 
     def _idle_gc(self, now: int, next_deadline: int) -> None:
         """Real time, called once ``_gc_every`` ticks (one second) have passed since the last
@@ -472,7 +564,7 @@ class Runtime:
                     ax.read_inputs(t_virtual)
                 except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
                     _drive_failed(ax, "read", exc)
-            if task.program_error is None:
+            if task.program_error is None and not self._stopping:
                 try:
                     task.program(ctx)
                 except Exception as exc:  # noqa: BLE001 - the task halts, the axes stop
@@ -490,6 +582,8 @@ class Runtime:
                 for g in task.groups:
                     g.step(dt)
                 for ax in axes:
+                    if ax._lg_after_group is not None:  # the limit supervision of members
+                        ax.guard_after_group(dt)
                     try:
                         ax.write_outputs(t_virtual)
                     except Exception as exc:  # noqa: BLE001 - a drive never ends the cycle
@@ -553,6 +647,148 @@ class Runtime:
             ax.active is None and ax.v == 0.0 for task in self._failed_tasks for ax in task.axes
         )
 
+    # -- the controlled stop at the end of a run ---------------------------------------------
+    def shutdown(
+        self,
+        reason: str = "end of run",
+        *,
+        margin: float = STOP_MARGIN,
+        disable_time: float = DISABLE_TIME,
+    ) -> StopReport:
+        """End the run under control: bring every axis and group to standstill, then switch
+        the drives off, cycling on (programs are no longer called; the trace, the drives and
+        the invariant checks see those cycles as any other).
+
+        1. Stop: every group in motion gets an MC_GroupStop (along its path, the members'
+           limits), every other axis in motion an MC_Stop with its own deceleration and jerk
+           limits (a_max / |a_min|, j_max; couplings and superimposed motion end, the slave
+           brakes within its own limits); an ErrorStop ramp runs on. Cycles until every axis
+           is at rest, at most ``2 x`` the estimated stop time ``+ margin``.
+        2. Power off: the groups are disabled, every axis is switched off (MC_Power off: a
+           CiA 402 drive goes Operation Enabled -> Switched On -> Ready to Switch On through
+           its controlword, a Modbus drive the same through its command register); cycles
+           until every drive reports disabled or has lost communication, at most
+           ``disable_time``.
+
+        ``quick_stop_requested`` (set by a signal handler; a ``KeyboardInterrupt`` during the
+        stop sets it too) turns the running stops into quick stops: every axis still moving
+        goes to ErrorStop QUICK_STOP (its error ramp: its own limits, no MC_Stop to release),
+        every group in motion to GroupErrorStop QUICK_STOP (along its path), the bound is
+        that stop time, and the drives are switched off as soon as the axes are at rest.
+        Axes still moving or drives still enabled at a bound are reported (``StopReport``)
+        and left to their drives' own reaction. Idempotent: a second call returns the first
+        report. Returns the report (also ``stop_report``)."""
+        if self.stop_report is not None:
+            return self.stop_report
+        report = StopReport(reason=reason)
+        self.stop_report = report
+        if not self._started or not self.axes:
+            return report
+        self._stopping = True
+        self._failed_tasks = []  # the stop below covers every axis
+        first = self.tick
+        quick = False
+
+        def moving() -> bool:
+            return any(
+                ax.active is not None or ax.v != 0.0 or ax.a != 0.0 for ax in self._axis_list
+            ) or any(g.moving for g in self._group_list)
+
+        bound = self._issue_stops(False) * 2.0 + margin
+        report.bound = bound
+        end = self.tick + max(1, math.ceil(bound / self.cycle))
+        while moving() and self.tick < end:
+            if self.quick_stop_requested and not quick:
+                quick = report.quick = True
+                bound = (self.tick - first) * self.cycle + self._issue_stops(True) + 2 * self.cycle
+                report.bound = bound
+                end = first + max(1, math.ceil(bound / self.cycle))
+                continue
+            try:
+                self._loop(
+                    end, lambda q=quick: not moving() or (self.quick_stop_requested and not q)
+                )
+            except KeyboardInterrupt:  # (a second Ctrl-C without a handler): quick stop
+                self.quick_stop_requested = True
+            except ProgramError:  # (cannot happen: no program runs) - defensive
+                pass
+        report.not_at_rest = [
+            ax.name
+            for ax in self._axis_list
+            if ax.state is not S.DISABLED and (ax.active is not None or ax.v != 0.0)
+        ]
+        # power off, in order: the groups, then every axis (the drives' shutdown sequence)
+        for g in self._group_list:
+            if g.state is not GroupState.GROUP_DISABLED and not g.moving:
+                g.disable()
+        for ax in self._axis_list:
+            ax.set_power(False)
+        end_off = self.tick + max(2, math.ceil(disable_time / self.cycle))
+
+        def enabled() -> list[str]:
+            return [ax.name for ax in self._axis_list if ax.drive_enabled and ax.comm_ok]
+
+        while enabled() and self.tick < end_off:
+            try:
+                self._loop(end_off, lambda: not enabled())
+            except KeyboardInterrupt:
+                break
+        report.not_disabled = enabled()
+        report.errors = {
+            ax.name: f"{ax.axis_error.name}: {ax.axis_error_reason}"
+            for ax in self._axis_list
+            if ax.axis_error is not ErrorID.OK
+        }
+        report.cycles = self.tick - first
+        report.seconds = report.cycles * self.cycle
+        return report
+
+    def _issue_stops(self, quick: bool) -> float:
+        """Command the stops of :meth:`shutdown` (quick: the fastest within the system
+        limits); returns the longest estimated stop time [s]."""
+        from motionplc.blocks.group import GroupCommand
+
+        longest = 0.0
+        for g in self._group_list:
+            if g.moving or g.state in (GroupState.GROUP_MOVING, GroupState.GROUP_STOPPING):
+                if g.state is not GroupState.GROUP_ERROR_STOP and (
+                    quick or g.state is not GroupState.GROUP_STOPPING
+                ):
+                    if quick:
+                        g.raise_group_error(ErrorID.QUICK_STOP, "quick stop requested")
+                    else:
+                        h = g.submit(GroupCommand(kind="stop"))
+                        h.hold = False
+            for ax in g.axes:
+                cfg = ax.cfg_system
+                longest = max(longest, stop_time(ax.v, ax.a, min(cfg.a_max, cfg.a_neg), cfg.j_max))
+        for ax in self._axis_list:
+            cfg = ax.cfg_system
+            longest = max(longest, stop_time(ax.v, ax.a, min(cfg.a_max, cfg.a_neg), cfg.j_max))
+            group = ax.group
+            if group is not None and group.enabled:
+                continue  # stopped along its group's path
+            if ax.state is S.DISABLED:
+                continue
+            still = ax.active is None and ax.v == 0.0 and ax.sup is None and not ax.mq.queue
+            if quick:
+                if not still and ax.state is not S.ERROR_STOP:
+                    ax.raise_axis_error("QUICK_STOP", "quick stop requested during the stop")
+                continue
+            if still or ax.state is S.ERROR_STOP:
+                continue  # at rest, or its ErrorStop ramp runs
+            if ax.state is S.STOPPING and ax.active is not None:
+                for h in ax.mq.stops:
+                    h.hold = False  # an MC_Stop brakes already: released at rest
+                continue
+            h = ax.submit(Command(kind="stop"))
+            h.hold = False
+            if h.terminal and h.status is not Status.DONE:  # refused: the axis' own error stop
+                ax.raise_axis_error(
+                    "INTERNAL_ERROR", f"end of run: MC_Stop refused ({h.error_id.name})"
+                )
+        return longest
+
     def _spend(self, seconds: float) -> None:
         self.clock.spend(round(seconds * 1e9))
 
@@ -570,4 +806,11 @@ class Runtime:
         return self
 
     def __exit__(self, *exc: object) -> None:
-        self.close()
+        """``with Runtime(...) as rt:``: the end of the block (also by an exception) is a
+        controlled stop (:meth:`shutdown`), then the drives close."""
+        try:
+            if self._started:
+                why = "end of block" if exc[0] is None else f"exception {exc[0].__name__}"  # type: ignore[union-attr]
+                self.shutdown(why)
+        finally:
+            self.close()

@@ -56,7 +56,8 @@ class Task:
     semantics): ``watchdog_sensitivity`` consecutive cycles whose execution time exceeds
     ``watchdog_time``, or one cycle longer than ``watchdog_sensitivity * watchdog_time``, trip
     it; the axes of the task then go to ErrorStop (use ``watchdog_time = period`` to trip on
-    consecutive overruns).
+    consecutive overruns). It arms after ``arm_after`` cycles (the runtime sets it in real
+    time: the start-up cycles, whose first-time work is not the program's cycle time).
     """
 
     def __init__(
@@ -109,6 +110,9 @@ class Task:
         self.cycle_time_exceeded = False
         self.watchdog_tripped = False
         self.watchdog_reason = ""
+        # the watchdog arms after this many cycles (real time: the start-up cycles, see
+        # Runtime.startup_cycles); 0 = from the first cycle
+        self.arm_after = 0
         self.program_error: Exception | None = None  # the task is halted (see Runtime.run)
 
     @property
@@ -137,6 +141,8 @@ class Task:
         if overrun:
             self.overruns += 1
         if self.watchdog_time is None or self.watchdog_tripped:
+            return None
+        if self.cycle_count <= self.arm_after:  # the start-up cycles (Runtime._warm_up)
             return None
         n = self.watchdog_sensitivity
         wd_ns = self.watchdog_time * 1e9

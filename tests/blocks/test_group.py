@@ -58,7 +58,9 @@ def _chain(
 
 
 def test_rectangle_with_blended_corners_keeps_limits_tolerance_and_ends_exactly() -> None:
-    b = GroupBench().enabled()
+    # the blends as the tolerance sizes them (corner_choice off, the default: at these limits
+    # exact stops pass the rectangle's corners faster, see the test below)
+    b = GroupBench(corner_choice=False).enabled()
     fbs = _chain(b, RECT)
     b.run_until_idle()
     assert all(fb.done for fb in fbs), [(fb.error_id, fb.error_text) for fb in fbs]
@@ -82,6 +84,31 @@ def test_rectangle_with_blended_corners_keeps_limits_tolerance_and_ends_exactly(
     assert np.all(pv[moving[0] : moving[-1] + 1] > 0.0)
     assert b.g.state is GroupState.GROUP_STANDBY
     assert all(ax.state is AxisState.STANDSTILL for ax in b.rt.axes.values())
+
+
+def test_corner_choice_never_slower_than_the_tolerance_sized_blends() -> None:
+    """The rectangle again with the corner choice on (GroupConfig.corner_choice): a corner is
+    blended as the tolerance allows, with a smaller blend or stopped exactly, whichever passes
+    it fastest; the whole motion is faster than with the tolerance-sized blends and keeps the
+    limits (by differencing) and the tolerance."""
+    times = {}
+    for cc in (True, False):
+        b = GroupBench(corner_choice=cc).enabled()
+        fbs = _chain(b, RECT)
+        b.run_until_idle()
+        assert all(fb.done for fb in fbs), [(fb.error_id, fb.error_text) for fb in fbs]
+        b.check_limits()
+        pos = b.positions()
+        assert tuple(pos[-1]) == (0.0, 0.0, 0.0)
+        assert distance_to_polyline(pos, [(0.0, 0.0, 0.0), *RECT]).max() <= 0.005 * (1 + 1e-9)
+        moving = np.nonzero(b.col("g.path_velocity") > 0.0)[0]
+        times[cc] = moving[-1] - moving[0]
+        dt = b.rt.cycle
+        for n, lim in b.limits.items():
+            p = b.col(f"{n}.position")
+            assert np.abs(np.diff(p, 2)).max() / dt**2 <= lim["a_max"] * (1 + 1e-6)
+            assert np.abs(np.diff(p, 3)).max() / dt**3 <= lim["j_max"] * (1 + 1e-6)
+    assert times[True] < times[False], times
 
 
 def test_corner_speed_is_near_the_highest_constant_speed_the_axis_limits_allow() -> None:

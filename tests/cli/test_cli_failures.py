@@ -255,7 +255,9 @@ def test_ctrl_c_during_a_run_writes_the_trace_and_exits_130(
     assert main(["run", cfg, prog, "-q", "--trace", str(trace)]) == 130
     out, err = capsys.readouterr()
     assert err == "FAILED: interrupted at t = 0.020 s\n"
-    assert len(trace.read_text().splitlines()) == 1 + 20  # header and cycles 0..19 (20 ended early)
+    # header and cycles 0..19 (20 ended early); the axis was never powered: its controlled
+    # stop has nothing to brake or switch off, no cycle to run
+    assert len(trace.read_text().splitlines()) == 1 + 20
 
 
 def test_an_internal_error_is_one_line_and_debug_shows_the_traceback(

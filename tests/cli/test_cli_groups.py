@@ -103,7 +103,9 @@ def test_gcode_runs_on_the_chosen_group(tmp_path: Path, capsys: pytest.CaptureFi
     assert float(last["u.position"]) == pytest.approx(0.02, abs=1e-12)
     assert float(last["v.position"]) == pytest.approx(0.01, abs=1e-12)
     assert float(last["x.position"]) == 0.0 and last["xy.state"] == "GROUP_DISABLED"
-    assert last["uv.state"] == "GROUP_STANDBY"
+    # the run ended in GroupStandby; its controlled stop switched the group and axes off
+    assert last["uv.state"] == "GROUP_DISABLED" and last["u.state"] == "DISABLED"
+    assert re.search(r"^uv\s+u,v\s+2\s+GROUP_STANDBY\s*$", out, re.M) is None  # -q
 
 
 def test_validate_a_gcode_program(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

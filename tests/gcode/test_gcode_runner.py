@@ -300,6 +300,12 @@ def test_cli_run_exits_0_and_writes_the_groups_sidecar(gantry_run: dict) -> None
 def positions(gantry_run: dict) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     tr = read_trace(gantry_run["trace"])
     col = {c: tr.data[:, i] for i, c in enumerate(tr.columns)}
+    # the run's controlled stop switches the drives off at its end: the rows from then on
+    # hold the drives' actual positions as set positions (Disabled); the program's are before
+    from motionplc.blocks.enums import AxisState
+
+    n = int(np.nonzero(col["x.state"] != float(AxisState.DISABLED))[0][-1]) + 1
+    col = {c: v[:n] for c, v in col.items()}
     return np.stack([col[f"{a}.position"] for a in "xyz"], axis=1), col
 
 

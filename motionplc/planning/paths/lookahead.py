@@ -14,6 +14,12 @@ from ``v`` to ``w`` with acceleration limit ``A`` and jerk ``J`` takes at least
 which the acceleration is a symmetric trapezoid, so the distance is ``(v + w) T / 2``.
 :func:`max_speed_change` inverts this in closed form (a quadratic or a depressed cubic).
 
+A link's piece may be a run (:class:`~motionplc.planning.paths.pieces.RunPiece`, the group
+merges pieces that join with equal curvature): its profile has no junction inside, so the
+acceleration is carried through the joints of its parts. :func:`traverse_time` is the time of
+one such zero-acceleration-to-zero-acceleration profile over a length (the group compares a
+corner blend with an exact stop with it).
+
 Junction speeds (:class:`Chain`): a backward pass from the end of the chain (speed 0: the group
 stops in time when nothing more is queued) caps each junction at the speed from which the next
 piece can still slow down to the following junction; a forward pass from the running piece caps
@@ -25,12 +31,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import Any
 
 from motionplc.planning import Limits, Profile, State, plan
 from motionplc.planning.paths.pieces import Piece
 
-__all__ = ["Chain", "Link", "max_speed_change", "speed_change_distance"]
+__all__ = [
+    "LINK_STATE",
+    "Chain",
+    "Link",
+    "max_speed_change",
+    "speed_change_distance",
+    "speed_change_time",
+    "traverse_time",
+]
 
 _INF = math.inf
 _SAFETY = 1.0 - 1e-9  # junction speeds use this share of a piece's length (rounding)
@@ -49,6 +64,48 @@ def speed_change_distance(v: float, w: float, a: float, j: float) -> float:
     else:
         t = 2.0 * math.sqrt(dv / j)
     return 0.5 * (v + w) * t
+
+
+def speed_change_time(dv: float, a: float, j: float) -> float:
+    """Shortest time to change the speed by ``dv`` (>= 0) from and to zero acceleration."""
+    if dv <= 0.0:
+        return 0.0
+    if j == _INF:
+        return dv / a
+    if dv * j >= a * a:
+        return dv / a + a / j
+    return 2.0 * math.sqrt(dv / j)
+
+
+def traverse_time(v0: float, v1: float, length: float, v: float, a: float, j: float) -> float:
+    """Shortest time to travel ``length`` from speed ``v0`` to ``v1`` (zero acceleration at both
+    ends) with speed cap ``v``, acceleration ``a`` and jerk ``j``: up to a peak speed (bisection)
+    and down, with a cruise between (the structure of the time-optimal 1-D profile);
+    ``inf`` where ``v1`` cannot be reached within ``length``."""
+    lo = max(v0, v1)
+    if length <= 0.0 or speed_change_distance(v0, v1, a, j) > length * (1.0 + 1e-12):
+        return _INF
+    if lo <= 0.0 and length > 0.0 and v <= 0.0:
+        return _INF
+
+    def dist(vp: float) -> float:
+        return speed_change_distance(v0, vp, a, j) + speed_change_distance(vp, v1, a, j)
+
+    hi = v
+    if dist(hi) > length:
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if dist(mid) > length:
+                hi = mid
+            else:
+                lo = mid
+        vp = lo
+    else:
+        vp = hi
+    if vp <= 0.0:
+        return _INF
+    t = speed_change_time(vp - v0, a, j) + speed_change_time(vp - v1, a, j)
+    return t + max(0.0, length - dist(vp)) / vp
 
 
 def max_speed_change(v: float, length: float, a: float, j: float) -> float:
@@ -117,6 +174,8 @@ class Link:
     stopping: bool = False  # the piece brakes to rest (a path stop)
     stale: bool = False  # the piece changed under its running profile
     followers: Any = None  # the owner's commands that end with this piece (zero-length moves)
+    members: Any = None  # a run (RunPiece): [(u0, u1, link)] of the links merged into it
+    m_next: int = 0  # the first member whose end has not been passed
 
     def limits(self) -> Limits:
         """The planner limits of the piece (parameter units)."""
@@ -133,8 +192,32 @@ class Link:
         )
 
 
+# the fields of a link that planning changes (a journal restores them)
+LINK_STATE = (
+    "piece",
+    "V",
+    "A_acc",
+    "A_dec",
+    "J",
+    "cap_out",
+    "w_back",
+    "w_out",
+    "w_in",
+    "profile",
+    "last",
+    "seg",
+    "stale",
+    "stopping",
+)
+_LINK_GET = attrgetter(*LINK_STATE)
+
+
 class Chain:
     """Links in path order; ``links[0]`` is the running (or next) piece.
+
+    ``journal`` (None, or a dict the owner sets): every link a pass changes is recorded there
+    first with its :data:`LINK_STATE` (:meth:`touch`), so that an owner can undo a failed change
+    at the cost of the links it touched (not the whole chain).
 
     :meth:`backward` recomputes the end-junction caps from the end of the chain (rest) down to
     a given link, stopping once nothing changes below the changed region; :meth:`forward` the
@@ -144,6 +227,22 @@ class Chain:
 
     def __init__(self) -> None:
         self.links: list[Link] = []
+        self.journal: dict[int, tuple[Link, tuple[Any, ...]]] | None = None
+
+    def touch(self, lk: Link) -> None:
+        """Record ``lk``'s planning state in the journal (once) before it is changed."""
+        j = self.journal
+        if j is not None and id(lk) not in j:
+            j[id(lk)] = (lk, _LINK_GET(lk))
+
+    def undo(self) -> None:
+        """Restore every journalled link; the journal is emptied (and stays on)."""
+        j = self.journal
+        if j:
+            for lk, vals in j.values():
+                for f, v in zip(LINK_STATE, vals, strict=True):
+                    setattr(lk, f, v)
+            j.clear()
 
     def __len__(self) -> int:
         return len(self.links)
@@ -173,6 +272,7 @@ class Chain:
             if new == lk.w_back and k < dirty - 1:
                 break
             if new != lk.w_back:
+                self.touch(lk)
                 lk.w_back = new
                 low = k
             w_next = new
@@ -201,6 +301,7 @@ class Chain:
                 x = max_speed_change(w / pc.g0, pc.U * _SAFETY, lk.A_acc, lk.J)
                 w_out = min(lk.w_back, (w / pc.g0 + x) * pc.g1)
             if w_out != lk.w_out or w != lk.w_in:
+                self.touch(lk)
                 lk.w_in = w
                 lk.w_out = w_out
                 lk.profile = None

@@ -20,6 +20,9 @@ piece, constant caps ``du <= V``, ``|ddu| <= A``, ``|dddu| <= J`` keep axis ``i`
 (``B1 = |direction_i|``, ``B2 = B3 = 0``), closed-form upper bounds for arcs and helices, and
 dense maxima of the closed-form polynomial (times a margin) for the line-line corner blend.
 
+A :class:`RunPiece` is a chain of such pieces joined with equal curvature (``|p'| = 1`` at the
+joints) as one piece: one profile runs through the joints (the group's runs).
+
 Pieces evaluate at one parameter value with plain floats (no numpy on the per-cycle path):
 :meth:`Piece.at` returns ``(p, d1, d2, d3)`` as tuples, one value per axis.
 """
@@ -27,6 +30,7 @@ Pieces evaluate at one parameter value with plain floats (no numpy on the per-cy
 from __future__ import annotations
 
 import math
+from bisect import bisect_right
 from collections.abc import Sequence
 
 import numpy as np
@@ -40,6 +44,7 @@ __all__ = [
     "CircularPiece",
     "CurvePiece",
     "LinePiece",
+    "RunPiece",
     "SubPiece",
     "Piece",
     "path_caps",
@@ -366,6 +371,55 @@ class SubPiece(Piece):
     def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
         u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
         return self._base.at(self._u0 + u)
+
+
+class RunPiece(Piece):
+    """Consecutive pieces that join tangentially with ``|p'| = 1`` on both sides of every joint
+    (lines, arcs, line-line blends and their parts) as one piece whose parameter is the sum of
+    theirs: one profile runs through the joints with a continuous parameter speed and
+    acceleration (the axes' velocity and acceleration are continuous where the pieces join
+    with equal curvature). Bounds: the maxima of the parts' bounds."""
+
+    __slots__ = ("parts", "ends")
+
+    def __init__(self, parts: Sequence[Piece]) -> None:
+        flat: list[Piece] = []
+        for pc in parts:
+            flat.extend(pc.parts if isinstance(pc, RunPiece) else (pc,))
+        self.parts = tuple(flat)
+        ends = []
+        u = 0.0
+        for pc in flat:
+            u += pc.U
+            ends.append(u)
+        self.ends = tuple(ends)
+        first, last = flat[0], flat[-1]
+        self.dim = first.dim
+        self.U = u
+        self.length = math.fsum(pc.length for pc in flat)
+        # (the bounds of the given parts: a run given as a part carries its own maxima)
+        self.b1 = tuple(map(max, *(pc.b1 for pc in parts))) if len(parts) > 1 else first.b1
+        self.b2 = tuple(map(max, *(pc.b2 for pc in parts))) if len(parts) > 1 else first.b2
+        self.b3 = tuple(map(max, *(pc.b3 for pc in parts))) if len(parts) > 1 else first.b3
+        self.gmax = max(pc.gmax for pc in parts)
+        self.start, self.end = first.start, last.end
+        self.g0, self.g1 = first.g0, last.g1
+
+    def locate(self, u: float) -> tuple[int, float]:
+        """The part holding parameter ``u`` and where that part starts."""
+        ends = self.ends
+        i = bisect_right(ends, u)
+        if i >= len(ends):
+            i = len(ends) - 1
+        return i, (ends[i - 1] if i else 0.0)
+
+    def at(self, u: float) -> tuple[Vec, Vec, Vec, Vec]:
+        u = 0.0 if u < 0.0 else (self.U if u > self.U else u)
+        i, base = self.locate(u)
+        if u >= self.U:
+            out = self.parts[i].at(self.parts[i].U)
+            return self.end, out[1], out[2], out[3]
+        return self.parts[i].at(u - base)
 
 
 class CurvePiece(Piece):
