@@ -20,9 +20,9 @@ default settings against toppra (ConstAccel, Seidel) on a fine grid (every inter
 in ``--fine`` parts: the reference optimum) and on the same grid as ours (the compute
 reference); the duration ratios, the compute ratio, and the largest limit overshoot of both
 planners measured by differencing positions sampled at 1 ms (``|dp|/dt`` against v_max,
-``|d2p|/dt^2`` against a_max, relative; the rounding floor ``4 eps |p| / dt^2`` of the second
-difference is printed beside it). ``--fine-grid N``: ours at N intervals against toppra at 4N
-on the lines-and-arcs set (the 0.1 % target at a fine grid).
+``|d2p|/dt^2`` against a_max, relative; the rounding floor ``4 eps (|p| + u_end |p'|) / dt^2``
+of the second difference is printed beside it). ``--fine-grid N``: ours at N intervals against
+toppra at 4N on the lines-and-arcs set (the 0.1 % target at a fine grid).
 """
 
 from __future__ import annotations
@@ -140,7 +140,9 @@ def differenced_overshoot(tr, v_max, a_max, dt: float = 1e-3) -> tuple[float, fl
         oa = float(np.max(np.abs(d2) / am)) - 1.0
     else:
         oa = -1.0
-    floor = 4.0 * np.finfo(float).eps * float(np.abs(p).max()) / dt**2 / float(am.min())
+    g1 = float(np.abs(tr.path.evaluate(np.linspace(0.0, tr.path.u_end, 257), 1)).max())
+    scale = float(np.abs(p).max()) + tr.path.u_end * g1  # positions and the law's u
+    floor = 4.0 * np.finfo(float).eps * scale / dt**2 / float(am.min())
     return ov, oa, floor
 
 

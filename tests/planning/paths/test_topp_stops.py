@@ -46,7 +46,10 @@ def differenced(tr, v_max, a_max, dt: float = DT):
     rv = float(np.max(np.abs(np.diff(p, axis=1)) / np.diff(ts)[None, :] / vm))
     q = p[:, :-1]
     ra = float(np.max(np.abs(np.diff(q, 2, axis=1)) / dt**2 / am)) if q.shape[1] > 2 else 0.0
-    floor = 8.0 * np.finfo(float).eps * float(np.abs(p).max()) / dt**2 / float(am.min())
+    # rounding: the positions (|p|) and the law's parameter u (up to u_end, times |p'|)
+    g1 = float(np.abs(tr.path.evaluate(np.linspace(0.0, tr.path.u_end, 257), 1)).max())
+    scale = float(np.abs(p).max()) + tr.path.u_end * g1
+    floor = 8.0 * np.finfo(float).eps * scale / dt**2 / float(am.min())
     return rv, ra, floor
 
 
