@@ -51,6 +51,7 @@ from __future__ import annotations
 import ipaddress
 import math
 import re
+import socket
 import uuid
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -116,7 +117,7 @@ NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 # scalar and of the text of a number. Each is reported as one ``FILE:LINE:`` line.
 MAX_YAML_BYTES = 2 * 1024 * 1024
 MAX_YAML_DEPTH = 64
-MAX_YAML_NODES = 100_000
+MAX_YAML_NODES = 50_000
 MAX_YAML_KEYS = 10_000
 MAX_YAML_SCALAR = 65_536
 MAX_NUMBER_CHARS = 100
@@ -1043,6 +1044,22 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
+def _ipv6_unusable(host: str) -> str | None:
+    """Why an IPv6 address cannot be used on this machine (no IPv6 socket, or it cannot bind
+    ``::1``), else None; a host name or IPv4 address: None."""
+    try:
+        if ipaddress.ip_address(host).version != 6:
+            return None
+    except ValueError:
+        return None
+    try:
+        with socket.socket(socket.AF_INET6, socket.SOCK_STREAM) as s:
+            s.bind(("::1", 0))
+    except OSError as exc:
+        return f"this machine has no IPv6 loopback ({exc.strerror or exc})"
+    return None
+
+
 def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
     path = join("buses", name)
     m = c.mapping(body, line, path, None)
@@ -1105,7 +1122,15 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             line=m.line,
         )
     host = c.field(m, "host", path, S.MODBUS_BUS["host"]) or S.MODBUS_BUS["host"].default
-    if drives == "simulated" and not _is_loopback(host):
+    no_ipv6 = _ipv6_unusable(host)
+    if no_ipv6:
+        c.error(
+            m.line_of("host"),
+            join(path, "host"),
+            f"got {host!r}: {no_ipv6}",
+            "an IPv4 address or a host name (127.0.0.1, localhost on loopback)",
+        )
+    elif drives == "simulated" and not _is_loopback(host):
         c.error(
             m.line_of("host"),
             join(path, "host"),

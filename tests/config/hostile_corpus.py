@@ -150,7 +150,7 @@ def cases() -> list[Case]:
             "bomb_unknown_key",
             "config",
             _b(GOOD + "junk:\n" + _bomb()),
-            "more than 100_000 nodes with its aliases expanded",
+            "more than 50_000 nodes with its aliases expanded",
         )
     )
     add(
@@ -158,7 +158,7 @@ def cases() -> list[Case]:
             "bomb_as_key",
             "config",
             _b(GOOD + "bombs:\n" + _bomb() + "? *l11\n: 1\n"),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     add(
@@ -175,7 +175,7 @@ def cases() -> list[Case]:
             "bomb_as_cam_points",
             "config",
             _b(GOOD + "junk:\n" + _bomb() + "cams:\n  c: {points: *l11}\n"),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     add(
@@ -193,7 +193,7 @@ def cases() -> list[Case]:
             "bomb_as_group_members",
             "config",
             _b(GOOD + "junk:\n" + _bomb() + "groups:\n  g: *l11\n"),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     add(
@@ -257,7 +257,7 @@ def cases() -> list[Case]:
                     for i in range(30)
                 )
             ),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     add(
@@ -297,7 +297,7 @@ def cases() -> list[Case]:
             "many_aliases",
             "config",
             _b(GOOD + "v: &v 1\nl: [" + ", ".join(["*v"] * 250_000) + "]\n"),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     # -- numbers -------------------------------------------------------------------------
@@ -428,7 +428,7 @@ def cases() -> list[Case]:
             "numbers_1_9MB",
             "config",
             lambda: _big_numbers_file(2)[: 1900 * 1024] + b"0]\n",
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     add(
@@ -500,7 +500,7 @@ def cases() -> list[Case]:
             "steps_300k",
             "sequence",
             _b("steps: [" + ", ".join(["{}"] * 300_000) + "]\n"),
-            "more than 100_000 nodes",
+            "more than 50_000 nodes",
         )
     )
     # -- encodings and characters --------------------------------------------------------

@@ -73,3 +73,22 @@ def test_python_program_with_a_bad_axis_runs_on(tmp_path: Path) -> None:
         "        ctx.done()\n"
     )
     assert main(["run", str(ROOT / "configs" / "demo.yaml"), str(prog), "-q"]) == 0
+
+
+def test_ipv6_loopback_host_validates_and_runs(tmp_path: Path) -> None:
+    """``host: '::1'`` passed validate and then failed in run with no file:line (the master's
+    link was IPv4 only); now it runs, or validate refuses it where there is no IPv6."""
+    from motionplc.config import _ipv6_unusable
+
+    cfg = tmp_path / "v6.yaml"
+    cfg.write_text(
+        "runtime: {tick: 0.001, clock: simulated, tasks: {motion: {period: 0.001}}}\n"
+        "buses:\n  mb0: {type: modbus, host: '::1', port: 0, drives: simulated}\n"
+        "axes:\n  z:\n    limits: {v_max: 0.5, a_max: 2.0, j_max: 20.0}\n"
+        "    drive: {bus: mb0, unit_id: 1, counts_per_unit: 1.0e6}\n"
+    )
+    if _ipv6_unusable("::1"):
+        assert main(["validate", str(cfg)]) == 2
+        return
+    assert main(["validate", str(cfg)]) == 0
+    assert main(["run", str(cfg), "--seconds", "0.05", "-q"]) == 0

@@ -83,5 +83,5 @@ def test_hostile_file_is_one_located_line(
     assert all(len(x) < 600 for x in lines)
     assert all(x.isprintable() for x in lines)  # nothing from the input drives the terminal
     assert peak < 200 * 1024 * 1024, f"{peak / 1e6:.0f} MB"
-    assert elapsed < 10.0  # bounded (the figure of record is tools/bench_hostile.py's)
+    assert elapsed < 20.0  # bounded (the figure of record is tools/bench_hostile.py's)
     assert not Path("/tmp/motionplc-pwned").exists()
