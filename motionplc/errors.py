@@ -24,11 +24,14 @@ class ConfigError(MotionPlcError, ValueError):
     ``MAX_SHOWN`` lines of at most ``MAX_LINE`` characters, then how many were left out;
     control characters of the input are escaped (a message must not drive a terminal)."""
 
-    MAX_SHOWN = 20
-    MAX_LINE = 400
+    MAX_SHOWN: int | None = 20  # None: a subclass that caps its messages itself
+    MAX_LINE: int | None = 400
 
     def __init__(self, errors: str | list[str] | tuple[str, ...]) -> None:
         self.errors: tuple[str, ...] = (errors,) if isinstance(errors, str) else tuple(errors)
+        if self.MAX_SHOWN is None or self.MAX_LINE is None:
+            super().__init__("\n".join(self.errors))
+            return
         shown = [_one_line(e, self.MAX_LINE) for e in self.errors[: self.MAX_SHOWN]]
         left = len(self.errors) - len(shown)
         if left:
