@@ -52,6 +52,7 @@ import difflib
 import ipaddress
 import math
 import re
+import socket
 import uuid
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
@@ -110,6 +111,20 @@ NAME_RE = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 
 
 # ------------------------------------------------------------------------ YAML with lines
+# Limits of a YAML file (configuration, sequence, register map, Modbus options), checked while
+# it is read -- before the document is built -- so that a hostile or broken file costs at most
+# a fraction of a second and a few tens of MB: its size, the nesting depth, the number of nodes
+# the document would have once its aliases are expanded, the keys of a mapping, the length of a
+# scalar and of the text of a number. Each is reported as one ``FILE:LINE:`` line.
+MAX_YAML_BYTES = 2 * 1024 * 1024
+MAX_YAML_DEPTH = 64
+MAX_YAML_NODES = 50_000
+MAX_YAML_KEYS = 10_000
+MAX_YAML_SCALAR = 65_536
+MAX_NUMBER_CHARS = 100
+_NUMBER_TAGS = frozenset({"tag:yaml.org,2002:int", "tag:yaml.org,2002:float"})
+
+
 class YamlMap(dict):
     """A YAML mapping that remembers where it and each of its keys and values start."""
 
@@ -139,8 +154,221 @@ class YamlList(list):
         return self.item_lines[i] if 0 <= i < len(self.item_lines) else self.line
 
 
-class _Loader(yaml.SafeLoader):
-    """SafeLoader building :class:`YamlMap` / :class:`YamlList` with line numbers."""
+class YamlLimitError(Exception):
+    """A YAML file beyond one of the loader's limits, at ``line`` (1-based)."""
+
+    def __init__(self, line: int, problem: str) -> None:
+        super().__init__(problem)
+        self.line = line
+        self.problem = problem
+
+
+def _nodes_text(n: int) -> str:
+    return f"{n:,}".replace(",", "_")
+
+
+class _GuardedComposer:
+    """PyYAML's composer (events -> node graph) with the limits above checked per event.
+
+    ``_expanded`` counts the nodes of the document as its consumer will see them: an alias
+    counts the whole subtree it stands for (an alias bomb is refused at the alias that crosses
+    the limit, before anything is built); a collection key, an alias to a collection that
+    encloses it (a recursive document) and nesting deeper than the limit are refused too."""
+
+    def __init__(self) -> None:
+        self.anchors: dict[str, Any] = {}
+        self._sizes: dict[int, int] = {}
+        self._open: set[int] = set()
+        self._expanded = 0
+        self._depth = 0
+
+    def _count(self, n: int, mark: Any) -> None:
+        self._expanded += n
+        if self._expanded > MAX_YAML_NODES:
+            raise YamlLimitError(
+                mark.line + 1,
+                f"the document has more than {_nodes_text(MAX_YAML_NODES)} nodes with its "
+                "aliases expanded (allowed: at most that many; an alias bomb?)",
+            )
+
+    def get_single_node(self) -> Any:
+        self.get_event()  # type: ignore[attr-defined]  # STREAM-START
+        document = None
+        if not self.check_event(yaml.StreamEndEvent):  # type: ignore[attr-defined]
+            document = self.compose_document()
+        if not self.check_event(yaml.StreamEndEvent):  # type: ignore[attr-defined]
+            event = self.get_event()  # type: ignore[attr-defined]
+            raise yaml.composer.ComposerError(
+                "expected a single document in the stream",
+                document.start_mark if document is not None else None,
+                "but found another document",
+                event.start_mark,
+            )
+        self.get_event()  # type: ignore[attr-defined]  # STREAM-END
+        return document
+
+    def compose_document(self) -> Any:
+        self.get_event()  # type: ignore[attr-defined]  # DOCUMENT-START
+        node = self.compose_node(None, None)
+        self.get_event()  # type: ignore[attr-defined]  # DOCUMENT-END
+        self.anchors = {}
+        return node
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        # One event per call (the event methods are the parser's, libyaml's in C); no path
+        # resolvers are registered, so descend_resolver/ascend_resolver would do nothing.
+        event = self.get_event()  # type: ignore[attr-defined]
+        kind = type(event)
+        mark = event.start_mark
+        anchor = event.anchor
+        if kind is yaml.AliasEvent:
+            node = self.anchors.get(anchor)
+            if node is None:
+                raise yaml.composer.ComposerError(
+                    None, None, f"found undefined alias {anchor!r}", mark
+                )
+            if id(node) in self._open:
+                raise YamlLimitError(
+                    mark.line + 1,
+                    f"alias *{anchor} refers to a node that contains it "
+                    "(allowed: aliases to complete nodes; a recursive document)",
+                )
+            self._count(self._sizes.get(id(node), 1), mark)
+            return node
+        if anchor is not None and anchor in self.anchors:
+            raise yaml.composer.ComposerError(
+                f"found duplicate anchor {anchor!r}; first occurrence",
+                self.anchors[anchor].start_mark,
+                "second occurrence",
+                mark,
+            )
+        before = self._expanded
+        self._expanded += 1
+        if self._expanded > MAX_YAML_NODES:
+            self._count(0, mark)
+        if kind is yaml.ScalarEvent:
+            node = self._scalar(event)
+        else:
+            self._depth += 1
+            if self._depth > MAX_YAML_DEPTH:
+                raise YamlLimitError(
+                    mark.line + 1,
+                    f"nesting deeper than {MAX_YAML_DEPTH} levels "
+                    f"(allowed: at most {MAX_YAML_DEPTH} nested lists and mappings)",
+                )
+            if kind is yaml.SequenceStartEvent:
+                node = self._sequence(event)
+            else:
+                node = self._mapping(event)
+            self._depth -= 1
+        if anchor is not None:
+            self._sizes[id(node)] = self._expanded - before
+        return node
+
+    def _tag(self, event: Any, kind: type, value: Any) -> str:
+        tag = event.tag
+        if tag is None or tag == "!":
+            tag = self.resolve(kind, value, event.implicit)  # type: ignore[attr-defined]
+        return str(tag)
+
+    def _scalar(self, event: Any) -> Any:
+        value = event.value
+        if len(value) > MAX_YAML_SCALAR:
+            raise YamlLimitError(
+                event.start_mark.line + 1,
+                f"a scalar of {_nodes_text(len(value))} characters "
+                f"(allowed: at most {_nodes_text(MAX_YAML_SCALAR)})",
+            )
+        tag = self._tag(event, yaml.ScalarNode, value)
+        if len(value) > MAX_NUMBER_CHARS and tag in _NUMBER_TAGS:
+            raise YamlLimitError(
+                event.start_mark.line + 1,
+                f"a number written with {_nodes_text(len(value))} characters "
+                f"(allowed: at most {MAX_NUMBER_CHARS})",
+            )
+        node = yaml.ScalarNode(tag, value, event.start_mark, event.end_mark, style=event.style)
+        if event.anchor is not None:
+            self.anchors[event.anchor] = node
+        return node
+
+    def _sequence(self, start: Any) -> Any:
+        tag = self._tag(start, yaml.SequenceNode, None)
+        node = yaml.SequenceNode(tag, [], start.start_mark, None, flow_style=start.flow_style)
+        if start.anchor is not None:
+            self.anchors[start.anchor] = node
+        self._open.add(id(node))
+        items = node.value
+        end = yaml.SequenceEndEvent
+        check = self.check_event  # type: ignore[attr-defined]
+        index = 0
+        while not check(end):
+            items.append(self.compose_node(node, index))
+            index += 1
+        self._open.discard(id(node))
+        node.end_mark = self.get_event().end_mark  # type: ignore[attr-defined]
+        return node
+
+    def _mapping(self, start: Any) -> Any:
+        tag = self._tag(start, yaml.MappingNode, None)
+        node = yaml.MappingNode(tag, [], start.start_mark, None, flow_style=start.flow_style)
+        if start.anchor is not None:
+            self.anchors[start.anchor] = node
+        self._open.add(id(node))
+        pairs = node.value
+        end = yaml.MappingEndEvent
+        check = self.check_event  # type: ignore[attr-defined]
+        scalar = yaml.ScalarNode
+        peek = self.peek_event  # type: ignore[attr-defined]
+        while not check(end):
+            key_mark = peek().start_mark
+            key = self.compose_node(node, None)
+            if type(key) is not scalar:
+                what = "a list" if isinstance(key, yaml.SequenceNode) else "a mapping"
+                raise YamlLimitError(
+                    key_mark.line + 1,
+                    f"a mapping key that is {what} (allowed: a name or a number)",
+                )
+            pairs.append((key, self.compose_node(node, key)))
+            if len(pairs) > MAX_YAML_KEYS:
+                raise YamlLimitError(
+                    key.start_mark.line + 1,
+                    f"a mapping with more than {_nodes_text(MAX_YAML_KEYS)} keys "
+                    f"(allowed: at most {_nodes_text(MAX_YAML_KEYS)})",
+                )
+        self._open.discard(id(node))
+        node.end_mark = self.get_event().end_mark  # type: ignore[attr-defined]
+        return node
+
+
+# libyaml scans and parses (in C: a 2 MB file in well under a second), the composer above
+# builds the nodes with the limits; PyYAML's pure-Python reader, scanner and parser where
+# libyaml is missing (the same limits, slower).
+try:
+    from yaml._yaml import CParser as _CParser
+except ImportError:  # PyYAML built without libyaml
+    _CParser = None
+_PARSER_BASES: tuple[type, ...] = (
+    (_CParser,)
+    if _CParser is not None
+    else (yaml.reader.Reader, yaml.scanner.Scanner, yaml.parser.Parser)
+)
+
+
+class _Loader(
+    _GuardedComposer, *_PARSER_BASES, yaml.constructor.SafeConstructor, yaml.resolver.Resolver
+):
+    """A safe loader building :class:`YamlMap` / :class:`YamlList` with line numbers."""
+
+    def __init__(self, stream: str) -> None:
+        if _CParser is not None:
+            _CParser.__init__(self, stream)
+        else:
+            yaml.reader.Reader.__init__(self, stream)
+            yaml.scanner.Scanner.__init__(self)
+            yaml.parser.Parser.__init__(self)
+        _GuardedComposer.__init__(self)
+        yaml.constructor.SafeConstructor.__init__(self)
+        yaml.resolver.Resolver.__init__(self)
 
 
 def _construct_map(loader: _Loader, node: yaml.MappingNode) -> YamlMap:
@@ -148,9 +376,7 @@ def _construct_map(loader: _Loader, node: yaml.MappingNode) -> YamlMap:
     m = YamlMap()
     m.line = node.start_mark.line + 1
     for key_node, value_node in node.value:
-        key = loader.construct_object(key_node, deep=True)
-        if isinstance(key, (list, dict)):
-            key = repr(key)
+        key = loader.construct_object(key_node, deep=True)  # a scalar (the composer's rule)
         value = loader.construct_object(value_node, deep=True)
         kl = key_node.start_mark.line + 1
         if key in m:
@@ -180,16 +406,40 @@ _Loader.add_implicit_resolver(
 
 
 def load_yaml(path: str | Path) -> Any:
-    """Read one YAML document (safe subset) with line numbers; errors name ``FILE:LINE``."""
+    """Read one YAML document (safe subset) with line numbers; errors name ``FILE:LINE``.
+
+    The limits (``MAX_YAML_*``) are checked while reading: a file beyond one of them is one
+    located :class:`~motionplc.errors.ConfigError` line, in bounded time and memory."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        with p.open("rb") as f:
+            raw = f.read(MAX_YAML_BYTES + 1)
     except OSError as exc:
         raise ConfigError(f"{p}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"{p}: not a UTF-8 text file") from None
+    if len(raw) > MAX_YAML_BYTES:
+        size = _file_size(p)
+        raise ConfigError(
+            f"{p}:1: the file is {size} (allowed: at most {MAX_YAML_BYTES // 1048576} MB)"
+        )
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise ConfigError(
+            f"{p}:{line}: not a UTF-8 text file (byte 0x{raw[exc.start]:02x})"
+        ) from None
+    if text.startswith("\ufeff"):
+        text = text[1:]
     try:
         return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except YamlLimitError as exc:
+        raise ConfigError(f"{p}:{exc.line}: {exc.problem}") from None
+    except yaml.reader.ReaderError as exc:  # a character YAML does not allow (NUL, ...)
+        line = text.count("\n", 0, max(0, exc.position)) + 1
+        raise ConfigError(
+            f"{p}:{line}: YAML syntax error: character #x{exc.character:04x} is not allowed "
+            f"({exc.reason})"
+        ) from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line = mark.line + 1 if mark is not None else 1
@@ -197,6 +447,16 @@ def load_yaml(path: str | Path) -> Any:
         raise ConfigError(f"{p}:{line}: YAML syntax error: {problem}") from None
     except yaml.YAMLError as exc:
         raise ConfigError(f"{p}:1: YAML error: {exc}") from None
+
+
+def _file_size(p: Path) -> str:
+    try:
+        n = p.stat().st_size
+    except OSError:
+        n = 0
+    if n <= MAX_YAML_BYTES:  # a device or a file that grew: what was read
+        return f"more than {MAX_YAML_BYTES // 1048576} MB"
+    return f"{n / 1048576:.1f} MB"
 
 
 # ------------------------------------------------------------------------ checking helpers
@@ -815,6 +1075,22 @@ def _is_loopback(host: str) -> bool:
         return False
 
 
+def _ipv6_unusable(host: str) -> str | None:
+    """Why an IPv6 address cannot be used on this machine (no IPv6 socket, or it cannot bind
+    ``::1``), else None; a host name or IPv4 address: None."""
+    try:
+        if ipaddress.ip_address(host).version != 6:
+            return None
+    except ValueError:
+        return None
+    try:
+        with socket.socket(socket.AF_INET6, socket.SOCK_STREAM) as s:
+            s.bind(("::1", 0))
+    except OSError as exc:
+        return f"this machine has no IPv6 loopback ({exc.strerror or exc})"
+    return None
+
+
 def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
     path = join("buses", name)
     m = c.mapping(body, line, path, None)
@@ -877,7 +1153,15 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
             line=m.line,
         )
     host = c.field(m, "host", path, S.MODBUS_BUS["host"]) or S.MODBUS_BUS["host"].default
-    if drives == "simulated" and not _is_loopback(host):
+    no_ipv6 = _ipv6_unusable(host)
+    if no_ipv6:
+        c.error(
+            m.line_of("host"),
+            join(path, "host"),
+            f"got {host!r}: {no_ipv6}",
+            "an IPv4 address or a host name (127.0.0.1, localhost on loopback)",
+        )
+    elif drives == "simulated" and not _is_loopback(host):
         c.error(
             m.line_of("host"),
             join(path, "host"),
@@ -1434,7 +1718,7 @@ def _parse_group(
     for i, member in enumerate(members):
         ip = join(mp, i)
         il = members.line_of(i)
-        if member not in lines:
+        if not isinstance(member, str) or member not in lines:
             ok = False
             c.error(
                 il,

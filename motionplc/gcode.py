@@ -234,6 +234,9 @@ class GcodeError(ConfigError):
     :class:`~motionplc.errors.MotionPlcError` and ``ValueError``.
     """
 
+    MAX_SHOWN = None  # this module caps and escapes its own messages
+    MAX_LINE = None
+
 
 @dataclass(frozen=True, slots=True)
 class GcodeWord:

@@ -51,6 +51,12 @@ from typing import Any
 from motionplc.errors import MotionPlcError
 
 MAX_PATH_SEGMENTS = 20_000
+# Bounds of what `plot` reads (a hostile or broken trace gets one located line, fast, in
+# bounded memory): the columns of a trace, the size of a JSON sidecar and of an edge file.
+MAX_TRACE_COLUMNS = 10_000
+MAX_SIDECAR_BYTES = 4 * 1024 * 1024
+MAX_EVENT_ROWS = 5_000_000
+MAX_TRACE_LINE = 1 << 20  # bytes in one CSV line (10_000 columns of numbers fit)
 """Default bound on the line segments drawn per path view (see :func:`decimate_path`)."""
 
 MAX_POINTS = 2_000
@@ -191,19 +197,31 @@ def read_groups_sidecar(csv_path: str | Path) -> dict[str, list[str]]:
     path = groups_sidecar_path(csv_path)
     if not path.exists():
         return {}
+    return _checked_groups(_read_json(path), str(path))
+
+
+def _read_json(path: Path) -> Any:
+    """A JSON sidecar, at most ``MAX_SIDECAR_BYTES``; every failure one located line."""
     try:
-        text = path.read_text(encoding="utf-8")
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_SIDECAR_BYTES + 1)
+        if len(raw) > MAX_SIDECAR_BYTES:
+            raise MotionPlcError(
+                f"{path}: more than {MAX_SIDECAR_BYTES // 1048576} MB (allowed: at most that)"
+            )
+        text = raw.decode("utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise MotionPlcError(
             f"{path}: cannot read: {getattr(exc, 'strerror', None) or exc}"
         ) from None
     try:
-        obj = json.loads(text)
+        return json.loads(text)
     except json.JSONDecodeError as exc:
         raise MotionPlcError(
             f"{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
         ) from None
-    return _checked_groups(obj, str(path))
+    except RecursionError:
+        raise MotionPlcError(f"{path}:1: not valid JSON: nested too deeply") from None
 
 
 # ---------------------------------------------------------------------------- units sidecar
@@ -218,15 +236,7 @@ def read_units_sidecar(csv_path: str | Path) -> dict[str, str]:
     path = units_sidecar_path(csv_path)
     if not path.exists():
         return {}
-    try:
-        obj = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
-    except json.JSONDecodeError as exc:
-        raise MotionPlcError(
-            f"{path}:{exc.lineno}:{exc.colno}: not valid JSON: {exc.msg}"
-        ) from None
-    return _checked_units(obj, str(path))
+    return _checked_units(_read_json(path), str(path))
 
 
 def _checked_units(obj: Any, where: str) -> dict[str, str]:
@@ -345,30 +355,78 @@ def read_trace(path: Path) -> ScopeTrace:
     return ScopeTrace(columns, data, events, groups, units)
 
 
+def _check_lines(path: Path) -> None:
+    """No line of ``path`` is longer than ``MAX_TRACE_LINE`` bytes (a scan in blocks, at C
+    speed, before any parser builds a line), else one located error."""
+    line, since = 1, 0
+    try:
+        with path.open("rb") as fh:
+            while block := fh.read(1 << 23):
+                start = 0
+                while (nl := block.find(b"\n", start)) >= 0:
+                    if since + nl - start > MAX_TRACE_LINE:
+                        break
+                    line, since, start = line + 1, 0, nl + 1
+                since += len(block) - start
+                if since > MAX_TRACE_LINE or nl >= 0:
+                    raise MotionPlcError(
+                        f"{path}:{line}: a line of more than {MAX_TRACE_LINE} bytes (allowed: "
+                        f"at most that; not a trace?)"
+                    )
+    except OSError as exc:
+        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
+
+
 def _read_csv(path: Path) -> tuple[list[str], Any, list[Event]]:
     states = _state_names()
+    _check_lines(path)
     try:
-        with path.open(newline="") as fh:
+        with path.open(newline="", encoding="utf-8") as fh:
             reader = csv.reader(fh)
             columns = next(reader, [])
             first = next(reader, None)
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
-        raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
+        raise MotionPlcError(f"{path}:1: cannot read: {_reason(exc)}") from None
     if columns[:2] != ["cycle", "t"]:
         raise MotionPlcError(f"{path}:1: not a motionplc trace (expected columns cycle, t, ...)")
+    if len(columns) > MAX_TRACE_COLUMNS:
+        raise MotionPlcError(
+            f"{path}:1: {len(columns)} columns (allowed: at most {MAX_TRACE_COLUMNS})"
+        )
     data = None
     if first is not None and len(first) == len(columns):
         data = _load_numbers(path, columns, first, states)
     if data is None:  # slow and exact: every value checked, the first bad one located
         data = _parse_rows(path, columns, states)
+    return columns, data, _read_events(path.with_suffix(".events.csv"))
+
+
+def _read_events(ev_path: Path) -> list[Event]:
+    """The FB edges of ``*.events.csv`` (cycle, fb, output, value), row by row; a row that is
+    not one is located."""
     events: list[Event] = []
-    ev_path = path.with_suffix(".events.csv")
-    if ev_path.is_file():
-        with ev_path.open(newline="") as fh:
-            for row in list(csv.reader(fh))[1:]:
-                if len(row) == 4:
-                    events.append((int(row[0]), row[1], row[2], row[3] == "True"))
-    return columns, data, events
+    if not ev_path.is_file():
+        return events
+    _check_lines(ev_path)
+    try:
+        with ev_path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            next(reader, None)
+            for line, row in enumerate(reader, 2):
+                if len(row) != 4 or not row[0].isdigit() or len(row[0]) > 18:
+                    raise MotionPlcError(
+                        f"{ev_path}:{line}: not an FB edge (allowed: cycle, fb, output, "
+                        f"True|False; got {len(row)} values)"
+                    )
+                if len(events) >= MAX_EVENT_ROWS:
+                    raise MotionPlcError(
+                        f"{ev_path}:{line}: more than {MAX_EVENT_ROWS} FB edges (allowed: at "
+                        "most that many)"
+                    )
+                events.append((int(row[0]), row[1], row[2], row[3] == "True"))
+    except (OSError, UnicodeDecodeError, csv.Error) as exc:
+        raise MotionPlcError(f"{ev_path}: cannot read: {_reason(exc)}") from None
+    return events
 
 
 def _read_parquet(path: Path) -> tuple[list[str], Any, list[Event], dict[str, str]]:
@@ -462,23 +520,36 @@ def _load_numbers(
 
 
 def _parse_rows(path: Path, columns: list[str], states: dict[str, float]) -> Any:
+    """Every row checked as it is read (a bad row is located without reading further; memory:
+    the good rows' values, in blocks of floats)."""
     import numpy as np
 
+    n = len(columns)
+    blocks: list[Any] = []
+    block = np.empty((4096, n))
+    k = 0
     try:
-        with path.open(newline="") as fh:
-            body = list(csv.reader(fh))[1:]
+        with path.open(newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            next(reader, None)
+            for line, row in enumerate(reader, 2):
+                if len(row) != n:
+                    raise MotionPlcError(f"{path}:{line}: {len(row)} values for {n} columns")
+                for j, x in enumerate(row):
+                    try:
+                        block[k, j] = states[x] if x in states else float(x)
+                    except ValueError:
+                        raise MotionPlcError(
+                            f"{path}:{line}: {columns[j]}: not a number: {x[:40]!r}"
+                        ) from None
+                k += 1
+                if k == len(block):
+                    blocks.append(block)
+                    block, k = np.empty((4096, n)), 0
     except (OSError, UnicodeDecodeError, csv.Error) as exc:
         raise MotionPlcError(f"{path}: cannot read: {_reason(exc)}") from None
-    data = np.empty((len(body), len(columns)))
-    for i, row in enumerate(body):
-        if len(row) != len(columns):
-            raise MotionPlcError(f"{path}:{i + 2}: {len(row)} values for {len(columns)} columns")
-        for j, x in enumerate(row):
-            try:
-                data[i, j] = states[x] if x in states else float(x)
-            except ValueError:
-                raise MotionPlcError(f"{path}:{i + 2}: {columns[j]}: not a number: {x!r}") from None
-    return data
+    blocks.append(block[:k])
+    return np.concatenate(blocks) if len(blocks) > 1 else blocks[0]
 
 
 # ---------------------------------------------------------------------------- decimation

@@ -86,6 +86,9 @@ def pytest_configure(config: pytest.Config) -> None:
         "slow: a long property, oracle, hardware-in-the-loop or whole-machine run (deselect "
         'with -m "not slow" for the quick check)',
     )
+    config.addinivalue_line(
+        "markers", "vcan: needs a real SocketCAN vcan0 (skips without one, fails in with-vcan)"
+    )
 
 
 def _is_hypothesis(item: pytest.Item) -> bool:
@@ -103,3 +106,21 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         node = f"{rel}::{item.name}"
         if rel.startswith(SLOW_PATHS) or node.startswith(SLOW) or _is_hypothesis(item):
             item.add_marker(pytest.mark.slow)
+
+
+# -- real SocketCAN ------------------------------------------------------------------------
+# Tests marked ``vcan`` need a real vcan0 (a kernel with SocketCAN). Where there is none they
+# skip with the reason; inside ``tools/with-vcan`` (WITH_VCAN=1, what .ci/run does) a missing
+# vcan0 is a failure. Select them with ``-m vcan`` (the marker is registered in
+# pytest_configure above).
+def pytest_runtest_setup(item: pytest.Item) -> None:
+    if item.get_closest_marker("vcan") is None:
+        return
+    from tests.vcan_env import vcan_missing
+
+    reason = vcan_missing()
+    if reason is None:
+        return
+    if os.environ.get("WITH_VCAN") == "1":
+        pytest.fail(f"inside with-vcan but {reason}", pytrace=False)
+    pytest.skip(f"{reason}; run them with: tools/with-vcan .venv/bin/python -m pytest -m vcan")

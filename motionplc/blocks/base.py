@@ -33,6 +33,7 @@ defect and ends the FB's command with Error ``ErrorID.INTERNAL_ERROR`` (the exce
 from __future__ import annotations
 
 import math
+import reprlib
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any, ClassVar
 
@@ -102,8 +103,15 @@ class FunctionBlock:
                 setattr(self, k, v)
         axis = self.axis
         if axis is not self._registered and axis is not None:
-            if not isinstance(axis, Axis):
-                raise TypeError(f"{type(self).__name__}: axis must be an Axis, got {axis!r}")
+            if not isinstance(axis, Axis):  # a bad input is the FB's Error, not an exception
+                self._dirty = True
+                self.error = True
+                self.error_id = ErrorID.INVALID_AXIS
+                self.error_text = (
+                    f"{type(self).__name__}: axis must be an Axis (ctx.axes['name']), "
+                    f"got {reprlib.repr(axis)}"
+                )
+                return self
             trace_name = axis.register(self)
             if self.name is None:
                 self.name = trace_name

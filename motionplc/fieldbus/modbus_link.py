@@ -63,15 +63,18 @@ class ModbusLink:
         """Begin a non-blocking connect; :meth:`poll_connect` tells when it is done."""
         self.close()
         self.error = ""
-        try:
-            sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:  # IPv4 or IPv6 (host: '::1'), by the address the host resolves to
+            family, _, _, _, address = socket.getaddrinfo(
+                self.host, self.port, type=socket.SOCK_STREAM
+            )[0]
+            sock = socket.socket(family, socket.SOCK_STREAM)
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             sock.setblocking(False)
         except OSError as exc:
             self.error = f"socket: {exc.strerror or exc}"
             return
         self.sock = sock
-        rc = sock.connect_ex((self.host, self.port))
+        rc = sock.connect_ex(address)
         if rc == 0:
             self.connected = True
         elif rc in (errno.EINPROGRESS, errno.EWOULDBLOCK, errno.EALREADY):

@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import reprlib
 from bisect import bisect_right
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -79,6 +80,27 @@ CURVATURE_MAX = 1e15
 SEGMENT_MIN = 1e-9
 
 _TWO_PI = 2.0 * math.pi
+
+
+def _flat_point(p: Any) -> bool:
+    """``p`` is a sequence of 2 to 4 items none of which is a container (checked without
+    building an array: a nested hostile value is never expanded)."""
+    if isinstance(p, np.ndarray):
+        return p.ndim == 1 and 2 <= len(p) <= 4
+    if not isinstance(p, Sequence) or isinstance(p, (str, bytes)) or not 2 <= len(p) <= 4:
+        return False
+    return not any(
+        isinstance(v, (Sequence, np.ndarray, Mapping)) and not isinstance(v, str) for v in p
+    )
+
+
+def _short(x: Any, limit: int = 80) -> str:
+    """``repr(x)`` cut to ``limit`` characters (a hostile value does not make a huge message;
+    the repr of a large container is not even built)."""
+    if isinstance(x, (list, tuple, dict, np.ndarray)) and len(x) > 8:
+        return f"a {type(x).__name__} of {len(x)} items"
+    text = reprlib.repr(x)
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 class CamTableError(PlanningError):
@@ -803,6 +825,13 @@ class CamTable:
         ``slope``, ``curvature``, ``law``; ``law`` is the default law of every segment,
         ``laws`` (one per segment) overrides it, a point's own law overrides both;
         ``periodic`` and ``smooth`` as for :class:`CamTable`."""
+        if isinstance(points, (str, bytes, Mapping)) or not isinstance(points, Iterable):
+            raise CamTableError(
+                "points: must be a list of at least 2 points ([master, slave[, slope[, "
+                f"curvature]]] or mappings), got {_short(points)}",
+                None,
+                "points",
+            )
         pts: list[CamPoint] = []
         for i, p in enumerate(points):
             if isinstance(p, CamPoint):
@@ -828,17 +857,12 @@ class CamTable:
                         p.get("law"),
                     )
                 )
-            elif (
-                isinstance(p, (Sequence, np.ndarray))
-                and not isinstance(p, str)
-                and np.ndim(p) == 1
-                and 2 <= len(p) <= 4
-            ):
+            elif _flat_point(p):
                 pts.append(CamPoint(*p))
             else:
                 raise CamTableError(
                     f"points[{i}]: must be [master, slave], [master, slave, slope], "
-                    f"[master, slave, slope, curvature] or a mapping, got {p!r}",
+                    f"[master, slave, slope, curvature] or a mapping, got {_short(p)}",
                     i,
                     "points",
                 )

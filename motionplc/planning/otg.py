@@ -9,7 +9,7 @@ acceleration (no jump) and jerk within the limit. Time is injected as the cycle 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from motionplc.errors import PlanningError
 from motionplc.planning.limits import Limits
@@ -48,7 +48,12 @@ class OnlineGenerator:
         self._group = not isinstance(limits, Limits)
         self._limits: Limits | tuple[Limits, ...]
         if self._group:
-            lims = tuple(limits)  # type: ignore[arg-type]
+            if isinstance(limits, (str, bytes)) or not isinstance(limits, Iterable):
+                raise PlanningError(
+                    "limits must be a Limits or a non-empty sequence of Limits, got "
+                    f"{type(limits).__name__}"
+                )
+            lims = tuple(limits)
             if not lims or not all(isinstance(x, Limits) for x in lims):
                 raise PlanningError("limits must be a Limits or a non-empty sequence of Limits")
             if interface != "position":

@@ -17,7 +17,6 @@ import random
 from typing import Any
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -32,6 +31,7 @@ from motionplc.blocks import (
 )
 from motionplc.blocks.axis import Axis, Handle
 from motionplc.blocks.base import ExecuteFB
+from motionplc.blocks.enums import ErrorID
 from motionplc.fieldbus.ideal import IdealDrive
 from motionplc.runtime import Runtime
 
@@ -179,7 +179,7 @@ def test_fast_paths_equal_general_scans(seed: int) -> None:
     assert _run(seed, FAST) == _run(seed, GENERAL)
 
 
-def test_a_bad_axis_after_steady_scans_still_raises() -> None:
+def test_a_bad_axis_after_steady_scans_is_still_the_fbs_error() -> None:
     rt = Runtime(cycle=0.001)
     x = rt.add_axis("x", v_max=10.0, a_max=50.0)
     power = MC_Power(axis=x, enable=True)
@@ -190,5 +190,6 @@ def test_a_bad_axis_after_steady_scans_still_raises() -> None:
     assert power.status and status.valid and status.standstill
     for fb in (power, status, move):
         fb.axis = False
-        with pytest.raises(TypeError, match="axis must be an Axis"):
-            fb()
+        fb()  # not an exception that halts the task: the FB's Error (issue 31)
+        assert fb.error and fb.error_id is ErrorID.INVALID_AXIS
+        assert "axis must be an Axis" in fb.error_text and "got False" in fb.error_text

@@ -96,6 +96,7 @@ def vcan_channel() -> str:
     return name
 
 
+@pytest.mark.vcan
 def test_canopen_over_vcan() -> None:
     channel = vcan_channel()
     from motionplc.fieldbus.canopen_drive import CanopenDrive, CanopenDriveConfig, CanopenMaster
