@@ -25,12 +25,14 @@ __all__ = ["Path", "as_param"]
 def as_param(u: float | np.ndarray, u_end: float) -> np.ndarray:
     """``u`` as a float array, checked to lie in ``[0, u_end]`` (a rounding outside is clipped).
 
-    Raises :class:`PlanningError` naming ``u`` for NaN or values clearly outside the interval.
+    Raises :class:`PlanningError` naming ``u`` for NaN or values clearly outside the interval
+    (by more than ``1e-9 * u_end``: relative, so a short path never has a parameter far outside
+    it clipped silently).
     """
     arr = np.asarray(u, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise PlanningError("u: path parameter must be finite")
-    tol = 1e-9 * max(1.0, u_end)
+    tol = 1e-9 * abs(u_end)
     if arr.size and (arr.min() < -tol or arr.max() > u_end + tol):
         raise PlanningError(
             f"u: path parameter must be in [0, {u_end!r}], got "

@@ -40,7 +40,23 @@ from motionplc.planning.paths.geometry import (
 __all__ = ["CompositePath", "join", "polyline"]
 
 DEFAULT_GAP_TOL = 1e-9
-"""Default largest position gap [m] accepted between consecutive segments."""
+"""Default largest position gap [m] accepted between consecutive segments. The default is
+scale-aware: the gap accepted is also at most :data:`GAP_RTOL` of the shorter neighbouring
+segment (see :class:`CompositePath`); a ``gap_tol`` other than this is taken as given."""
+GAP_RTOL = 1e-9
+"""Largest position gap relative to the shorter of the two segments it joins (plus 16 ulp of the
+coordinates): an absolute tolerance alone would accept, at small scales, a gap as large as the
+segments themselves, i.e. a different path."""
+_ULP16 = 16.0 * float(np.finfo(float).eps)
+
+
+def _allowed_gap(tol: float, len_a: float, len_b: float, point: np.ndarray) -> float:
+    """The gap accepted between segments of lengths ``len_a``, ``len_b`` meeting at ``point``
+    (``tol`` as given unless it is the scale-aware default)."""
+    if tol != DEFAULT_GAP_TOL:
+        return tol
+    scale = float(np.max(np.abs(point), initial=0.0))
+    return min(tol, GAP_RTOL * min(len_a, len_b) + _ULP16 * scale)
 
 
 class CompositePath(Immutable, Path):
@@ -49,7 +65,9 @@ class CompositePath(Immutable, Path):
     Guarantees:
 
     * ``|segments[i].start - segments[i-1].end| <= gap_tol`` for every ``i`` (else
-      PlanningError ``segments[i]: ... gap ...``); all segments have the same dimension;
+      PlanningError ``segments[i]: ... gap ...``), with the default ``gap_tol`` also ``<=
+      GAP_RTOL * the shorter segment + 16 ulp of the coordinates`` (scale-aware: a gap is never
+      a sizeable part of the segments it joins); all segments have the same dimension;
     * ``evaluate(u, k)`` is ``segments[i].evaluate(u - breaks[i], k)`` for ``u`` in
       ``[breaks[i], breaks[i+1])`` (the last segment also owns ``u_end``); a junction value
       belongs to the *following* segment;
@@ -79,11 +97,19 @@ class CompositePath(Immutable, Path):
                 raise PlanningError(
                     f"segments[{i}]: dimension {seg.dim} differs from segments[0] ({dim})"
                 )
-            gap = float(np.linalg.norm(seg.start - flat[i - 1].end))
-            if not gap <= tol:
+            end = flat[i - 1].end
+            gap = float(np.linalg.norm(seg.start - end))
+            allowed = _allowed_gap(tol, flat[i - 1].length, seg.length, end)
+            if not gap <= allowed:
+                why = (
+                    f"gap_tol = {tol:g} m"
+                    if allowed == tol
+                    else f"{allowed:.6g} m: the default gap_tol = {tol:g} m but at most "
+                    f"{GAP_RTOL:g} x the shorter segment + rounding"
+                )
                 raise PlanningError(
                     f"segments[{i}]: starts {gap:.6g} m from the end of segments[{i - 1}] "
-                    f"(a gap in position; allowed gap_tol = {tol:g} m)"
+                    f"(a gap in position; allowed {why})"
                 )
         breaks = np.concatenate(([0.0], np.cumsum([s.u_end for s in flat])))
         cum = np.concatenate(([0.0], np.cumsum([s.length for s in flat])))
@@ -262,18 +288,30 @@ def _angle(a: np.ndarray, b: np.ndarray) -> float:
 def polyline(points: Sequence[ArrayLike], *, gap_tol: float = DEFAULT_GAP_TOL) -> CompositePath:
     """Straight lines through ``points`` (at least two distinct points, any dimension).
 
-    Zero-length segments are dropped: a point closer than ``gap_tol`` to the previous kept
-    point is skipped (documented behaviour, so repeated points never produce NaN tangents).
+    Repeated points are dropped, so they never produce NaN tangents: a point is a repetition
+    of the previous kept point when it lies within ``gap_tol`` of it; with the default
+    ``gap_tol`` within ``min(gap_tol, GAP_RTOL * extent + 16 ulp of the coordinates)``,
+    ``extent`` being the largest distance of any point from the first (scale-aware: points
+    1e-9 m apart on a path of that size are distinct points, never merged into a different
+    path). A corner left where a point was dropped is a corner like
+    any other (an exact stop for :func:`~motionplc.planning.paths.plan_path`).
     """
     tol = as_scalar("gap_tol", gap_tol, low=0.0, low_open=False)
     if isinstance(points, np.ndarray):
         points = list(points)
     if not isinstance(points, Sequence) or len(points) < 2:
         raise PlanningError("points: at least two points are required")
-    kept = [as_vector("points[0]", points[0])]
-    for i, p in enumerate(points[1:], start=1):
-        q = as_vector(f"points[{i}]", p, dim=kept[0].size)
-        if float(np.linalg.norm(q - kept[-1])) > tol:
+    first = as_vector("points[0]", points[0])
+    pts = [first] + [
+        as_vector(f"points[{i}]", p, dim=first.size) for i, p in enumerate(points[1:], start=1)
+    ]
+    arr = np.array(pts)
+    extent = float(np.max(np.linalg.norm(arr - first, axis=1)))
+    ulp = _ULP16 * float(np.max(np.abs(arr)))
+    dup = min(tol, GAP_RTOL * extent + ulp) if tol == DEFAULT_GAP_TOL else tol
+    kept = [first]
+    for q in pts[1:]:
+        if float(np.linalg.norm(q - kept[-1])) > dup:
             kept.append(q)
     if len(kept) < 2:
         raise PlanningError("points: all points coincide (no segment of non-zero length)")

@@ -1,10 +1,9 @@
 """Time-optimal motion along a path (second order: axis velocity and acceleration limits).
 
 Method: reachability analysis on a grid of the path parameter (TOPP-RA, Pham & Pham 2018; the
-same forward/backward passes as seed 004's GAVS(s, v) in the ``(u, du^2)`` plane). The grid
-``u_i = i * h`` has ``n_grid`` intervals; on each interval the path acceleration ``d2u/dt2 = a_i``
-is constant, so ``x = (du/dt)^2`` is linear in ``u`` and ``u(t)`` is exactly quadratic in time.
-With ``q = p(u)`` each axis obeys::
+same forward/backward passes as seed 004's GAVS(s, v) in the ``(u, du^2)`` plane). On each grid
+interval the path acceleration ``d2u/dt2 = a_i`` is constant, so ``x = (du/dt)^2`` is linear in
+``u`` and ``u(t)`` is exactly quadratic in time. With ``q = p(u)`` each axis obeys::
 
     v_k = q'_k du            a_k = q'_k a_i + q''_k x
 
@@ -14,14 +13,30 @@ points, as toppra does), which turns each interval into a set of lines ``lo_c(x)
 hi_d(x)`` in closed form: the maximum-velocity curve, the backward pass (controllable sets) and
 the forward pass (greedy maximal ``a_i``) need no LP solver.
 
+The grid (:func:`plan_path`'s second order) lies on the path's own smooth pieces
+(:class:`~motionplc.planning.paths._chain.Chain`: segments of composites, Hermite sections,
+B-spline knot spans): every break is a grid point and every interval is evaluated on its own
+piece, so the derivatives at its ends are one-sided. A curvature jump (a line meeting an arc) is
+then a switch of the active constraint at a grid point, never a violation inside an interval.
+A tangent jump (an unblended corner, a reversal, a zero tangent on one side of a break) is an
+exact stop: ``x = 0`` at that grid point (or a :class:`PlanningError` with ``stops="forbid"``).
+About ``n_grid`` intervals of equal length are laid out first, with more where the tangent turns
+quickly (at most ``_PHI`` rad per interval: arcs, corner blends, tight spline bends).
+
 Between the three points a limit could still be exceeded by a term of order ``h^2``. After
 solving, every interval is checked on 8 sub-intervals with a conservative bound (largest sample
 plus a quarter of the largest second difference, i.e. twice the interpolation error of a smooth
-function); intervals that may exceed a limit get that limit tightened by the excess and the
-problem is solved again. The result is therefore feasible on any resampling, at the price of a
-duration a few ``h^2`` above the discretised optimum. Points where the path derivative vanishes
-(duplicate points), switching points where the maximum-velocity curve is touched, and a non-zero
-start speed need no special handling in this formulation.
+function). Intervals exceeding a limit by more than ``_REFINE_TOL`` are cut (locally refined
+grid, never a global scale-down); what is left is removed by tightening those intervals' limits
+by the excess. Then the intervals where a constant path acceleration loses the most time
+(:func:`_lossy`) are cut and the problem solved again, twice. The result is feasible on any
+resampling (differenced 1 ms samples stay inside the limits to rounding), within the
+discretisation of the optimum. Points where the path derivative vanishes inside a smooth piece,
+switching points where the maximum-velocity curve is touched, and a non-zero start speed need
+no special handling in this formulation.
+
+The uniform-grid solver (:func:`solve_second_order`, one grid of ``n`` equal intervals over the
+whole path) is kept for the jerk-limited planner's base law.
 """
 
 from __future__ import annotations
@@ -33,12 +48,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from motionplc.errors import PlanningError
+from motionplc.planning.paths._chain import Chain, Junction, SubPath
 from motionplc.planning.paths.base import Path
 from motionplc.planning.paths.trajectory import PathTrajectory, SpeedLaw
 
 __all__ = ["plan_path", "DEFAULT_GRID"]
 
 DEFAULT_GRID = 1000
+_MIN_PART_GRID = 64  # grid intervals of a jerk-limited part between two exact stops
 _SUB = 8  # sub-intervals per grid interval in the feasibility check
 _MARGIN = 1e-11  # relative margin on every limit (rounding)
 _ACCEPT = 1e-12  # a bound up to 1 + _ACCEPT counts as held
@@ -121,12 +138,7 @@ def _evaluate_grid(path: Path, n: int) -> _Grid:
 def _speed_caps(grid: _Grid, lim: PathLimits, extra: np.ndarray | None = None) -> np.ndarray:
     """Largest ``x = du^2`` allowed by the velocity and path-speed limits at every half-grid
     point (``inf`` where nothing binds)."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        v2 = (lim.v_max**2)[None, :] / grid.q1**2
-        v2 = np.where(grid.q1 == 0.0, np.inf, v2)
-        cap = v2.min(axis=1) if v2.shape[1] else np.full(len(grid.u), np.inf)
-        if math.isfinite(lim.v_path):
-            cap = np.minimum(cap, np.where(grid.speed2 > 0.0, lim.v_path**2 / grid.speed2, np.inf))
+    cap = _caps_at(grid.q1, lim)
     if extra is not None:
         cap = np.minimum(cap, extra)
     return cap
@@ -146,22 +158,25 @@ _THETA = np.array([0.0, 0.5, 1.0])
 
 
 def _lines(grid: _Grid, A: np.ndarray, C: np.ndarray, rows: np.ndarray):
-    """Constraint lines of the intervals ``rows``.
-
-    ``A``: (n, dim) acceleration limits per interval; ``C``: (n, 3) caps on x at the start,
-    middle and end of every interval. Returns lower lines ``a >= p + r x`` (n, mL), upper lines
-    ``a <= s + w x`` (n, mU) and a static cap on ``x_i`` (n,).
-    """
-    h = grid.h
-    n = len(rows)
-    A = A[rows]
-    C = C[rows]
+    """Constraint lines of the intervals ``rows`` of a uniform grid (see :func:`_lines_at`)."""
     idx = 2 * rows[:, None] + np.arange(3)[None, :]  # (n, 3)
-    q1 = grid.q1[idx]  # (n, 3, dim)
-    q2 = grid.q2[idx]
-    c = q1 + (2.0 * h * _THETA)[None, :, None] * q2
+    h = np.full(len(rows), grid.h)
+    return _lines_at(grid.q1[idx], grid.q2[idx], h, A[rows], C[rows], grid.tiny)
+
+
+def _lines_at(q1: np.ndarray, q2: np.ndarray, h: np.ndarray, A: np.ndarray, C: np.ndarray, tiny):
+    """Constraint lines of intervals of lengths ``h`` (n,).
+
+    ``q1``, ``q2``: (n, 3, dim) path derivatives at the start, middle and end of every interval
+    (one-sided at its ends: the interval's own piece); ``A``: (n, dim) acceleration limits;
+    ``C``: (n, 3) caps on x at the same three points. Returns lower lines ``a >= p + r x``
+    (n, mL), upper lines ``a <= s + w x`` (n, mU) and a static cap on ``x_i`` (n,).
+    """
+    n = len(h)
+    hh = h[:, None]
+    c = q1 + (2.0 * hh * _THETA[None, :])[:, :, None] * q2
     absc = np.abs(c)
-    small = absc <= grid.tiny
+    small = absc <= tiny
     A3 = np.broadcast_to(A[:, None, :], c.shape)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         s_acc = np.where(small, np.inf, A3 / absc)
@@ -169,9 +184,9 @@ def _lines(grid: _Grid, A: np.ndarray, C: np.ndarray, rows: np.ndarray):
         stat = np.where(small & (q2 != 0.0), A3 / np.abs(q2), np.inf)
     static = np.minimum(C[:, 0], stat.reshape(n, -1).min(axis=1, initial=np.inf))
     lo_p = np.concatenate([-s_acc.reshape(n, -1), np.zeros((n, 1))], axis=1)
-    lo_r = np.concatenate([w_acc.reshape(n, -1), np.full((n, 1), -0.5 / h)], axis=1)
+    lo_r = np.concatenate([w_acc.reshape(n, -1), -0.5 / hh], axis=1)
     cap_s = np.stack([C[:, 1] / h, C[:, 2] / (2.0 * h)], axis=1)  # inf stays inf
-    cap_w = np.broadcast_to(np.array([-1.0 / h, -0.5 / h]), (n, 2))
+    cap_w = np.concatenate([-1.0 / hh, -0.5 / hh], axis=1)
     up_s = np.concatenate([s_acc.reshape(n, -1), cap_s], axis=1)
     up_w = np.concatenate([w_acc.reshape(n, -1), cap_w], axis=1)
     return lo_p, lo_r, up_s, up_w, static
@@ -276,20 +291,23 @@ def _interval_mvc(lo_p, lo_r, up_s, up_w, static) -> np.ndarray:
 
 
 class _Solver:
-    """The forward/backward passes on a fixed grid; re-solving after a tightening of some
-    intervals recomputes only those rows."""
+    """The forward/backward passes on a fixed grid of interval lengths ``h``; re-solving after a
+    tightening of some intervals recomputes only those rows. ``lines(A, C, rows)`` returns the
+    constraint lines of the intervals ``rows`` (:func:`_lines_at`)."""
 
-    def __init__(self, grid: _Grid, x0: float, x_end: float) -> None:
-        self.grid = grid
+    def __init__(self, h: np.ndarray, lines, x0: float, x_end: float) -> None:
+        self.h = np.asarray(h, dtype=float)
+        self.lines = lines
         self.x0 = x0
         self.x_end = min(x_end, _BIG)
-        n = grid.n
+        n = len(self.h)
+        self.n = n
         self.mvc = np.zeros(n)
         self.back: list[tuple[list, list]] = [([], [])] * n
         self.fwd: list[tuple[list, list]] = [([], [])] * n
 
     def solve(self, A: np.ndarray, C: np.ndarray, rows: np.ndarray | None = None) -> _Solution:
-        n = self.grid.n
+        n = self.n
         rows = np.arange(n) if rows is None else np.asarray(rows, dtype=int)
         self.A = A
         self.C = C
@@ -330,7 +348,7 @@ class _Solver:
     def _back_lines(self, lo_p: np.ndarray, lo_r: np.ndarray, rows: np.ndarray) -> None:
         # Backward lines (the last lower line, x_{i+1} >= 0, has a zero denominator up to
         # rounding and never binds: left out); the range of X_{i+1} is [0, mvc_{i+1}].
-        h = self.grid.h
+        h = self.h[rows][:, None]
         R = 1.0 + 2.0 * h * lo_r[:, :-1]
         pos = R > 0.0
         alpha = np.where(pos, 1.0 / np.where(pos, R, 1.0), 0.0)
@@ -341,15 +359,15 @@ class _Solver:
             self.back[i] = item
 
     def _update(self, rows: np.ndarray) -> None:
-        h = self.grid.h
-        lo_p, lo_r, up_s, up_w, static = _lines(self.grid, self.A, self.C, rows)
+        h = self.h[rows][:, None]
+        lo_p, lo_r, up_s, up_w, static = self.lines(self.A, self.C, rows)
         mvc_r = _interval_mvc(lo_p, lo_r, up_s, up_w, static)
         self.mvc[rows] = np.clip(mvc_r, 0.0, _BIG)
         self._back_lines(lo_p, lo_r, rows)
         prev = np.setdiff1d(rows - 1, rows)  # a changed mvc_i changes the range of row i - 1
         prev = prev[prev >= 0]
         if len(prev):
-            lo_p2, lo_r2, _, _, _ = _lines(self.grid, self.A, self.C, prev)
+            lo_p2, lo_r2, _, _, _ = self.lines(self.A, self.C, prev)
             self._back_lines(lo_p2, lo_r2, prev)
         for i, item in zip(
             rows.tolist(),
@@ -386,7 +404,7 @@ def _bound(f: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f.max(axis=1) + 0.25 * d2, f.min(axis=1) - 0.25 * d2, d2
 
 
-def _check(dense: tuple[np.ndarray, np.ndarray], x: np.ndarray, lim: PathLimits, h: float):
+def _check(dense: tuple[np.ndarray, np.ndarray], x: np.ndarray, lim: PathLimits, h):
     Q1, Q2 = dense  # (n, sub+1, dim)
     n = len(x) - 1
     sub = Q1.shape[1] - 1
@@ -457,31 +475,97 @@ def _validate(
 
 def _boundary_x(name: str, speed: float, grid: _Grid, k: int) -> float:
     """``x = du^2`` of a path speed ``speed`` [m/s] at half-grid index ``k``."""
-    if speed == 0.0:
-        return 0.0
-    s2 = float(grid.speed2[k])
-    if s2 == 0.0:
-        raise PlanningError(
-            f"{name}: the path has a zero tangent at its {'start' if k == 0 else 'end'}; "
-            f"allowed [0, 0], got {speed!r}"
-        )
-    return speed * speed / s2
+    return _speed_to_x(name, speed, float(grid.speed2[k]), "start" if k == 0 else "end")
 
 
-def _law_second_order(x: np.ndarray, h: float, u_end: float) -> SpeedLaw:
+def _law_second_order(
+    x: np.ndarray, h: float | np.ndarray, u_end: float, u: np.ndarray | None = None
+) -> SpeedLaw:
+    """The speed law of constant path acceleration on every interval from ``x = du^2`` at the
+    grid points (intervals of length ``h``, uniform or one per interval, starting at ``u``)."""
     n = len(x) - 1
     sig = np.sqrt(x)
     ssum = sig[:-1] + sig[1:]
+    if u is None:
+        u = np.asarray(h, dtype=float) * np.arange(n, dtype=float)
     if np.any(ssum <= 0.0):
         i = int(np.flatnonzero(ssum <= 0.0)[0])
         raise PlanningError(
-            f"path: the limits allow no motion near u={i * h!r} (the admissible path speed is 0)"
+            f"path: the limits allow no motion near u={float(u[i])!r} (the admissible path "
+            "speed is 0)"
         )
-    dur = 2.0 * h / ssum
+    dur = 2.0 * np.asarray(h, dtype=float) / ssum
     t = np.concatenate([[0.0], np.cumsum(dur)])
     acc = (sig[1:] - sig[:-1]) / dur
-    u = h * np.arange(n, dtype=float)
     return SpeedLaw(t[:-1], u, sig[:-1], acc, np.zeros(n), float(t[-1]), u_end)
+
+
+def _solve_repaired(
+    solver: _Solver,
+    dense: tuple[np.ndarray, np.ndarray],
+    lim: PathLimits,
+    h: np.ndarray,
+    A: np.ndarray,
+    C: np.ndarray,
+    speed2: tuple[float, float],
+    info: dict[str, float],
+    max_repairs: int = _MAX_REPAIRS,
+) -> _Solution:
+    """Solve, check every interval on its sub-points and tighten the intervals that exceed a
+    limit until none does (``speed2``: ``|p'|^2`` at the two ends, for the error messages).
+    The last resort, scaling the whole profile, is reported in ``info["fallback_scale"]``."""
+    x0, x_end = solver.x0, solver.x_end
+    sol = solver.solve(A, C)
+    for it in range(max_repairs + 1):
+        if x0 > sol.X[0] * (1.0 + 1e-9) + 1e-300:
+            vmax0 = math.sqrt(sol.X[0] * speed2[0])
+            raise PlanningError(
+                f"v_start: above what the path allows at its start; allowed [0, {vmax0!r}]"
+            )
+        chk = _check(dense, sol.x, lim, h)
+        if chk.worst <= 1.0 + _ACCEPT:
+            break
+        if it == max_repairs:
+            break
+        info["repairs"] = info.get("repairs", 0.0) + 1.0
+        if it == 0:
+            # First repair, on every interval at once: between the three constraint points a
+            # ratio can exceed its value there by the linear-interpolation error (<= 2 x the
+            # second difference on the 4x finer sub-points) plus the check's own allowance
+            # (0.25 x); 3 x the largest second difference of the interval and its neighbours
+            # (the solution moves a little) covers both.
+            # Only where a ratio comes that close to its limit (the boundary speeds a caller
+            # imposes through extra_cap stay untouched where they are not near a limit).
+            ma = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.acc_d2), 0.5)
+            mv = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.speed_d2), 0.5)
+            ma = np.where(_neighbour_max(chk.acc) + ma > 1.0, ma, 0.0)
+            mv = np.where(_neighbour_max(chk.speed) + mv > 1.0, mv, 0.0)
+            A = A * (1.0 - ma)
+            C = C * (1.0 - mv)[:, None]
+            rows = np.flatnonzero((ma > 0.0).any(axis=1) | (mv > 0.0))
+            sol = solver.solve(A, C, rows)
+            continue
+        # tighten by twice the excess (the excess moves a little as the solution changes)
+        fa = np.where(chk.acc > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.acc - 1.0 + 1e-9), 1.0)
+        fv = np.where(chk.speed > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.speed - 1.0 + 1e-9), 1.0)
+        A = A * fa
+        C = C * fv[:, None]
+        rows = np.flatnonzero((fa < 1.0).any(axis=1) | (fv < 1.0))
+        sol = solver.solve(A, C, rows)
+    if chk.worst > 1.0 + _ACCEPT:
+        if x0 > 0.0 or x_end > 0.0:
+            raise PlanningError(
+                f"path: could not satisfy the limits between grid points after {max_repairs} "
+                f"refinements (worst ratio {chk.worst!r}); use a finer n_grid"
+            )
+        # exact fallback: scaling x scales every ratio linearly
+        sol = _Solution(sol.x * (1.0 - 1e-9) / chk.worst, sol.X, sol.mvc)
+        info["fallback_scale"] = 1.0 / chk.worst
+    info["worst_ratio"] = chk.worst
+    if x_end > 0.0 and sol.x[-1] < x_end * (1.0 - 1e-9):
+        reach = math.sqrt(sol.x[-1] * speed2[1])
+        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
+    return sol
 
 
 def solve_second_order(
@@ -525,57 +609,11 @@ def solve_second_order(
         n = i1 - i0
     info: dict[str, float] = {"repairs": 0.0}
     h = grid.h
-    solver = _Solver(grid, x0, x_end)
-    sol = solver.solve(A, C)
-    for it in range(_MAX_REPAIRS + 1):
-        if x0 > sol.X[0] * (1.0 + 1e-9) + 1e-300:
-            vmax0 = math.sqrt(sol.X[0] * grid.speed2[0])
-            raise PlanningError(
-                f"v_start: above what the path allows at its start; allowed [0, {vmax0!r}]"
-            )
-        chk = _check(dense, sol.x, lim, h)
-        if chk.worst <= 1.0 + _ACCEPT:
-            break
-        if it == _MAX_REPAIRS:
-            break
-        info["repairs"] = it + 1.0
-        if it == 0:
-            # First repair, on every interval at once: between the three constraint points a
-            # ratio can exceed its value there by the linear-interpolation error (<= 2 x the
-            # second difference on the 4x finer sub-points) plus the check's own allowance
-            # (0.25 x); 3 x the largest second difference of the interval and its neighbours
-            # (the solution moves a little) covers both.
-            # Only where a ratio comes that close to its limit (the boundary speeds a caller
-            # imposes through extra_cap stay untouched where they are not near a limit).
-            ma = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.acc_d2), 0.5)
-            mv = np.minimum(_MARGIN_FACTOR * _neighbour_max(chk.speed_d2), 0.5)
-            ma = np.where(_neighbour_max(chk.acc) + ma > 1.0, ma, 0.0)
-            mv = np.where(_neighbour_max(chk.speed) + mv > 1.0, mv, 0.0)
-            A = A * (1.0 - ma)
-            C = C * (1.0 - mv)[:, None]
-            rows = np.flatnonzero((ma > 0.0).any(axis=1) | (mv > 0.0))
-            sol = solver.solve(A, C, rows)
-            continue
-        # tighten by twice the excess (the excess moves a little as the solution changes)
-        fa = np.where(chk.acc > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.acc - 1.0 + 1e-9), 1.0)
-        fv = np.where(chk.speed > 1.0 + _ACCEPT, 1.0 / (2.0 * chk.speed - 1.0 + 1e-9), 1.0)
-        A = A * fa
-        C = C * fv[:, None]
-        rows = np.flatnonzero((fa < 1.0).any(axis=1) | (fv < 1.0))
-        sol = solver.solve(A, C, rows)
-    if chk.worst > 1.0 + _ACCEPT:
-        if x0 > 0.0 or x_end > 0.0:
-            raise PlanningError(
-                f"path: could not satisfy the limits between grid points after {_MAX_REPAIRS} "
-                f"refinements (worst ratio {chk.worst!r}); use a finer n_grid"
-            )
-        # exact fallback: scaling x scales every ratio linearly
-        sol = _Solution(sol.x * (1.0 - 1e-9) / chk.worst, sol.X, sol.mvc)
-        info["fallback_scale"] = 1.0 / chk.worst
-    info["worst_ratio"] = chk.worst
-    if x_end > 0.0 and sol.x[-1] < x_end * (1.0 - 1e-9):
-        reach = math.sqrt(sol.x[-1] * grid.speed2[-1])
-        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
+    sub_grid = grid
+    solver = _Solver(np.full(n, h), lambda A_, C_, r_: _lines(sub_grid, A_, C_, r_), x0, x_end)
+    sol = _solve_repaired(
+        solver, dense, lim, np.full(n, h), A, C, (grid.speed2[0], grid.speed2[-1]), info
+    )
     xs = sol.x.copy()
     xs[-1] = x_end if x_end > 0.0 else xs[-1]
     if grid is not full_grid:
@@ -588,6 +626,338 @@ def solve_second_order(
     return _Solution(xs, sol.X, sol.mvc), grid, info
 
 
+# -- the second-order planner on the path's own pieces ---------------------------------------
+
+_PHI = 0.03  # [rad] tangent turning (or log |p'| change) per grid interval, at most
+_MAX_EXTRA = 512  # extra intervals one piece may get for its curvature
+_REFINE_TOL = 1e-4  # intervals exceeding a limit by more than this are split (else tightened)
+_MAX_REFINE = 8  # rounds of splitting
+_MAX_GRID_FACTOR = 16  # splitting stops at this many times the initial interval count
+_ACC_ROUNDS = 2  # rounds of splitting where the discretisation loses the most time
+_ACC_GROWTH = 2.0  # ... up to this many times the initial interval count
+_ACC_TOL = 2e-5  # ... until the estimated loss left is below this share of the duration
+
+
+@dataclass(frozen=True, slots=True)
+class _PieceGrid:
+    """A grid on the pieces of a :class:`Chain`: interval ``i`` lies in piece ``piece[i]``
+    from its local parameter ``t0[i]`` over ``h[i]``; ``stop[i]``: its start is an exact stop."""
+
+    piece: np.ndarray
+    t0: np.ndarray
+    h: np.ndarray
+    stop: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.h)
+
+    def nodes(self, chain: Chain) -> np.ndarray:
+        u = chain.u0[self.piece] + self.t0
+        return np.append(u, chain.u_end)
+
+
+def _piece_grid(chain: Chain, n: int, stop_pieces: set[int]) -> _PieceGrid:
+    """About ``n`` intervals of equal length, every piece boundary a grid point, plus more
+    intervals where the tangent turns (or ``|p'|`` changes) quickly, equidistributing
+    ``1/h0 + rate/_PHI`` over each piece."""
+    from motionplc.planning.paths.geometry import Line
+
+    m = chain.n_pieces
+    h0 = chain.u_end / n
+    L = chain.length
+    counts = np.maximum(1, np.ceil(L / h0 * (1.0 - 1e-12))).astype(int)
+    is_line = np.array([isinstance(chain.leaves[k][1], Line) for k in chain.leaf.tolist()])
+    curved = np.flatnonzero(~is_line)
+    samples = np.clip(2 * counts[curved] + 1, 33, 4097)
+    P = np.repeat(curved, samples)
+    starts = np.cumsum(samples) - samples
+    frac = (np.arange(len(P)) - np.repeat(starts, samples)) / np.repeat(samples - 1, samples)
+    T = frac * L[P]
+    pieces, t0s, hs, stops = [], [], [], []
+    rates: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    if len(P):
+        q1, q2 = chain.eval(P, T, (1, 2))
+        n1 = np.linalg.norm(q1, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            along = np.einsum("ij,ij->i", q2, q1) / n1**2
+            perp = np.linalg.norm(q2 - along[:, None] * q1, axis=1) / n1
+            rate = np.nan_to_num(perp + np.abs(along), nan=np.inf, posinf=np.inf)
+        for j, st, cnt in zip(curved.tolist(), starts.tolist(), samples.tolist(), strict=True):
+            rates[j] = (T[st : st + cnt], rate[st : st + cnt])
+    for j in range(m):
+        Lj = float(L[j])
+        if j in rates:
+            t, r = rates[j]
+            dens = 1.0 / h0 + np.minimum(r / _PHI, _MAX_EXTRA / Lj)
+            F = np.concatenate([[0.0], np.cumsum(0.5 * (dens[1:] + dens[:-1]) * np.diff(t))])
+            k = max(1, math.ceil(F[-1] * (1.0 - 1e-12)))
+            nodes = np.interp(np.linspace(0.0, F[-1], k + 1), F, t)
+            nodes[0], nodes[-1] = 0.0, Lj
+        else:
+            k = int(counts[j])
+            nodes = np.linspace(0.0, Lj, k + 1)
+        pieces.append(np.full(k, j))
+        t0s.append(nodes[:-1])
+        hs.append(np.diff(nodes))
+        st = np.zeros(k, dtype=bool)
+        st[0] = j in stop_pieces
+        stops.append(st)
+    return _PieceGrid(
+        np.concatenate(pieces), np.concatenate(t0s), np.concatenate(hs), np.concatenate(stops)
+    )
+
+
+def _split(grid: _PieceGrid, rows: np.ndarray, parts: np.ndarray | int = 2) -> _PieceGrid:
+    """``grid`` with the intervals ``rows`` cut into ``parts`` equal parts each."""
+    k = np.ones(grid.n, dtype=int)
+    k[rows] = parts
+    idx = np.repeat(np.arange(grid.n), k)
+    first = np.concatenate([[0], np.cumsum(k)[:-1]])
+    j = np.arange(len(idx)) - first[idx]  # part number inside the old interval
+    h = grid.h[idx] / k[idx]
+    t0 = grid.t0[idx] + j * h
+    stop = grid.stop[idx] & (j == 0)
+    return _PieceGrid(grid.piece[idx], t0, h, stop)
+
+
+def _dense_pieces(chain: Chain, grid: _PieceGrid) -> tuple[np.ndarray, np.ndarray]:
+    """``p'``, ``p''`` at ``_SUB + 1`` points of every interval, (n, _SUB + 1, dim), each
+    interval evaluated on its own piece (one-sided at its ends)."""
+    th = np.arange(_SUB + 1) / _SUB
+    P = np.repeat(grid.piece, _SUB + 1)
+    T = (grid.t0[:, None] + grid.h[:, None] * th[None, :]).reshape(-1)
+    last = np.isclose(th, 1.0)
+    ends = grid.t0 + grid.h
+    T.reshape(grid.n, _SUB + 1)[:, last] = ends[:, None]
+    q1, q2 = chain.eval(P, T, (1, 2))
+    shape = (grid.n, _SUB + 1, chain.dim)
+    q1, q2 = q1.reshape(shape), q2.reshape(shape)
+    for name, arr in (("first", q1), ("second", q2)):
+        if not np.all(np.isfinite(arr)):
+            i = int(np.flatnonzero(~np.all(np.isfinite(arr), axis=(1, 2)))[0])
+            u = float(chain.u0[grid.piece[i]] + grid.t0[i])
+            raise PlanningError(f"path: {name} derivative is not finite near u={u!r}")
+    return q1, q2
+
+
+def _caps_at(q1: np.ndarray, lim: PathLimits) -> np.ndarray:
+    """Largest ``x = du^2`` the velocity and path-speed limits allow at the points ``q1``
+    (..., dim) (``inf`` where nothing binds)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v2 = lim.v_max**2 / q1**2
+        v2 = np.where(q1 == 0.0, np.inf, v2)
+        cap = v2.min(axis=-1) if q1.shape[-1] else np.full(q1.shape[:-1], np.inf)
+        if math.isfinite(lim.v_path):
+            s2 = np.einsum("...k,...k->...", q1, q1)
+            cap = np.minimum(cap, np.where(s2 > 0.0, lim.v_path**2 / s2, np.inf))
+    return cap
+
+
+def _solve_on_pieces(
+    chain: Chain, lim: PathLimits, vs: float, ve: float, n: int, stop_pieces: set[int]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[str, float]]:
+    """The feasible second-order optimum on a grid of the path's pieces, refined where a
+    limit is exceeded between grid points and where the discretisation loses the most time.
+    Returns grid nodes ``u``, ``x`` there, the interval maximum-velocity curve and
+    diagnostics."""
+    grid = _piece_grid(chain, n, stop_pieces)
+    n_max = _MAX_GRID_FACTOR * max(grid.n, n)
+    info: dict[str, float] = {"repairs": 0.0, "refinements": 0.0, "accuracy_refinements": 0.0}
+    n_acc = 0
+    for acc_round in range(_ACC_ROUNDS + 1):
+        final = acc_round == _ACC_ROUNDS
+        grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max, final)
+        if acc_round == 0:
+            n_acc = int(_ACC_GROWTH * grid.n)  # the accuracy refinement's budget
+        if final:
+            break
+        rows = _lossy(sol.x, grid.h, grid.n)[: max(0, n_acc - grid.n)]
+        if not len(rows):
+            # nothing (more) to refine: the last solve, repaired where needed
+            grid, sol, s2_e, xe = _solve_feasible(chain, grid, lim, vs, ve, info, n_max, True)
+            break
+        info["accuracy_refinements"] += 1.0
+        grid = _split(grid, rows)
+    if xe > 0.0 and sol.x[-1] < xe * (1.0 - 1e-9):
+        reach = math.sqrt(sol.x[-1] * s2_e)
+        raise PlanningError(f"v_end: not reachable along this path; allowed [0, {reach!r}]")
+    xs = sol.x.copy()
+    if xe > 0.0:
+        xs[-1] = xe
+    info["grid_intervals"] = float(grid.n)
+    return grid.nodes(chain), xs, sol.mvc, info
+
+
+def _lossy(x: np.ndarray, h: np.ndarray, n: int) -> np.ndarray:
+    """Intervals where a constant path acceleration loses the most time, largest first.
+
+    Where the admissible path acceleration changes along the path, a constant one per
+    interval falls short of the reachable ``x`` by about ``h |a_next - a|``. The shortfall
+    carries along the accelerating (or braking) stretch it lies in, downstream (upstream)
+    until the stretch's peak, and there costs ``sum dt / (2 x)`` time per unit of ``x``. The
+    intervals returned carry the largest estimated losses until what is left is below
+    ``_ACC_TOL`` of the duration."""
+    sig = np.sqrt(x)
+    a = (x[1:] - x[:-1]) / (2.0 * h)
+    da = np.zeros(n)
+    if n > 1:
+        d = np.abs(np.diff(a))
+        da[:-1] = d
+        da[1:] = np.maximum(da[1:], d)
+    ssum = np.maximum(sig[1:] + sig[:-1], 1e-300)
+    dt = 2.0 * h / ssum
+    xm = np.maximum(0.25 * ssum * ssum, 1e-300)
+    w = dt / (2.0 * xm)  # time per unit of x on every interval
+    up = a > 0.0
+    # sums of w over the rest of each accelerating stretch (downstream) or over the braking
+    # stretch before each interval (upstream)
+    S = np.zeros(n)
+    acc = 0.0
+    for i in range(n - 1, -1, -1):
+        acc = acc + w[i] if up[i] else 0.0
+        if up[i]:
+            S[i] = acc
+    acc = 0.0
+    for i in range(n):
+        acc = acc + w[i] if not up[i] else 0.0
+        if not up[i]:
+            S[i] = acc
+    e = np.nan_to_num(h * da * S, nan=0.0, posinf=0.0)
+    total = float(dt.sum())
+    order = np.argsort(-e, kind="stable")
+    tail = np.cumsum(e[order][::-1])[::-1]  # loss left when splitting from here on
+    k = int(np.searchsorted(-tail, -_ACC_TOL * total))
+    return order[:k]
+
+
+def _solve_feasible(chain, grid, lim, vs, ve, info, n_max, final=True):
+    """Solve on ``grid``; split the intervals that exceed a limit between grid points by more
+    than ``_REFINE_TOL`` and solve again (at most ``_MAX_REFINE`` times), then tighten what is
+    left (:func:`_solve_repaired`; not when ``final`` is false: an intermediate solution only
+    guides the next refinement)."""
+    for rnd in range(_MAX_REFINE + 1):
+        q1, q2 = _dense_pieces(chain, grid)
+        s2_0 = float(q1[0, 0] @ q1[0, 0])
+        s2_e = float(q1[-1, -1] @ q1[-1, -1])
+        x0 = _speed_to_x("v_start", vs, s2_0, "start")
+        xe = _speed_to_x("v_end", ve, s2_e, "end")
+        caps = _caps_at(q1[:, :: _SUB // 2], lim) * (1.0 - _MARGIN)  # (n, 3)
+        C = caps.copy()
+        C[grid.stop, 0] = 0.0
+        C[np.flatnonzero(grid.stop[1:]), 2] = 0.0
+        A = np.broadcast_to(lim.a_max * (1.0 - _MARGIN), (grid.n, chain.dim)).copy()
+        scale = float(np.abs(q1).max())
+        if scale == 0.0:
+            raise PlanningError("path: the path does not move (zero derivative everywhere)")
+        tiny = 1e-10 * scale
+        q1c, q2c, hh = q1[:, :: _SUB // 2], q2[:, :: _SUB // 2], grid.h
+
+        def lines(A_, C_, r_, q1c=q1c, q2c=q2c, hh=hh, tiny=tiny):
+            return _lines_at(q1c[r_], q2c[r_], hh[r_], A_[r_], C_[r_], tiny)
+
+        solver = _Solver(grid.h, lines, x0, xe)
+        last = rnd == _MAX_REFINE or grid.n >= n_max
+        if not last:
+            sol = solver.solve(A, C)
+            if x0 > sol.X[0] * (1.0 + 1e-9) + 1e-300:
+                vmax0 = math.sqrt(sol.X[0] * s2_0)
+                raise PlanningError(
+                    f"v_start: above what the path allows at its start; allowed [0, {vmax0!r}]"
+                )
+            chk = _check((q1, q2), sol.x, lim, grid.h)
+            if chk.worst <= 1.0 + _ACCEPT:
+                info["worst_ratio"] = chk.worst
+                return grid, sol, s2_e, xe
+            excess = np.maximum(chk.acc.max(axis=1, initial=0.0), chk.speed) - 1.0
+            bad = np.flatnonzero(excess > _REFINE_TOL)
+            if not final and not len(bad):
+                return grid, sol, s2_e, xe
+            if len(bad):
+                info["refinements"] += 1.0
+                # the excess falls with h^2: enough parts for about a tenth of _REFINE_TOL
+                parts = np.clip(np.ceil(np.sqrt(excess[bad] / (0.1 * _REFINE_TOL))), 2, 8)
+                grid = _split(grid, bad, parts.astype(int))
+                continue
+        sol = _solve_repaired(solver, (q1, q2), lim, grid.h, A, C, (s2_0, s2_e), info)
+        return grid, sol, s2_e, xe
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _speed_to_x(name: str, speed: float, s2: float, where: str) -> float:
+    if speed == 0.0:
+        return 0.0
+    if s2 == 0.0:
+        raise PlanningError(
+            f"{name}: the path has a zero tangent at its {where}; allowed [0, 0], got {speed!r}"
+        )
+    return speed * speed / s2
+
+
+def _stops_of(chain: Chain, stops: str) -> list[Junction]:
+    """The junctions where the path must be passed at rest; PlanningError when ``stops`` is
+    ``"forbid"`` and there is one."""
+    found = [j for j in chain.junctions() if j.stop]
+    if found and stops == "forbid":
+        j = found[0]
+        what = (
+            f"a tangent jump of {math.degrees(j.deflection):.6g} deg"
+            if math.isfinite(j.deflection) and j.deflection > 0.0
+            else "a zero tangent on one side"
+            if not math.isfinite(j.deflection)
+            else f"a jump of |dp/du| by the factor {j.speed_ratio!r}"
+        )
+        raise PlanningError(
+            f"path: {what} at u={j.u!r} (position {j.point.tolist()!r}) needs an exact stop, "
+            f"but stops='forbid' ({len(found)} such point{'s' if len(found) > 1 else ''}); "
+            "round the corner (blend_corners) or allow stops"
+        )
+    return found
+
+
+def _concat(parts: list[PathTrajectory], path: Path, offsets: list[float]) -> PathTrajectory:
+    """The trajectories of consecutive sub-paths (each from and to rest) as one along
+    ``path`` (``offsets``: the sub-paths' start parameters)."""
+    t_off = 0.0
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("t", "u", "du", "ddu", "dddu")}
+    gu, gd, gm = [], [], []
+    info: dict[str, float] = {}
+    second = 0.0
+    for k, (tr, off) in enumerate(zip(parts, offsets, strict=True)):
+        law = tr.law
+        cols["t"].append(law.t + t_off)
+        cols["u"].append(law.u + off)
+        cols["du"].append(law.du)
+        cols["ddu"].append(law.ddu)
+        cols["dddu"].append(law.dddu)
+        t_off += law.duration
+        second += tr.second_order_duration
+        s = slice(0 if k == 0 else 1, None)
+        gu.append(tr.grid_u[s] + off)
+        gd.append(tr.grid_du[s])
+        gm.append(tr.grid_du_max[s])
+        for key, val in tr.info.items():
+            info[key] = (
+                max(info.get(key, val), val) if key == "worst_ratio" else (info.get(key, 0.0) + val)
+            )
+    law = SpeedLaw(
+        *(np.concatenate(cols[k]) for k in ("t", "u", "du", "ddu", "dddu")),
+        t_off,
+        float(path.u_end),
+    )
+    info["stops"] = float(len(parts) - 1)
+    return PathTrajectory(
+        path,
+        law,
+        parts[0].order,
+        np.concatenate(gu),
+        np.concatenate(gd),
+        np.concatenate(gm),
+        second,
+        info,
+    )
+
+
 def plan_path(
     path: Path,
     v_max: float | Sequence[float],
@@ -598,6 +968,7 @@ def plan_path(
     v_start: float = 0.0,
     v_end: float = 0.0,
     n_grid: int | None = None,
+    stops: str = "allow",
 ) -> PathTrajectory:
     """The fastest motion along ``path`` within per-axis limits.
 
@@ -610,7 +981,14 @@ def plan_path(
             :mod:`motionplc.planning.paths.topp_jerk`).
         v_path: limit of the path speed ``|dp/dt|`` [m/s], or ``None``.
         v_start, v_end: path speed ``|dp/dt|`` [m/s] at the start and the end.
-        n_grid: number of grid intervals along ``u`` (default :data:`DEFAULT_GRID`).
+        n_grid: number of grid intervals along ``u`` (default :data:`DEFAULT_GRID`); the
+            second-order planner puts grid points on every break of the path's pieces and
+            refines the grid where the path turns quickly or a limit would be exceeded
+            between grid points.
+        stops: ``"allow"`` (default): the path is passed at rest wherever its tangent jumps
+            (an unblended corner, a reversal, a junction where one side has a zero tangent);
+            ``"forbid"``: such a point is a :class:`PlanningError` naming its ``u`` and
+            position.
 
     Returns:
         An immutable :class:`PathTrajectory`. Every velocity, acceleration (and jerk) limit holds
@@ -622,22 +1000,30 @@ def plan_path(
             what the path allows, or an end speed that cannot be reached.
     """
     lim, vs, ve, n = _validate(path, v_max, a_max, j_max, v_path, v_start, v_end, n_grid)
+    if stops not in ("allow", "forbid"):
+        raise PlanningError(f"stops: must be 'allow' or 'forbid', got {stops!r}")
+    chain = Chain(path)
+    found = _stops_of(chain, stops)
     if lim.j_max is not None:
         from motionplc.planning.paths.topp_jerk import plan_jerk_limited
 
-        return plan_jerk_limited(path, lim, vs, ve, n)
-    grid = _evaluate_grid(path, n)
-    x0 = _boundary_x("v_start", vs, grid, 0)
-    xe = _boundary_x("v_end", ve, grid, 2 * n)
-    sol, grid, info = solve_second_order(path, lim, x0, xe, n, grid)
-    law = _law_second_order(sol.x, grid.h, float(path.u_end))
+        if not found:
+            return plan_jerk_limited(path, lim, vs, ve, n)
+        # exact stops: every part between two of them is planned from and to rest
+        cuts = [0, *(j.index for j in found), chain.n_pieces]
+        parts, offsets = [], []
+        for k in range(len(cuts) - 1):
+            sub = SubPath(chain, cuts[k], cuts[k + 1])
+            n_k = min(n, max(_MIN_PART_GRID, round(n * sub.u_end / chain.u_end)))
+            v0 = vs if k == 0 else 0.0
+            v1 = ve if k == len(cuts) - 2 else 0.0
+            parts.append(plan_jerk_limited(sub, lim, v0, v1, n_k))
+            offsets.append(float(chain.u0[cuts[k]]))
+        return _concat(parts, path, offsets)
+    u, x, mvc, info = _solve_on_pieces(chain, lim, vs, ve, n, {j.index for j in found})
+    info["stops"] = float(len(found))
+    h = np.diff(u)
+    law = _law_second_order(x, h, float(path.u_end), u[:-1])
     return PathTrajectory(
-        path,
-        law,
-        2,
-        grid.u[::2],
-        np.sqrt(sol.x),
-        np.sqrt(np.maximum(sol.mvc, 0.0)),
-        law.duration,
-        info,
+        path, law, 2, u, np.sqrt(x), np.sqrt(np.maximum(mvc, 0.0)), law.duration, info
     )

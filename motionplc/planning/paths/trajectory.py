@@ -176,7 +176,12 @@ class PathTrajectory:
 
     def sample(self, ts: Sequence[float] | np.ndarray) -> PathSamples:
         """Vectorised :meth:`at`: per-axis arrays of shape ``(dim, len(ts))`` (as
-        :meth:`motionplc.planning.Trajectory.sample`); times are clamped to ``[0, duration]``."""
+        :meth:`motionplc.planning.Trajectory.sample`); times are clamped to ``[0, duration]``.
+
+        ``v``, ``a``, ``j`` are the time derivatives of the positions ``p`` returned (the chain
+        rule above): :func:`~motionplc.planning.paths.plan_path` passes every tangent jump of
+        the path at rest, so no velocity step hides between two samples. At a break of the
+        path (and at a knot of the law) the values are the right-hand ones."""
         t = np.atleast_1d(np.asarray(ts, dtype=float))
         u, du, ddu, dddu = self.law.evaluate(t)
         q, q1, q2, q3 = (self.path.evaluate(u, k) for k in range(4))

@@ -144,3 +144,77 @@ BSPLINE_POINTS = [
     [1.2, 0.5, 0.2],
     [1.5, 0.2, 0.0],
 ]
+
+
+# -- random paths of the second-order comparisons (tests and tools/bench_paths.py) ---------------
+
+
+def _log_uniform(rng: np.random.Generator, lo: float, hi: float, size=None):
+    return np.exp(rng.uniform(np.log(lo), np.log(hi), size))
+
+
+def random_limits(rng: np.random.Generator, dim: int, spread: float = 1e3):
+    """Per-axis velocity and acceleration limits log-uniform over ``spread`` (three orders of
+    magnitude by default) around 1."""
+    lo, hi = 1.0 / np.sqrt(spread), np.sqrt(spread)
+    return _log_uniform(rng, lo, hi, dim), _log_uniform(rng, lo, hi, dim)
+
+
+def random_blended_polyline(rng: np.random.Generator, dim: int | None = None):
+    """A random polyline (2-6 axes, 4-10 segments of 0.05-2 m) with every corner rounded by a
+    corner distance of 1e-4 to 1e-1 of its shorter neighbouring segment (log-uniform);
+    deflections above 179 deg stay exact stops."""
+    from motionplc.planning.paths import Transition, blend_polyline
+
+    dim = int(rng.integers(2, 7)) if dim is None else dim
+    n_seg = int(rng.integers(4, 11))
+    lengths = _log_uniform(rng, 0.05, 2.0, n_seg)
+    dirs = rng.normal(size=(n_seg, dim))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    pts = np.vstack([np.zeros(dim), np.cumsum(dirs * lengths[:, None], axis=0)])
+    frac = _log_uniform(rng, 1e-4, 1e-1, n_seg - 1)
+    trans = [
+        Transition.corner_distance(float(f * min(lengths[i], lengths[i + 1])))
+        for i, f in enumerate(frac)
+    ]
+    return blend_polyline(pts, trans)
+
+
+def random_lines_and_arcs(rng: np.random.Generator, dim: int | None = None):
+    """A tangent-continuous chain of lines and arcs (curvature jumps at every junction): a
+    turtle in a random plane per arc, 2-6 axes, 3-8 pieces."""
+    from motionplc.planning.paths import Arc, CompositePath, Line
+
+    dim = int(rng.integers(2, 7)) if dim is None else dim
+    p = np.zeros(dim)
+    t = rng.normal(size=dim)
+    t /= np.linalg.norm(t)
+    segs = []
+    kinds = ["line" if k % 2 == 0 else "arc" for k in range(int(rng.integers(3, 9)))]
+    if rng.uniform() < 0.5:
+        kinds = kinds[::-1]
+    for kind in kinds:
+        if kind == "line":
+            L = float(_log_uniform(rng, 0.05, 2.0))
+            seg = Line(p, p + L * t)
+        else:
+            w = rng.normal(size=dim)
+            w -= (w @ t) * t
+            w /= np.linalg.norm(w)
+            r = float(_log_uniform(rng, 0.02, 1.0))
+            phi = float(rng.uniform(0.2, 3.0))
+            seg = Arc(p + r * w, r, -w, t, phi)
+        segs.append(seg)
+        p = np.asarray(seg.end, dtype=float)
+        d = np.asarray(seg.evaluate(seg.u_end, 1), dtype=float)
+        t = d / np.linalg.norm(d)
+    return CompositePath(segs)
+
+
+def random_bspline(rng: np.random.Generator, dim: int | None = None):
+    """The package's interpolating cubic B-spline through 5-9 random points (2-6 axes)."""
+    from motionplc.planning.paths import BSplinePath
+
+    dim = int(rng.integers(2, 7)) if dim is None else dim
+    pts = np.cumsum(rng.uniform(-0.5, 0.5, (int(rng.integers(5, 10)), dim)), axis=0)
+    return BSplinePath.interpolate(pts, 3)

@@ -227,7 +227,10 @@ def test_jerk_limited_holds_every_limit_and_is_not_faster_than_second_order() ->
         assert r["v"] <= 1 + TOL and r["a"] <= 1 + TOL and r["j"] <= 1 + TOL, r
         assert tr.duration >= tr.second_order_duration
         two = plan_path(p, vm, am, n_grid=200)
-        assert tr.second_order_duration == pytest.approx(two.duration, rel=1e-12)
+        # the jerk-limited planner's base runs on its own uniform grid, plan_path's second order
+        # on the path's pieces with local refinement: the same optimum to discretisation
+        assert tr.second_order_duration == pytest.approx(two.duration, rel=1e-2)
+        assert tr.duration >= two.duration * (1 - 1e-3)
         end = tr.at(tr.duration)
         assert np.allclose(end.p, p.end, atol=1e-9) and abs(end.du) < 1e-9
         # continuous path acceleration: no step between neighbouring 0.1 ms samples
@@ -281,6 +284,6 @@ def test_jerk_limited_with_unequal_start_and_end_speeds(vs: float, ve: float) ->
     assert np.linalg.norm(s.v[:, 1]) == pytest.approx(ve, rel=1e-9, abs=1e-12)
     assert abs(s.ddu[0]) < 1e-9 and abs(s.ddu[1]) < 1e-9
     assert np.allclose(tr.at(tr.duration).p, c.end, atol=1e-9)
-    # a smoothed time-optimal base law, not the slow constant-limit fallback (filter_time 0)
-    assert tr.info["filter_time"] > 0.0
+    # the third-order parameterisation itself, not its fallback (the old smoothed law)
+    assert "fallback" not in tr.info
     assert tr.second_order_duration <= tr.duration < 1.25 * tr.second_order_duration
