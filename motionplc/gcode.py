@@ -467,7 +467,7 @@ class MachineSetup:
     {system: {letter: m}},
     ``tools`` {number: Tool}, ``spindle``/``coolant``/``outputs``: what the machine has (an M3
     on a machine without a spindle is a note, not an error), ``block_delete`` (lines starting
-    with / are skipped), ``optional_stop`` (M1 pauses), ``max_blocks`` (None: 200000 + 10 per
+    with / are skipped), ``optional_stop`` (M1 pauses), ``max_blocks`` (None: 100000 + 10 per
     line of the file), ``limits`` per member (min, max) [m] (None: unlimited) checked on
     every move and the whole of every arc.
     """
@@ -951,7 +951,7 @@ class Interpreter:
             raise GcodeError(errors)
         self._o_index = index
         if self.max_blocks is None:
-            self.max_blocks = 200_000 + 10 * n_lines
+            self.max_blocks = 100_000 + 10 * n_lines
         src.seek((0, 0))
 
     # -- parsing one line ------------------------------------------------------------------

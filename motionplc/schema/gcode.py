@@ -89,7 +89,7 @@ GCODE = Obj(
             Integer(
                 lo=1,
                 hi=10**10,
-                description="Blocks a program may execute (default 200000 + 10 per line).",
+                description="Blocks a program may execute (default 100000 + 10 per line).",
             ),
         ),
     ),

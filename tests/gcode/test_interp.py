@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import pytest
 
@@ -155,10 +154,9 @@ def test_helix_with_turns_is_one_move_and_the_path_ends_at_the_end() -> None:
     assert list(path.evaluate(path.u_end)) == pytest.approx([0.01, 0.0, -0.006], abs=1e-12)
     # the feed applies to the XYZ length: duration = length / F
     assert m.duration == pytest.approx(path.length / 0.01)
-    # a huge P is one arc, validated at once
-    t0 = time.perf_counter()
+    # a huge P is one arc (its turns a parameter, never expanded)
     (big,) = moves("G21 G0 X10 Y0\nG2 I-10 P100000000 F600\n")[1:]
-    assert big.turns == 99_999_999 and time.perf_counter() - t0 < 1.0
+    assert big.turns == 99_999_999
 
 
 def test_rotary_axis_in_degrees_and_feed_on_the_linear_axes() -> None:
@@ -226,13 +224,11 @@ def test_hostile_input_is_bounded_and_escaped() -> None:
     assert "\x1b" not in msg and "\\x1b" in msg
     assert escape("a\x07b") == "a\\x07b"
     assert "longer than 1024" in error_of("G0 X1 " + "(c)" * 400 + "\n")
-    t0 = time.perf_counter()
     loop = "#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n"
     assert "blocks executed" in error_of(loop, MachineSetup.for_axes("xyz", max_blocks=10_000))
     assert "nested deeper" in error_of("G0 X" + "[" * 100 + "1" + "]" * 100 + "\n")
     rec = "o1 sub\no1 call\no1 endsub\no1 call\n"
     assert "nested deeper than 64" in error_of(rec)
-    assert time.perf_counter() - t0 < 2.0
 
 
 def test_zero_length_moves_are_skipped_without_memory_per_move() -> None:
