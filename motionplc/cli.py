@@ -477,15 +477,15 @@ def _cmd_validate(args: argparse.Namespace) -> int:
     if script is not None:
         _plausibility_warnings(cfg, script)
         if hasattr(script, "program") and hasattr(script, "group"):  # a G-code job
-            from motionplc.gcode_runner import group_moves
-
             spec = cfg.group(script.group)
-            limits = [(cfg.axis(a).sw_limit_min, cfg.axis(a).sw_limit_max) for a in spec.axes]
-            moves = group_moves(script.program, [0.0] * len(spec.axes), limits)
+            notes = script.program.notes
+            for note in notes[:20]:
+                print(f"note: {note}")
+            if len(notes) > 20:
+                print(f"note: ... and {len(notes) - 20} more notes")
             print(
-                f"{args.script}: ok - {_plural(len(script.program), 'motion line')}, "
-                f"{_plural(len(moves), 'group move')} from the origin on group "
-                f"{script.group!r} ({', '.join(spec.axes)})"
+                f"{args.script}: ok - {_plural(len(script.program), 'move')} from the origin "
+                f"on group {script.group!r} ({', '.join(spec.axes)})"
             )
         elif hasattr(script, "steps"):
             print(

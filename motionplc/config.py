@@ -897,6 +897,7 @@ class Config:
     groups: tuple[GroupSpec, ...] = ()
     cams: tuple[CamSpec, ...] = ()
     warnings: tuple[str, ...] = ()  # ``FILE:LINE: key.path: warning: ...`` (plausibility)
+    gcode: dict[str, Any] | None = None  # the G-code machine (motionplc.gcode_runner)
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -1651,6 +1652,7 @@ def parse_config(data: Any, file: str | Path) -> Config:
                 cam = _parse_cam(c, cm, name, body)
                 if cam is not None:
                     cams.append(cam)
+    gcode = _parse_gcode(c, top) if top.get("gcode") is not None else None
     c.raise_if_any()
     assert runtime is not None
     return Config(
@@ -1661,7 +1663,92 @@ def parse_config(data: Any, file: str | Path) -> Config:
         tuple(groups),
         tuple(cams),
         tuple(c.warnings),
+        gcode,
     )
+
+
+def _parse_gcode(c: Checker, top: YamlMap) -> dict[str, Any] | None:
+    """The ``gcode:`` block (schema motionplc.schema.gcode) as plain values."""
+    from motionplc.schema.gcode import GCODE
+
+    table = GCODE.table()
+    m = c.mapping(top["gcode"], top.line_of("gcode"), "gcode", table)
+    if m is None:
+        return None
+    keys = {k.name: k.node for k in GCODE.keys}
+    out: dict[str, Any] = {}
+    for name in (
+        "units",
+        "plane",
+        "path_control",
+        "coordinate_system",
+        "tool_table",
+        "spindle",
+        "block_delete",
+        "optional_stop",
+        "max_blocks",
+    ):
+        if name in m:
+            out[name] = c.field(m, name, "gcode", keys[name])
+    letters = "XYZABCUVW"
+    if m.get("axes") is not None:
+        am = c.mapping(m["axes"], m.line_of("axes"), "gcode.axes")
+        if am is not None:
+            out["axes"] = {}
+            for k, v in am.items():
+                if not (isinstance(k, str) and k.upper() in letters and len(k) == 1):
+                    c.error(
+                        am.key_lines.get(k, am.line),
+                        f"gcode.axes.{k}",
+                        "not an axis letter",
+                        "X Y Z A B C U V W",
+                    )
+                elif not isinstance(v, str):
+                    c.error(am.line_of(k), f"gcode.axes.{k}", f"got {_tname(v)}", "an axis name")
+                else:
+                    out["axes"][k.upper()] = v
+    if m.get("coolant") is not None:
+        cm = c.mapping(
+            m["coolant"], m.line_of("coolant"), "gcode.coolant", {"mist": False, "flood": False}
+        )
+        if cm is not None:
+            out["coolant"] = {k: c.string(cm, k, "gcode.coolant") for k in cm}
+    if m.get("outputs") is not None:
+        ol = m["outputs"]
+        if not isinstance(ol, list) or not all(isinstance(x, str) and x for x in ol):
+            c.error(m.line_of("outputs"), "gcode.outputs", "must be a list of output names")
+        elif len(ol) > 64:
+            c.error(m.line_of("outputs"), "gcode.outputs", f"{len(ol)} outputs", "up to 64")
+        else:
+            out["outputs"] = list(ol)
+    if m.get("work_offsets") is not None:
+        wm = c.mapping(m["work_offsets"], m.line_of("work_offsets"), "gcode.work_offsets")
+        systems = ("G54", "G55", "G56", "G57", "G58", "G59", "G59.1", "G59.2", "G59.3")
+        if wm is not None:
+            out["work_offsets"] = {}
+            for k, v in wm.items():
+                wp = f"gcode.work_offsets.{k}"
+                if str(k).upper() not in systems:
+                    c.error(wm.key_lines.get(k, wm.line), wp, "not a work offset", "G54 .. G59.3")
+                    continue
+                om = c.mapping(v, wm.line_of(k), wp)
+                if om is None:
+                    continue
+                offs = {}
+                for letter in om:
+                    if not (isinstance(letter, str) and letter.upper() in letters):
+                        c.error(
+                            om.key_lines.get(letter, om.line),
+                            f"{wp}.{letter}",
+                            "not an axis letter",
+                            "X Y Z A B C U V W",
+                        )
+                        continue
+                    val = c.number(om, letter, wp, None, ge=-_POSITION_MAX, le=_POSITION_MAX)
+                    if val is not None:
+                        offs[letter.upper()] = val
+                out["work_offsets"][str(k).upper()] = offs
+    return out
 
 
 _GROUP = S.GROUP.table()

@@ -1,57 +1,49 @@
 """G-code programs on an axes group: ``motionplc run CONFIG program.ngc [--group NAME]``.
 
-The program (:mod:`motionplc.gcode`: parser and resolver) runs on one configured axes group;
-its X, Y, Z words address the group's members in group order (the identity Cartesian mapping:
-``groups: {xyz: [x, y, z]}``). :class:`GcodeRunner` is a task program (``runner(ctx)`` every
-cycle, the same outcome interface as the sequence and Python-program runners):
+The program (:mod:`motionplc.gcode`, the RS274/NGC interpreter) runs on one configured axes
+group; the machine (:class:`~motionplc.gcode.MachineSetup`) comes from the configuration: the
+group's members are the axes X, Y, Z in group order unless ``gcode.axes`` maps letters to
+members (``{X: x, Y: y, Z: z, A: a}``; a member in rad is a rotary axis, A/B/C in degrees in
+the program), start-up units, plane, work offsets, tool table file, the spindle axis and the
+coolant / digital outputs (``gcode:`` block, :func:`setup_from_config`).
 
-1. **Power**: one ``MC_Power`` per member axis with Enable TRUE, called every cycle (as a
-   sequence's power step does); the runner waits for every ``status``.
-2. **Enable**: ``MC_GroupEnable`` if the group is GroupDisabled (GroupStandby: nothing to do;
-   any other state fails the run). If the members' set position differs from the one the
-   program was resolved from, the program is resolved again from there (its errors then fail
-   the run before any motion).
-3. **Moves**: every G-code move becomes one group FB call (an ``MC_MoveLinearAbsolute`` or an
-   ``MC_MoveCircularAbsolute``), fed so that the group's queue stays filled: at most
-   ``per_cycle`` (default 1) new FBs per cycle (each is planned in the cycle it is queued)
-   and at most ``window`` FBs in flight (default: the group's ``queue_depth``). FB instances
-   are reused once their move is Done.
-4. **End**: every move Done and the group at rest (GroupStandby) -> ``finished``.
+:class:`GcodeRunner` is a task program (``runner(ctx)`` every cycle):
 
-Mapping of the moves (all decided before the run starts, by :func:`group_moves`):
+1. **Power** every member (MC_Power, and the spindle axis if any), **Enable** the group
+   (MC_GroupEnable if GroupDisabled).
+2. **Moves**, streaming: the interpreter runs as the group consumes the moves (at most
+   ``window`` group FBs in flight, ``per_cycle`` new per cycle; nothing holds the whole
+   program's moves). Each G-code move is **one** group FB: a line MC_MoveLinearAbsolute; an arc
+   in the XY plane of the first two members without turns or rise MC_MoveCircularAbsolute
+   (CircMode CENTER); any other arc -- full circles, turns (P), helices, G18/G19 planes, rotary
+   axes moving with the arc -- one MC_MoveCircularAbsolute carrying the exact arc / helix
+   (:class:`GcodeArcFB`, one path segment whatever the number of turns).
+3. **Corners** (LinuxCNC: the path-control mode of a line decides how that line ends): after
+   G61.1 exact stop BUFFERED; after G61 exact path BLENDING_LOW with TM_NONE (tangent joins at
+   speed, corners at rest); after G64 P<tol> BLENDING_LOW with TM_MAX_CORNER_DEVIATION(tol);
+   after G64 / G64 P0 (as fast as possible) TM_MAX_CORNER_DEVIATION with
+   :data:`AS_FAST_AS_POSSIBLE` (the blend bounded by the segments only). G64 Q<tol>: runs of
+   collinear feed lines (every point within Q of the merged line) become one line (LinuxCNC's
+   naive-CAM detector).
+4. **Machine events** in program order: spindle (MC_MoveVelocity / MC_Halt on the spindle axis,
+   rev/min to rad/s), coolant and M62-M65 outputs (named outputs: the cycle's output image
+   ``ctx.outputs[name]`` and an edge in the trace, FB ``gcode``), tool change, dwell (the group
+   at rest for P s), pauses (M0, M1 with the optional stop on, M60: noted, the program goes on:
+   there is no operator), messages. A synchronised event waits until the group is at rest.
 
-* ``G0``: a line at the axes' limits (``velocity`` 1e9: the path caps of the group hold);
-  ``G1``: a line at ``F``.
-* ``G2``/``G3`` in the XY plane (or any arc of a 2-axis group): CircMode CENTER with the
-  arc's centre, PathChoice CLOCKWISE / COUNTER_CLOCKWISE, at ``F``. A full circle (and each
-  extra turn of ``P``) is run as equal arcs of at most 180 degrees (a CENTER arc cannot end
-  where it starts), joined smoothly (BLENDING_LOW, TM_NONE: passed at speed).
-* ``G2``/``G3`` in the ZX (G18) or YZ (G19) plane of a 3-axis group: CircMode BORDER through the
-  arc's midpoint (the group's CENTER arcs lie in planes parallel to XY), split into equal arcs
-  of at most 180 degrees.
-* **Not expressible**: a helix (an arc that also moves along its plane's normal, or with the
-  off-plane word); it is a located :class:`~motionplc.gcode.GcodeError`
-  ``FILE:LINE: G2: ...`` raised before the run, never skipped. So is a move whose end point or
-  arc leaves a member's software limits, and a feed above the path-speed range of the FBs.
-* Corners, as in LinuxCNC (the path-control mode in force on a line decides how that line ends):
-  the move after a line run under ``G64 P<tol>`` gets BLENDING_LOW with
-  TM_MAX_CORNER_DEVIATION(tol); under ``G64`` without P, TM_MAX_CORNER_DEVIATION(0) (the
-  group's default ``tolerance``); under ``G61`` BUFFERED with TM_NONE (exact stop). The first
-  move starts from rest (BUFFERED).
-
-A move that fails at run time (FB Error) fails the run with ``FILE:LINE: WORD: <FB> failed
-with <ErrorID> (0x....): <text>`` (and the axis error that caused it, if any); the group is
-then halted along its path (MC_GroupHalt). ``report()`` gives the lines run and the times.
+A move that fails at run time fails the run with ``FILE:LINE: WORD: <FB> failed with
+<ErrorID>...``, and the group is halted along its path (MC_GroupHalt). ``report()`` gives the
+lines run and the times.
 """
 
 from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 from motionplc.blocks.enums import (
     BufferMode,
@@ -61,24 +53,39 @@ from motionplc.blocks.enums import (
     PathChoice,
     TransitionMode,
 )
-from motionplc.errors import ConfigError, PlanningError
-from motionplc.gcode import GcodeError, GcodeMove, GcodeProgram, load_gcode, move_path
-from motionplc.planning.paths import Arc
+from motionplc.blocks.group_blocks import MC_MoveCircularAbsolute
+from motionplc.errors import ConfigError
+from motionplc.gcode import (
+    AXES,
+    GcodeError,
+    GcodeEvent,
+    GcodeMove,
+    GcodeProgram,
+    MachineSetup,
+    arc_path,
+    load_gcode,
+    read_tool_table,
+    validate,
+)
 
 if TYPE_CHECKING:
-    from motionplc.blocks.group import AxesGroup
+    from motionplc.blocks.group import AxesGroup, Handle
     from motionplc.config import Config, Machine
     from motionplc.runtime import CycleContext
 
 __all__ = [
+    "AS_FAST_AS_POSSIBLE",
     "GCODE_SUFFIXES",
+    "GcodeArcFB",
     "GcodeJob",
     "GcodeRunner",
     "GroupMove",
     "choose_group",
     "group_moves",
     "is_gcode",
+    "iter_group_moves",
     "load_gcode_job",
+    "setup_from_config",
 ]
 
 GCODE_SUFFIXES = (".ngc", ".nc", ".gcode", ".tap")
@@ -87,12 +94,14 @@ GCODE_SUFFIXES = (".ngc", ".nc", ".gcode", ".tap")
 RAPID_VELOCITY = 1e9
 """Path velocity of G0 [m/s]: the largest the group FBs take; the path caps (axis limits) hold."""
 
+AS_FAST_AS_POSSIBLE = 1e3
+"""[m] corner deviation of G64 without P (or P0): no tolerance, the blend is bounded by the
+segments' lengths only (LinuxCNC: "best possible speed")."""
+
 DEFAULT_TIMEOUT = 3600.0
 """[s] of (virtual) time a program may take by default."""
 
-_WORD = {"rapid": "G0", "linear": "G1", "arc_cw": "G2", "arc_ccw": "G3"}
-_HALF_TURN = math.pi * (1.0 + 1e-9)  # arcs up to this angle are one FB (CENTER or BORDER)
-_SAME_START_ATOL = 1e-9  # [m] a start position within this of the resolved one is the same
+_SAME_START_ATOL = 1e-9  # [m] a start position within this of the validated one is the same
 
 
 def is_gcode(path: str | Path) -> bool:
@@ -101,10 +110,7 @@ def is_gcode(path: str | Path) -> bool:
 
 
 def choose_group(config: Config, path: str | Path, group: str | None = None) -> str:
-    """The group a G-code program runs on: ``group`` if given, else the only configured one.
-
-    Raises :class:`~motionplc.errors.ConfigError` naming the configured groups otherwise.
-    """
+    """The group a G-code program runs on: ``group`` if given, else the only configured one."""
     names = [g.name for g in config.groups]
     if group is not None:
         if group not in names:
@@ -126,10 +132,105 @@ def choose_group(config: Config, path: str | Path, group: str | None = None) -> 
     )
 
 
+def setup_from_config(config: Config, group: str, path: str | Path = "") -> MachineSetup:
+    """The machine of a G-code program on ``group`` of ``config`` (its ``gcode:`` block)."""
+    spec = config.group(group)
+    members = tuple(spec.axes)
+    g = getattr(config, "gcode", None) or {}
+    where = f"{config.path}: gcode"
+    amap = g.get("axes")
+    if amap is None:
+        if not 1 <= len(members) <= 3:
+            raise ConfigError(
+                f"{path}: group {group!r} has {len(members)} axes ({', '.join(members)}); "
+                "map them to letters with gcode.axes (allowed: 1 to 3 axes mapped to X, Y, Z "
+                "without it)"
+            )
+        axes = {AXES[i]: i for i in range(len(members))}
+    else:
+        axes = {}
+        for letter, name in amap.items():
+            if name not in members:
+                raise ConfigError(
+                    f"{where}.axes.{letter}: {name!r} is not a member of group {group!r} "
+                    f"(allowed: {', '.join(members)})"
+                )
+            axes[letter] = members.index(name)
+        missing = [m for i, m in enumerate(members) if i not in axes.values()]
+        if missing:
+            raise ConfigError(
+                f"{where}.axes: members {missing} of group {group!r} have no letter "
+                "(allowed: every member mapped)"
+            )
+    rotary = frozenset(c for c, i in axes.items() if config.axis(members[i]).units == "rad")
+    for c in rotary:
+        if c not in "ABC":
+            raise ConfigError(
+                f"{where}.axes.{c}: axis {members[axes[c]]!r} is in rad; a rotary axis must be "
+                "A, B or C"
+            )
+    for c, i in axes.items():
+        if c in "ABC" and c not in rotary:
+            raise ConfigError(
+                f"{where}.axes.{c}: axis {members[i]!r} is in m; A, B, C are rotary "
+                "(allowed: an axis with units: rad)"
+            )
+    tools = {}
+    units = g.get("units", "mm")
+    if g.get("tool_table"):
+        tt = Path(config.path).parent / g["tool_table"]
+        tools = read_tool_table(tt, 0.0254 if units == "inch" else 0.001)
+    offsets: dict[int, dict[str, float]] = {}
+    systems = {
+        "G54": 1,
+        "G55": 2,
+        "G56": 3,
+        "G57": 4,
+        "G58": 5,
+        "G59": 6,
+        "G59.1": 7,
+        "G59.2": 8,
+        "G59.3": 9,
+    }
+    for key, offs in (g.get("work_offsets") or {}).items():
+        offsets[systems[str(key).upper()]] = {str(k).upper(): float(v) for k, v in offs.items()}
+    limits = tuple((config.axis(a).sw_limit_min, config.axis(a).sw_limit_max) for a in members)
+    cs = {
+        "G54": 1,
+        "G55": 2,
+        "G56": 3,
+        "G57": 4,
+        "G58": 5,
+        "G59": 6,
+        "G59.1": 7,
+        "G59.2": 8,
+        "G59.3": 9,
+    }[str(g.get("coordinate_system", "G54")).upper()]
+    coolant = tuple(k for k in ("mist", "flood") if (g.get("coolant") or {}).get(k))
+    return MachineSetup(
+        axes=axes,
+        names=members,
+        rotary=rotary,
+        units=units,
+        plane={"G17": "XY", "G18": "ZX", "G19": "YZ"}[str(g.get("plane", "G17")).upper()],
+        path_control=str(g.get("path_control", "G64")).upper(),
+        coordinate_system=cs,
+        work_offsets=offsets,
+        tools=tools,
+        spindle=bool(g.get("spindle")),
+        coolant=coolant,
+        outputs=tuple(g.get("outputs") or ()),
+        block_delete=bool(g.get("block_delete", True)),
+        optional_stop=bool(g.get("optional_stop", False)),
+        max_blocks=g.get("max_blocks"),
+        limits=limits,
+    )
+
+
 @dataclass(frozen=True, slots=True)
 class GcodeJob:
-    """A parsed G-code program bound to a configured group (validated before anything is
-    built): ``axes`` are the group members X, Y, Z map to; ``task`` the members' task."""
+    """A checked G-code program bound to a configured group: ``axes`` the members,
+    ``task`` the members' task, ``spindle``/``coolant``/``outputs`` the machine's."""
 
     path: str
     program: GcodeProgram
@@ -137,6 +238,13 @@ class GcodeJob:
     axes: tuple[str, ...]
     task: str
     timeout: float = DEFAULT_TIMEOUT
+    spindle: str | None = None
+    coolant: tuple[tuple[str, str], ...] = ()
+    spindle_scale: float = 2.0 * math.pi / 60.0  # set value per rev/min (rad/s; rev/s in m)
+
+    @property
+    def setup(self) -> MachineSetup:
+        return self.program.setup
 
 
 def load_gcode_job(
@@ -145,32 +253,44 @@ def load_gcode_job(
     group: str | None = None,
     timeout: float = DEFAULT_TIMEOUT,
 ) -> GcodeJob:
-    """Parse a G-code file for a group of ``config`` (see :func:`choose_group`).
-
-    Raises :class:`~motionplc.gcode.GcodeError` listing every syntax and modal error of the
-    file (``FILE:LINE: WORD: ...``), or :class:`~motionplc.errors.ConfigError` for the group.
-    """
+    """Check a G-code file for a group of ``config`` (the whole program runs once, from the
+    machine origin). Raises :class:`~motionplc.gcode.GcodeError` listing every error
+    (``FILE:LINE: WORD: ...``), or :class:`~motionplc.errors.ConfigError` for the group."""
     name = choose_group(config, path, group)
     spec = config.group(name)
-    if not 1 <= len(spec.axes) <= 3:
-        raise ConfigError(
-            f"{path}: group {name!r} has {len(spec.axes)} axes "
-            f"({', '.join(spec.axes)}) (allowed: 1 to 3 axes, mapped to X, Y, Z)"
-        )
     if not (isinstance(timeout, (int, float)) and timeout > 0 and math.isfinite(timeout)):
         raise ConfigError(f"{path}: timeout: got {timeout!r} (allowed: a number > 0)")
-    program = load_gcode(path, spec.axes)
+    setup = setup_from_config(config, name, path)
+    program = load_gcode(path, setup=setup)
     task = config.axis(spec.axes[0]).task or config.runtime.tasks[0].name
-    return GcodeJob(str(path), program, name, spec.axes, task, float(timeout))
+    g = getattr(config, "gcode", None) or {}
+    spindle = g.get("spindle")
+    scale = 2.0 * math.pi / 60.0
+    if spindle is not None:
+        if spindle not in {a.name for a in config.axes}:
+            raise ConfigError(f"{config.path}: gcode.spindle: no axis {spindle!r}")
+        if config.axis(spindle).units != "rad":
+            scale = 1.0 / 60.0
+    coolant = tuple((k, v) for k, v in (g.get("coolant") or {}).items() if v)
+    return GcodeJob(
+        str(path),
+        program,
+        name,
+        tuple(spec.axes),
+        task,
+        float(timeout),
+        spindle,
+        coolant,
+        scale,
+    )
 
 
 # ------------------------------------------------------------------------------ mapping
-@dataclass(frozen=True, slots=True)
-class GroupMove:
-    """One group FB call of a program: ``kind`` ``"linear"`` (MC_MoveLinearAbsolute) or
-    ``"circular"`` (MC_MoveCircularAbsolute); ``line``/``word``/``text`` locate it in the
-    file; ``index`` is the G-code move it belongs to (a split arc has several GroupMoves,
-    ``last`` on its final one). The other fields are the FB's inputs (SI units)."""
+class GroupMove(NamedTuple):
+    """One group FB call: ``kind`` ``"linear"`` (MC_MoveLinearAbsolute), ``"circular"``
+    (MC_MoveCircularAbsolute, CENTER) or ``"segment"`` (:class:`GcodeArcFB`: ``segment`` the
+    exact arc / helix); ``line``/``word``/``text`` locate it in the file; the other fields are
+    the FB's inputs (SI). ``outputs``: M62/M63 outputs switched when it starts."""
 
     index: int
     line: int
@@ -185,6 +305,8 @@ class GroupMove:
     circ_mode: CircMode = CircMode.CENTER
     aux_point: tuple[float, ...] = ()
     path_choice: PathChoice = PathChoice.COUNTER_CLOCKWISE
+    segment: Any = None
+    outputs: tuple[tuple[int, bool], ...] = ()
     last: bool = True
 
     def inputs(self) -> dict[str, Any]:
@@ -197,20 +319,57 @@ class GroupMove:
         }
         if self.kind == "linear":
             return {"position": self.position, **common}
-        return {
+        out = {
             "end_point": self.position,
             "aux_point": self.aux_point,
             "circ_mode": self.circ_mode,
             "path_choice": self.path_choice,
             **common,
         }
+        if self.kind == "segment":
+            out["segment"] = self.segment
+        return out
+
+
+class GcodeArcFB(MC_MoveCircularAbsolute):
+    """MC_MoveCircularAbsolute with one more input, ``segment``: the exact arc or helix
+    (:func:`motionplc.gcode.move_path`), one path segment for any number of turns, any plane,
+    with the other axes (normal, rotary) moving linearly with the angle. ``end_point`` must be
+    the segment's end; the group checks that it starts where the move starts."""
+
+    INPUTS = (*MC_MoveCircularAbsolute.INPUTS, "segment")
+
+    def __init__(self, name: str | None = None, **inputs: Any) -> None:
+        self.segment: Any = None
+        super().__init__(name, **inputs)
+
+    def _in_segment(self, group: Any) -> Any:
+        return self.segment
+
+    def _start_group(self, group: AxesGroup) -> Handle:
+        from motionplc.blocks.group import GroupCommand
+
+        common = self._common()
+        end = self._in_end_point(group)
+        return group.submit(
+            GroupCommand(
+                kind="circular",
+                position=end,
+                circ_mode=CircMode.CENTER,
+                aux_point=end,
+                segment=self.segment,
+                **common,
+            )
+        )
 
 
 def _transition(prev: GcodeMove | None) -> tuple[BufferMode, TransitionMode, float]:
     """How the corner at the end of ``prev`` is passed (LinuxCNC: the mode of that line)."""
     if prev is None or prev.exact_stop:
         return BufferMode.BUFFERED, TransitionMode.TM_NONE, 0.0
-    tol = 0.0 if prev.tolerance is None else float(prev.tolerance)
+    if prev.exact_path:
+        return BufferMode.BLENDING_LOW, TransitionMode.TM_NONE, 0.0
+    tol = AS_FAST_AS_POSSIBLE if prev.tolerance is None else float(prev.tolerance)
     return BufferMode.BLENDING_LOW, TransitionMode.TM_MAX_CORNER_DEVIATION, tol
 
 
@@ -218,178 +377,163 @@ def _fmt(x: float) -> str:
     return f"{x:.9g}"
 
 
+def _collinear(
+    points: Sequence[tuple[float, ...]], a: tuple[float, ...], b: tuple[float, ...], tol: float
+) -> bool:
+    d = [y - x for x, y in zip(a, b, strict=True)]
+    dd = sum(v * v for v in d)
+    if dd <= 0.0:
+        return False
+    for p in points:
+        q = [y - x for x, y in zip(a, p, strict=True)]
+        t = sum(u * v for u, v in zip(q, d, strict=True)) / dd
+        if not 0.0 <= t <= 1.0:
+            return False
+        if sum((qi - t * di) ** 2 for qi, di in zip(q, d, strict=True)) > tol * tol:
+            return False
+    return True
+
+
+def _merge_naive(items: Iterator[GcodeMove | GcodeEvent]) -> Iterator[GcodeMove | GcodeEvent]:
+    """G64 Q: runs of feed lines at one speed whose points lie within Q of the merged line
+    become one line (at most 256 points per merge)."""
+    run: list[GcodeMove] = []
+
+    def flush() -> Iterator[GcodeMove]:
+        if not run:
+            return
+        if len(run) == 1:
+            yield run[0]
+        else:
+            first, last = run[0], run[-1]
+            length = math.dist(first.start, last.end)
+            dur = sum(m.duration or 0.0 for m in run)
+            vel = length / dur if dur > 0.0 else last.velocity
+            yield last._replace(start=first.start, velocity=vel, duration=dur)
+        run.clear()
+
+    for it in items:
+        q = it.naive_tolerance if isinstance(it, GcodeMove) else None
+        if (
+            isinstance(it, GcodeMove)
+            and q is not None
+            and it.kind == "linear"
+            and not it.outputs
+            and it.velocity is not None
+        ):
+            if run and (
+                abs((run[-1].velocity or 0.0) - it.velocity) <= 1e-9 * it.velocity
+                and len(run) < 256
+                and _collinear([m.end for m in run], run[0].start, it.end, q)
+            ):
+                run.append(it)
+                continue
+            yield from flush()
+            run.append(it)
+            continue
+        yield from flush()
+        yield it
+    yield from flush()
+
+
+def iter_group_moves(
+    items: Iterator[GcodeMove | GcodeEvent], setup: MachineSetup
+) -> Iterator[GroupMove | GcodeEvent]:
+    """Map the interpreter's items to group FB calls (moves) and events, lazily."""
+    dim = len(setup.names)
+    xi, yi = setup.axes.get("X"), setup.axes.get("Y")
+    center_ok = dim in (2, 3) and xi == 0 and yi == 1 and not setup.rotary
+    prev: GcodeMove | None = None
+    index = -1
+    for mv in _merge_naive(items):
+        if isinstance(mv, GcodeEvent):
+            if mv.sync and mv.kind not in ("message", "note"):
+                prev = None  # the next move starts from rest
+            yield mv
+            continue
+        index += 1
+        mode, tm, tp = _transition(prev)
+        prev = mv
+        if mv.kind in ("rapid", "linear"):
+            v = RAPID_VELOCITY if mv.kind == "rapid" else float(mv.velocity or 0.0)
+            yield GroupMove(
+                index,
+                mv.line,
+                mv.word or ("G0" if mv.kind == "rapid" else "G1"),
+                mv.text,
+                "linear",
+                mv.end,
+                min(v, RAPID_VELOCITY),
+                mode,
+                tm,
+                tp,
+                outputs=mv.outputs,
+            )
+            continue
+        choice = PathChoice.CLOCKWISE if mv.kind == "arc_cw" else PathChoice.COUNTER_CLOCKWISE
+        v = min(float(mv.velocity or 0.0), RAPID_VELOCITY)
+        assert mv.center is not None
+        ia, ib = (setup.axes[c] for c in {"XY": "XY", "ZX": "ZX", "YZ": "YZ"}[mv.plane])
+        simple = (
+            center_ok
+            and mv.plane == "XY"
+            and mv.turns == 0
+            and (dim == 2 or abs(mv.end[2] - mv.start[2]) <= 1e-12 * (1 + abs(mv.start[2])))
+            and math.hypot(mv.end[0] - mv.start[0], mv.end[1] - mv.start[1]) > 1e-9
+        )
+        if simple:
+            yield GroupMove(
+                index,
+                mv.line,
+                mv.word,
+                mv.text,
+                "circular",
+                mv.end,
+                v,
+                mode,
+                tm,
+                tp,
+                CircMode.CENTER,
+                mv.center,
+                choice,
+                outputs=mv.outputs,
+            )
+        else:
+            seg = arc_path(mv, ia, ib)
+            yield GroupMove(
+                index,
+                mv.line,
+                mv.word,
+                mv.text,
+                "segment",
+                mv.end,
+                v,
+                mode,
+                tm,
+                tp,
+                CircMode.CENTER,
+                mv.end,
+                choice,
+                seg,
+                outputs=mv.outputs,
+            )
+
+
 def group_moves(
     program: GcodeProgram,
-    start: Sequence[float],
-    sw_limits: Sequence[tuple[float | None, float | None]] | None = None,
+    start: Sequence[float] | None = None,
+    sw_limits: Any = None,
     *,
     skipped: list[str] | None = None,
 ) -> tuple[GroupMove, ...]:
-    """Resolve ``program`` from the group position ``start`` and map every move to FB calls.
-
-    ``sw_limits``: per member ``(min, max)`` (None: unlimited), checked on every end point and
-    on the whole of every arc. Guarantees: the FB calls reproduce the program's path exactly
-    (lines end at the programmed points, arcs have the programmed centre, radius and sense;
-    split arcs join tangentially), each move's last call ends exactly at the resolved end
-    point, no move is skipped except zero-length ones (listed in ``skipped``). Raises one
-    :class:`~motionplc.gcode.GcodeError` listing every move that cannot be expressed or run
-    (``FILE:LINE: WORD: ...``) up to the resolver's first geometric error (listed last: the
-    moves after it have no defined start).
-    """
-    dim = len(program.axes)
-    names = program.axes
-    limits = list(sw_limits) if sw_limits is not None else [(None, None)] * dim
-    out: list[GroupMove] = []
-    errors: list[str] = []
-    prev: GcodeMove | None = None
-    resolved = program.moves(start, skipped=skipped)
-    index = -1
-    while True:
-        try:
-            mv = next(resolved)
-        except StopIteration:
-            break
-        except GcodeError as exc:  # a geometric error: the moves after it have no start
-            errors.extend(exc.errors)
-            break
-        index += 1
-        word = _WORD[mv.kind]
-        where = f"{program.path}:{mv.line}: {word}"
-        mode, tm, tp = _transition(prev)
-        prev = mv
-        if mv.feed is not None and mv.feed > RAPID_VELOCITY:
-            errors.append(
-                f"{where}: feed {_fmt(mv.feed)} m/s is above the path-speed range of the group "
-                f"blocks (allowed: F up to {_fmt(RAPID_VELOCITY)} m/s)"
-            )
-            continue
-        velocity = RAPID_VELOCITY if mv.kind == "rapid" else float(mv.feed or 0.0)
-        bad = _outside(mv, names, limits)
-        if bad:
-            errors.append(f"{where}: {bad}")
-            continue
-        if mv.kind in ("rapid", "linear"):
-            out.append(
-                GroupMove(index, mv.line, word, mv.text, "linear", mv.end, velocity, mode, tm, tp)
-            )
-            continue
-        try:
-            pieces = _arc_pieces(mv, dim)
-        except _NotExpressibleError as exc:
-            errors.append(f"{where}: {exc}")
-            continue
-        for i, (circ, aux, end) in enumerate(pieces):
-            first = i == 0
-            out.append(
-                GroupMove(
-                    index,
-                    mv.line,
-                    word,
-                    mv.text,
-                    "circular",
-                    end,
-                    velocity,
-                    mode if first else BufferMode.BLENDING_LOW,
-                    tm if first else TransitionMode.TM_NONE,
-                    tp if first else 0.0,
-                    circ,
-                    aux,
-                    PathChoice.CLOCKWISE if mv.kind == "arc_cw" else PathChoice.COUNTER_CLOCKWISE,
-                    last=i == len(pieces) - 1,
-                )
-            )
-    if errors:
-        raise GcodeError(errors)
-    return tuple(out)
-
-
-class _NotExpressibleError(Exception):
-    pass
-
-
-def _arc_pieces(
-    mv: GcodeMove, dim: int
-) -> list[tuple[CircMode, tuple[float, ...], tuple[float, ...]]]:
-    """(CircMode, aux_point, end_point) of the FB calls of one arc."""
-    try:
-        path = move_path(mv)
-    except PlanningError as exc:  # pragma: no cover - the resolver gives consistent moves
-        raise _NotExpressibleError(str(exc)) from None
-    if not isinstance(path, Arc):
-        ia, ib, inn = {"XY": (0, 1, 2), "ZX": (2, 0, 1), "YZ": (1, 2, 0)}[mv.plane]
-        rise = mv.end[inn] - mv.start[inn]
-        letter = "XYZ"[inn]
-        raise _NotExpressibleError(
-            f"helix (the arc in the {mv.plane} plane also moves {letter} by {_fmt(rise)} m"
-            + (f", {mv.turns} extra turns" if mv.turns else "")
-            + "): the group blocks have no helical move (allowed: arcs in one plane, lines; "
-            "split the helix into lines)"
-        )
-    center_mode = dim == 2 or mv.plane == "XY"
-    angle = path.angle
-    if center_mode:
-        n = 1 if angle < 2.0 * math.pi * (1.0 - 1e-9) else max(2, math.ceil(angle / _HALF_TURN))
-    else:
-        n = max(1, math.ceil(angle / _HALF_TURN))
-    u_end = path.u_end
-    pieces = []
-    for k in range(n):
-        if k == n - 1:
-            end = tuple(float(x) for x in mv.end)
-        else:
-            end = tuple(float(x) for x in path.evaluate(u_end * (k + 1) / n))
-        if center_mode:
-            assert mv.center is not None
-            pieces.append((CircMode.CENTER, tuple(float(x) for x in mv.center), end))
-        else:
-            via = tuple(float(x) for x in path.evaluate(u_end * (k + 0.5) / n))
-            pieces.append((CircMode.BORDER, via, end))
-    return pieces
-
-
-def _outside(
-    mv: GcodeMove, names: Sequence[str], limits: Sequence[tuple[float | None, float | None]]
-) -> str:
-    """Why the move leaves a member's software limits ('' if it does not)."""
-    lo_hi = _extent(mv)
-    for name, (lo, hi), (pmin, pmax) in zip(names, limits, lo_hi, strict=True):
-        tol_hi = 1e-12 * (1.0 + abs(pmax))
-        tol_lo = 1e-12 * (1.0 + abs(pmin))
-        if (hi is not None and pmax > hi + tol_hi) or (lo is not None and pmin < lo - tol_lo):
-            reach = pmax if hi is not None and pmax > hi + tol_hi else pmin
-            what = "the arc" if mv.kind.startswith("arc") else "the move"
-            return (
-                f"{what} takes axis {name!r} to {_fmt(reach)} m, outside its software limits "
-                f"[{'-inf' if lo is None else _fmt(lo)}, {'inf' if hi is None else _fmt(hi)}] m "
-                "(allowed: a path within the limits)"
-            )
-    return ""
-
-
-def _extent(mv: GcodeMove) -> list[tuple[float, float]]:
-    """Per axis the smallest and largest coordinate the move reaches (exact for arcs)."""
-    ext = [(min(a, b), max(a, b)) for a, b in zip(mv.start, mv.end, strict=True)]
-    if not mv.kind.startswith("arc"):
-        return ext
-    try:
-        path = move_path(mv)
-    except PlanningError:  # pragma: no cover - reported by _arc_pieces
-        return ext
-    if not isinstance(path, Arc):
-        return ext  # a helix: refused by _arc_pieces
-    c, r, x, y, phi = path.center, path.radius, path.x_axis, path.y_axis, path.angle
-    out = []
-    for i, (lo, hi) in enumerate(ext):
-        # p_i(t) = c_i + r (x_i cos t + y_i sin t): extremes at t* and t* + pi, if on the arc
-        amp = math.hypot(float(x[i]), float(y[i]))
-        if amp > 0.0:
-            t_max = math.atan2(float(y[i]), float(x[i])) % (2.0 * math.pi)
-            t_min = (t_max + math.pi) % (2.0 * math.pi)
-            if t_max <= phi:
-                hi = max(hi, float(c[i]) + r * amp)
-            if t_min <= phi:
-                lo = min(lo, float(c[i]) - r * amp)
-        out.append((lo, hi))
+    """All FB calls of ``program`` from ``start`` (for tests and small programs: the runner
+    streams them)."""
+    interp = program.interpreter(start)
+    out = tuple(
+        m for m in iter_group_moves(interp.run(), program.setup) if isinstance(m, GroupMove)
+    )
+    if skipped is not None:
+        skipped.extend(interp.skipped)
     return out
 
 
@@ -408,13 +552,12 @@ class _Slot:
 class GcodeRunner:
     """Runs a :class:`GcodeJob` on its group of a :class:`~motionplc.config.Machine`.
 
-    The program is resolved and mapped (:func:`group_moves`) from the group's set position
-    when the runner is created, so a move that cannot be run is a
-    :class:`~motionplc.gcode.GcodeError` before the first cycle. ``per_cycle``: new FBs per
-    cycle (each is planned in its cycle: this bounds the cycle's planning work); ``window``:
-    FBs in flight (at most the group's ``queue_depth``, its default). Outcome:
-    ``finished``, ``failed``, ``failures``, ``over``, ``t_finished``; ``lines_run`` (G-code
-    moves completed), ``t_motion`` (when the first move was queued) and :meth:`report`.
+    If the group does not start at the machine origin the program is checked again from its
+    position when the runner is created (a :class:`~motionplc.gcode.GcodeError` before the
+    first cycle). ``per_cycle``: new FBs per cycle; ``window``: FBs in flight (at most the
+    group's ``queue_depth``, its default). Outcome: ``finished``, ``failed``, ``failures``,
+    ``over``, ``t_finished``; ``lines_run`` (G-code moves completed), ``events`` (the machine
+    events done, at most 10000 kept), ``outputs`` (name -> state) and :meth:`report`.
     """
 
     def __init__(
@@ -438,38 +581,58 @@ class GcodeRunner:
         self.group: AxesGroup = group
         self.per_cycle = per_cycle
         self.window = window if window is not None else depth
-        self.skipped: list[str] = []
         self.start = group.position()
-        self.moves = self._map(self.start)
-        self.lines_total = len({m.index for m in self.moves})
-        from motionplc.blocks import MC_Power
+        self.lines_total = job.program.n_moves
+        if max((abs(v) for v in self.start), default=0.0) > _SAME_START_ATOL:
+            self.lines_total, _, _ = validate(job.program, self.start)
+        from motionplc.blocks import MC_Halt, MC_MoveVelocity, MC_Power
         from motionplc.blocks.group_blocks import MC_GroupEnable, MC_GroupHalt
 
         g = job.group
         self._powers = [
             MC_Power(name=f"{a}.gcode_power", axis=machine.axes[a], enable=True) for a in job.axes
         ]
+        self._spindle_fb: Any = None
+        self._spindle_halt: Any = None
+        if job.spindle is not None:
+            ax = machine.axes.get(job.spindle)
+            if ax is None:
+                raise ConfigError(f"{job.path}: gcode.spindle: no axis {job.spindle!r}")
+            self._powers.append(MC_Power(name=f"{job.spindle}.gcode_power", axis=ax, enable=True))
+            self._spindle_fb = MC_MoveVelocity(name=f"{job.spindle}.gcode_spindle", axis=ax)
+            self._spindle_halt = MC_Halt(name=f"{job.spindle}.gcode_spindle_stop", axis=ax)
+            self._spindle_scale = job.spindle_scale
         self._enable = MC_GroupEnable(name=f"{g}.gcode_enable", axes_group=group)
         self._halt = MC_GroupHalt(name=f"{g}.gcode_halt", axes_group=group)
         self._halting = False
-        self._free: dict[str, list[_Slot]] = {"linear": [], "circular": []}
+        self._free: dict[str, list[_Slot]] = {"linear": [], "circular": [], "segment": []}
         self._flight: deque[_Slot] = deque()
         self._releasing: list[_Slot] = []
-        self._n_fbs = {"linear": 0, "circular": 0}
-        self._next = 0
+        self._n_fbs = {"linear": 0, "circular": 0, "segment": 0}
+        self._interp = job.program.interpreter(self.start)
+        self._items = iter_group_moves(self._interp.run(), job.setup)
+        self._next: GroupMove | GcodeEvent | None = None
+        self._exhausted = False
+        self._dwell_until: float | None = None
+        self._spindle_cmd: tuple[str, float] | None = None
         self.phase = "power"
         self.finished = False
         self.failures: list[str] = []
         self.t = 0.0
+        self.cycle = 0
         self.t_finished: float | None = None
         self.t_motion: float | None = None
         self.lines_run = 0
         self.steps_done = 0
+        self.moves_sent = 0
+        self.events: list[tuple[float, str]] = []
+        self.n_events = 0
+        self.outputs: dict[str, bool] = {}
+        self._ctx: Any = None
 
-    def _map(self, start: Sequence[float]) -> tuple[GroupMove, ...]:
-        limits = [(ax.cfg.sw_limit_neg, ax.cfg.sw_limit_pos) for ax in self.group.axes]
-        self.skipped = []
-        return group_moves(self.job.program, start, limits, skipped=self.skipped)
+    @property
+    def skipped(self) -> list[str]:
+        return self._interp.skipped
 
     # -- outcome ---------------------------------------------------------------------------
     @property
@@ -488,10 +651,12 @@ class GcodeRunner:
             if self.t_finished is not None and self.t_motion is not None
             else "not finished"
         )
-        skipped = f", {len(self.skipped)} zero-length skipped" if self.skipped else ""
+        n_skip = self._interp.n_skipped
+        skipped = f", {n_skip} zero-length skipped" if n_skip else ""
+        ev = f", {self.n_events} machine events" if self.n_events else ""
         return (
-            f"{self.job.path}: {self.lines_run} of {self.lines_total} lines run on group "
-            f"{self.job.group!r} ({len(self.moves)} group moves{skipped}), {motion}"
+            f"{self.job.path}: {self.lines_run} of {self.lines_total} moves run on group "
+            f"{self.job.group!r} ({self.moves_sent} group moves{skipped}{ev}), {motion}"
             + (f", ended at t = {self.t_finished:.3f} s" if self.t_finished is not None else "")
         )
 
@@ -506,8 +671,12 @@ class GcodeRunner:
     # -- the program -----------------------------------------------------------------------
     def __call__(self, ctx: CycleContext) -> None:
         self.t = ctx.t
+        self.cycle = ctx.cycle
+        self._ctx = ctx
         for p in self._powers:
             p()
+        if self._spindle_cmd is not None:
+            self._spindle_step()
         if self._halting:
             self._halt()
             return
@@ -516,7 +685,7 @@ class GcodeRunner:
         if ctx.t >= self.job.timeout - 1e-12:
             self._fail(
                 f"{self.job.path}: timeout: the program did not finish within "
-                f"{self.job.timeout:g} s ({self.lines_run} of {self.lines_total} lines run)"
+                f"{self.job.timeout:g} s ({self.lines_run} of {self.lines_total} moves run)"
             )
             return
         if self.phase == "power":
@@ -524,7 +693,10 @@ class GcodeRunner:
         if self.phase == "enable":
             self._enabling()
         if self.phase == "run":
-            self._run()
+            try:
+                self._run()
+            except GcodeError as exc:  # pragma: no cover - validated before the run
+                self._fail(str(exc))
 
     def _power(self) -> None:
         from motionplc.blocks import AxisState
@@ -546,7 +718,7 @@ class GcodeRunner:
             return
         g = self.group
         if g.state is GroupState.GROUP_STANDBY:
-            self._begin()
+            self.phase = "run"
         elif g.state is GroupState.GROUP_DISABLED:
             self.phase = "enable"
             self._enable(execute=True)
@@ -565,45 +737,44 @@ class GcodeRunner:
             )
         elif fb.done:
             self._enable(execute=False)
-            self._begin()
-
-    def _begin(self) -> None:
-        pos = self.group.position()
-        if max((abs(a - b) for a, b in zip(pos, self.start, strict=True)), default=0.0) > (
-            _SAME_START_ATOL
-        ):
-            try:
-                self.moves = self._map(pos)
-            except GcodeError as exc:
+            pos = self.group.position()
+            if max(abs(a - b) for a, b in zip(pos, self.start, strict=True)) > _SAME_START_ATOL:
                 self._fail(
-                    f"{self.job.path}: the group starts at {[round(x, 9) for x in pos]}, not "
-                    f"at {[round(x, 9) for x in self.start]}; from there: {exc}"
+                    f"{self.job.path}: the group moved from {[round(x, 9) for x in self.start]} "
+                    f"to {[round(x, 9) for x in pos]} before the program started"
                 )
                 return
-            self.start = pos
-            self.lines_total = len({m.index for m in self.moves})
-        self.phase = "run"  # the moves start in this cycle (__call__ goes on to _run)
+            self.phase = "run"
 
     def _slot(self, kind: str) -> _Slot:
         free = self._free[kind]
         if free:
             return free.pop()
-        from motionplc.blocks.group_blocks import MC_MoveCircularAbsolute, MC_MoveLinearAbsolute
+        from motionplc.blocks.group_blocks import MC_MoveLinearAbsolute
 
         self._n_fbs[kind] += 1
-        cls = MC_MoveLinearAbsolute if kind == "linear" else MC_MoveCircularAbsolute
+        cls = {
+            "linear": MC_MoveLinearAbsolute,
+            "circular": MC_MoveCircularAbsolute,
+            "segment": GcodeArcFB,
+        }[kind]
         name = f"{self.job.group}.gcode_{kind}{self._n_fbs[kind]}"
         return _Slot(cls(name=name, axes_group=self.group), kind)
 
+    def _peek(self) -> GroupMove | GcodeEvent | None:
+        if self._next is None and not self._exhausted:
+            try:
+                self._next = next(self._items)
+            except StopIteration:
+                self._exhausted = True
+        return self._next
+
     def _run(self) -> None:
         flight = self._flight
-        # FBs Done in the last cycle: Execute falls now (Done was held one scan, so the trace
-        # shows its edge), then the instance is free for the next move
         for slot in self._releasing:
             slot.fb(execute=False)
             self._free[slot.fb_kind].append(slot)
         self._releasing.clear()
-        # outputs of the FBs in flight (oldest first); Done ones are released for reuse
         for slot in list(flight):
             fb = slot.fb()
             mv = slot.move
@@ -620,6 +791,8 @@ class GcodeRunner:
             if fb.done:
                 flight.remove(slot)
                 slot.move = None
+                if slot.fb_kind == "segment":
+                    slot.fb.segment = None
                 self._releasing.append(slot)
                 if mv.last:
                     self.lines_run += 1
@@ -631,28 +804,108 @@ class GcodeRunner:
                 f"({g.error_id.name}: {g.error_reason}) at t = {self.t:.3f} s"
             )
             return
-        # feed: at most per_cycle new moves, at most window in flight
-        moves = self.moves
+        if self._dwell_until is not None:
+            if self.t < self._dwell_until - 1e-12:
+                return
+            self._dwell_until = None
         n = 0
-        while self._next < len(moves) and n < self.per_cycle and len(flight) < self.window:
-            mv = moves[self._next]
-            slot = self._slot(mv.kind)
-            slot.move = mv
-            fb = slot.fb(execute=True, **mv.inputs())
-            self._next += 1
+        while n < self.per_cycle and len(flight) < self.window:
+            item = self._peek()
+            if item is None:
+                break
+            if isinstance(item, GcodeEvent):
+                if item.sync and item.kind not in ("message", "note") and (flight or g.moving):
+                    break  # wait until the motion before it is done
+                self._next = None
+                self._do_event(item)
+                if self._dwell_until is not None:
+                    return
+                continue
+            self._next = None
+            slot = self._slot(item.kind)
+            slot.move = item
+            for idx, on in item.outputs:
+                self._set_output(f"output{idx}", idx, on)
+            fb = slot.fb(execute=True, **item.inputs())
             n += 1
+            self.moves_sent += 1
             if self.t_motion is None:
                 self.t_motion = self.t
             if fb.error:
-                self._fail(self._fb_failure(fb, mv))
+                self._fail(self._fb_failure(fb, item))
                 return
             flight.append(slot)
-        if self._next >= len(moves) and not flight and not g.moving:
+        if self._exhausted and self._next is None and not flight and not g.moving:
             if g.state is GroupState.GROUP_STANDBY:
                 self.finished = True
                 self.t_finished = self.t
                 if self.t_motion is None:
                     self.t_motion = self.t
+
+    # -- machine events --------------------------------------------------------------------
+    def _log(self, text: str) -> None:
+        self.n_events += 1
+        if len(self.events) < 10_000:
+            self.events.append((self.t, text))
+
+    def _set_output(self, name: str, index: int, on: bool) -> None:
+        outs = self.job.setup.outputs
+        if name.startswith("output") and index < len(outs):
+            name = outs[index]
+        elif name.startswith("output"):
+            return  # noted by the interpreter: the machine has no such output
+        self.outputs[name] = on
+        ctx = self._ctx
+        if ctx is not None:
+            ctx.outputs[name] = on
+            trace = getattr(self.machine.runtime, "trace", None)
+            if trace is not None:
+                trace.event(self.cycle, "gcode", name, on)
+        self._log(f"{name} {'on' if on else 'off'}")
+
+    def _do_event(self, ev: GcodeEvent) -> None:
+        k = ev.kind
+        if k == "dwell":
+            self._dwell_until = self.t + ev.value
+            self._log(f"dwell {ev.value:g} s")
+        elif k == "spindle":
+            self._log(f"spindle {ev.value:g} rev/min")
+            if self._spindle_fb is not None:
+                self._spindle_cmd = ("stop", 0.0) if ev.value == 0.0 else ("run", ev.value)
+                self._spindle_step(new=True)
+        elif k == "coolant":
+            names = dict(self.job.coolant)
+            if ev.name in names:
+                self._set_output(names[ev.name], 0, ev.value != 0.0)
+        elif k == "output":
+            self._set_output(f"output{ev.index}", ev.index, ev.value != 0.0)
+        elif k == "tool_change":
+            self._log(f"tool change T{ev.index}")
+        elif k == "pause":
+            self._log(f"pause M{ev.value:g} ({ev.text or 'no operator: continued'})")
+        elif k == "end":
+            self._log(ev.text or "end")
+        else:
+            self._log(f"{k}: {ev.text}")
+
+    def _spindle_step(self, new: bool = False) -> None:
+        """Call the spindle's FB of the current command every cycle (a new one: an edge)."""
+        assert self._spindle_cmd is not None
+        what, rpm = self._spindle_cmd
+        from motionplc.blocks.enums import Direction
+
+        fb = self._spindle_fb if what == "run" else self._spindle_halt
+        if new:
+            fb(execute=False)
+            kw: dict[str, Any] = {}
+            if what == "run":
+                kw = {
+                    "velocity": abs(rpm) * self._spindle_scale,
+                    "direction": Direction.POSITIVE if rpm > 0 else Direction.NEGATIVE,
+                }
+            fb(execute=True, **kw)
+        else:
+            fb()
 
     def _fb_failure(self, fb: Any, mv: GroupMove) -> str:
         eid = fb.error_id

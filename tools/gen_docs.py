@@ -22,9 +22,12 @@ DOCS = ROOT / "docs"
 def generated() -> dict[Path, str]:
     """Every generated file (path under the repository root -> its text)."""
     out: dict[Path, str] = {}
+    from motionplc.gcode import reference_markdown as gcode_reference
+
     for kind in KINDS:
         out[Path("docs/reference") / f"{kind}.md"] = reference_markdown(kind)
         out[Path("docs/schema") / f"{kind}.schema.json"] = dumps(json_schema(kind))
+    out[Path("docs/reference") / "gcode.md"] = gcode_reference()
     return out
 
 

@@ -149,6 +149,7 @@ class GroupCommand:
     aux_point: tuple[float, ...] = ()
     path_choice: PathChoice = PathChoice.COUNTER_CLOCKWISE
     points: tuple[tuple[float, ...], ...] = ()  # passing points (curve)
+    segment: Any = None  # circular: a prebuilt arc / helix (Arc, Helix; G-code turns, helices)
     curve: str = "hermite"  # hermite | bspline
 
 
@@ -758,6 +759,15 @@ class AxesGroup:
 
     def _arc_segments(self, cmd: GroupCommand, base: tuple[float, ...], target: tuple[float, ...]):
         """The geometric segments of a circular move."""
+        if cmd.segment is not None:  # prebuilt (any plane, turns, helix, n axes)
+            seg = cmd.segment
+            p0 = [float(v) for v in seg.start]
+            tol = 1e-9 * (1.0 + max(abs(v) for v in base))
+            if len(p0) != len(base) or max(abs(a - b) for a, b in zip(p0, base, strict=True)) > tol:
+                raise _MoveError(
+                    ErrorID.INVALID_CIRCLE, "segment: does not start where the move starts"
+                )
+            return [seg]
         aux = tuple(float(x) for x in cmd.aux_point)
         n = len(base)
         try:

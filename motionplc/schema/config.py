@@ -10,6 +10,7 @@ what the validators read.
 from __future__ import annotations
 
 from motionplc.fieldbus.canopen_startup import RPDO_OBJECTS, TPDO_OBJECTS
+from motionplc.schema.gcode import GCODE
 from motionplc.schema.nodes import (
     NAME_PATTERN,
     Bool,
@@ -1340,6 +1341,7 @@ TOP = Obj(
                 description="Cam tables by name (`Machine.cams`; for MC_CamTableSelect).",
             ),
         ),
+        Key("gcode", GCODE),
     ),
 )
 

@@ -96,7 +96,7 @@ def test_gcode_runs_on_the_chosen_group(tmp_path: Path, capsys: pytest.CaptureFi
     trace = tmp_path / "t.csv"
     assert main(["run", str(cfg), str(prog), "--group", "uv", "--trace", str(trace), "-q"]) == 0
     out = capsys.readouterr().out
-    assert re.search(rf"ok: {re.escape(str(prog))}: 2 of 2 lines run on group 'uv'", out), out
+    assert re.search(rf"ok: {re.escape(str(prog))}: 2 of 2 moves run on group 'uv'", out), out
     head = trace.read_text().splitlines()
     cols = head[0].split(",")
     last = dict(zip(cols, head[-1].split(","), strict=True))
@@ -116,18 +116,18 @@ def test_validate_a_gcode_program(tmp_path: Path, capsys: pytest.CaptureFixture[
         == 0
     )
     out = capsys.readouterr().out
-    assert "rounded_rectangle.ngc: ok - 18 motion lines, 19 group moves from the origin on " in out
+    assert "rounded_rectangle.ngc: ok - 18 moves from the origin on " in out
     assert "group 'xyz' (x, y, z)" in out
 
 
 @pytest.mark.parametrize(
     ("text", "located"),
     [
-        ("G21 F600\nG1 X10 M3\n", "p.ngc:2: M3: "),
-        ("G21 F600\nG1 X10\nG2 X20 I5 Z-1\n", "p.ngc:3: G2: helix (the arc in the XY plane"),
-        ("G21 F600\nG1 X2000\n", "p.ngc:2: G1: the move takes axis 'x' to 2 m, outside its"),
+        ("G21 F600\nG1 X10 M66\n", "p.ngc:2: M66: M66 (wait on input) is not supported"),
+        ("G21 F600\nG1 X10\nG2 X30 I5 Z-1\n", "p.ngc:3: G2: radius to the end 15 differs"),
+        ("G21 F600\nG1 X2000\n", "p.ngc:2: G1: the move reaches 2 on axis 'x', outside its"),
     ],
-    ids=["unsupported word", "helix", "software limit"],
+    ids=["unsupported word", "arc radii", "software limit"],
 )
 def test_bad_program_exits_2_located_before_running(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, located: str

@@ -17,12 +17,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from motionplc.blocks.enums import BufferMode, CircMode, PathChoice, TransitionMode
 from motionplc.cli import main
 from motionplc.config import build, load_config
 from motionplc.gcode import GcodeError, load_gcode, move_path, parse_gcode
 from motionplc.gcode_runner import (
-    RAPID_VELOCITY,
     GcodeRunner,
     group_moves,
     load_gcode_job,
@@ -67,155 +65,11 @@ def mapping_errors(text: str, **kw) -> list[str]:
 
 
 # ------------------------------------------------------------------------------ mapping
-def test_lines_rapids_and_corner_modes_follow_linuxcnc() -> None:
-    moves = mapped(
-        "G21 G90 F600\n"
-        "G1 X10\n"  # 2: first move, from rest
-        "G1 Y10\n"  # 3: corner at X10 under G61 (start state): exact stop
-        "G64 P0.5 G1 X0\n"  # 4: corner at Y10 still G61 (mode of line 3)
-        "G64 G0 Y0\n"  # 5: corner at the end of line 4, under G64 P0.5
-        "G1 Z-1\n"  # 6: corner at the end of line 5, G64 without P
-    )
-    got = [
-        (m.line, m.kind, m.buffer_mode, m.transition_mode, m.transition_parameter) for m in moves
-    ]
-    B, TM = BufferMode, TransitionMode
-    assert got == [
-        (2, "linear", B.BUFFERED, TM.TM_NONE, 0.0),
-        (3, "linear", B.BUFFERED, TM.TM_NONE, 0.0),
-        (4, "linear", B.BUFFERED, TM.TM_NONE, 0.0),
-        (5, "linear", B.BLENDING_LOW, TM.TM_MAX_CORNER_DEVIATION, pytest.approx(0.5e-3)),
-        (6, "linear", B.BLENDING_LOW, TM.TM_MAX_CORNER_DEVIATION, 0.0),
-    ]
-    assert [m.velocity for m in moves] == [0.01, 0.01, 0.01, RAPID_VELOCITY, 0.01]
-    assert [m.position for m in moves][-1] == pytest.approx((0.0, 0.0, -0.001), abs=1e-15)
-    assert all(m.last for m in moves)
-
-
-def test_xy_arcs_are_center_arcs_and_full_circles_are_split() -> None:
-    moves = mapped("G21 G90 F600\nG0 X10\nG2 X20 Y10 I10\nG3 I-10 J0 P2\n")
-    arc = moves[1]
-    assert (arc.kind, arc.circ_mode, arc.path_choice) == (
-        "circular",
-        CircMode.CENTER,
-        PathChoice.CLOCKWISE,
-    )
-    assert arc.aux_point == pytest.approx((0.02, 0.0, 0.0), abs=1e-15)
-    assert arc.position == pytest.approx((0.02, 0.01, 0.0), abs=1e-15)
-    # G3 with P2: two full turns about (0.01, 0.01) as four half circles, one G-code move
-    turns = moves[2:]
-    assert len(turns) == 4 and {m.index for m in turns} == {2}
-    assert [m.last for m in turns] == [False, False, False, True]
-    assert all(m.path_choice is PathChoice.COUNTER_CLOCKWISE for m in turns)
-    assert all(m.aux_point == pytest.approx((0.01, 0.01, 0.0), abs=1e-15) for m in turns)
-    # the joints inside the circle are passed at speed (tangent, equal curvature)
-    assert [m.transition_mode for m in turns[1:]] == [TransitionMode.TM_NONE] * 3
-    assert [m.buffer_mode for m in turns[1:]] == [BufferMode.BLENDING_LOW] * 3
-    # every piece ends on the circle, the last exactly at the programmed end
-    for m in turns:
-        assert math.dist(m.position, (0.01, 0.01, 0.0)) == pytest.approx(0.01, rel=1e-12)
-    assert turns[-1].position == moves[1].position
-
-
 @pytest.mark.parametrize(("code", "normal"), [("G18", (0, 1, 0)), ("G19", (1, 0, 0))])
-def test_arcs_outside_xy_are_border_arcs_through_points_of_the_programmed_arc(
-    code: str, normal: tuple[int, int, int]
-) -> None:
-    # from (5, 5, 5) mm: a half circle about (5, 5, 0) to Z-5, then a full circle back (G3)
-    text = f"G21 G90 F600 {code}\nG0 X5 Y5 Z5\nG2 Z-5 K-5\nG3 K5\n"
-    moves = mapped(text)[1:]
-    assert all(m.kind == "circular" and m.circ_mode is CircMode.BORDER for m in moves)
-    assert [m.index for m in moves] == [1, 2, 2]  # the full circle as two half circles
-    assert [m.last for m in moves] == [True, False, True]
-    center = np.array([0.005, 0.005, 0.0])
-    start = np.array([0.005, 0.005, 0.005])
-    for m, sense in zip(moves, (-1.0, 1.0, 1.0), strict=True):  # G2 clockwise, G3 ccw
-        via, end = np.array(m.aux_point), np.array(m.position)
-        for p in (via, end):  # on the programmed circle, in its plane
-            assert np.linalg.norm(p - center) == pytest.approx(0.005, rel=1e-12)
-            assert float(np.dot(p - center, normal)) == pytest.approx(0.0, abs=1e-15)
-        # via between start and end in the programmed sense, seen from the normal's + side
-        turn1 = float(np.dot(np.cross(start - center, via - center), normal))
-        turn2 = float(np.dot(np.cross(via - center, end - center), normal))
-        assert np.sign(turn1) == np.sign(turn2) == sense
-        assert np.linalg.norm(via - start) == pytest.approx(np.linalg.norm(end - via), rel=1e-9)
-        start = end
-    assert tuple(moves[-1].position) == pytest.approx((0.005, 0.005, -0.005), abs=1e-15)
-
-
-def test_a_helix_is_a_located_error_before_the_run_never_skipped() -> None:
-    errs = mapping_errors("G21 F600\nG1 X10\nG17 G2 X20 Y10 I10 Z-2\nG1 X0\nG3 I5 Z1 P2\n")
-    assert len(errs) == 2
-    assert errs[0].startswith("t.ngc:3: G2: helix (the arc in the XY plane also moves Z by ")
-    assert "(allowed: arcs in one plane, lines" in errs[0]
-    assert errs[1].startswith("t.ngc:5: G3: helix") and "1 extra turns" in errs[1]
-
-
-def test_software_limits_and_feed_range_are_located_errors() -> None:
-    limits = [(0.0, 0.1), (0.0, 0.1), (None, None)]
-    errs = mapping_errors(
-        "G21 F600\nG1 X50 Y50\nG1 X120\nG2 X70 Y50 I-25 J0\nG1 X50 F100000000000000\nG2 X0 I1\n",
-        limits=limits,
-    )
-    assert errs[0] == (
-        "t.ngc:3: G1: the move takes axis 'x' to 0.12 m, outside its software limits "
-        "[0, 0.1] m (allowed: a path within the limits)"
-    )
-    # the mapping goes on from the refused move's end (every problem of the file at once)
-    assert errs[1].startswith("t.ngc:4: G2: the arc takes axis 'x' to 0.12 m")
-    assert errs[2].startswith("t.ngc:5: G1: feed 1.66666667e+09 m/s is above the path-speed")
-    # the resolver's geometric error (radii differ) ends the list
-    assert errs[3].startswith("t.ngc:6: G2: radius to the end ") and len(errs) == 4
-
-
-def test_arc_extent_is_exact() -> None:
-    # a near half circle over the top from (-10, 0) to (10, 0) mm: it bulges beyond both end
-    # points; its highest point is R - sqrt(R^2 - 10^2) above... the centre's height + R
-    text = "G21 F600\nG0 X-10\nG2 X10 Y0 R10.001\n"
-    top = (10.001 - math.sqrt(10.001**2 - 100.0)) * 1e-3
-    errs = mapping_errors(text, limits=[(-1.0, 1.0), (-1.0, top - 1e-9), (None, None)])
-    assert len(errs) == 1 and errs[0].startswith("t.ngc:3: G2: the arc takes axis 'y' to ")
-    assert float(errs[0].split(" to ")[1].split(" m")[0]) == pytest.approx(top, rel=1e-8)
-    assert len(mapped(text, limits=[(-1.0, 1.0), (-1.0, top + 1e-9), (None, None)])) == 2
-
-
-# ------------------------------------------------------------------------------ running
 def _ideal_machine(tmp_path: Path):
     cfg_path = tmp_path / "m.yaml"
     cfg_path.write_text(IDEAL)
     return load_config(cfg_path)
-
-
-def test_runner_follows_zx_arcs_and_feeds_at_most_per_cycle(tmp_path: Path) -> None:
-    cfg = _ideal_machine(tmp_path)
-    prog = tmp_path / "zx.ngc"
-    lines = ["G21 G90 G64 P0.05 F3000", "G0 X10 Y10 Z0", "G18 G2 X30 Z0 I10"]
-    lines += [f"G1 X{30 + 2 * k} Y{10 + (k % 2)}" for k in range(1, 15)] + ["G3 X58 Z0 K-10 I0"]
-    prog.write_text("\n".join(lines) + "\n")
-    job = load_gcode_job(prog, cfg)
-    with build(cfg) as machine:
-        runner = GcodeRunner(job, machine, per_cycle=2)
-        machine.attach(runner, job.task)
-        machine.runtime.run_until(lambda: runner.over, max_seconds=30.0)
-        assert runner.failures == [] and runner.finished
-        assert runner.lines_run == runner.lines_total == 17
-        assert re.search(r"17 of 17 lines run on group 'xyz' .* s of motion", runner.report())
-        trace = machine.runtime.trace
-        pos = np.stack([trace.column(f"{a}.position") for a in "xyz"], axis=1)
-        assert tuple(pos[-1]) == pytest.approx((0.058, 0.010, 0.0), abs=1e-12)
-        # the first arc: a half circle about (20, 10, 0) through Z = -10 (G2 in G18 turns from
-        # +X towards -Z... seen from +Y, clockwise): every sample while on it lies on it
-        on = (pos[:, 0] > 0.0101) & (pos[:, 0] < 0.0299) & (np.abs(pos[:, 1] - 0.01) < 1e-12)
-        assert on.sum() > 20
-        rad = np.hypot(pos[on, 0] - 0.02, pos[on, 2])
-        assert np.abs(rad - 0.01).max() <= 1e-9 and pos[on, 2].max() < 0.0
-        # at most per_cycle new moves per cycle (busy edges of the runner's FBs)
-        starts: dict[int, int] = {}
-        for ev in trace.events:
-            move_fb = ev.fb.startswith(("xyz.gcode_linear", "xyz.gcode_circular"))
-            if move_fb and ev.output == "busy" and ev.value:
-                starts[ev.cycle] = starts.get(ev.cycle, 0) + 1
-        assert max(starts.values()) <= 2 and sum(starts.values()) == len(runner.moves)
 
 
 def test_runtime_failure_names_the_gcode_line_and_error_id(tmp_path: Path) -> None:
@@ -248,18 +102,6 @@ def test_runtime_failure_names_the_gcode_line_and_error_id(tmp_path: Path) -> No
     assert runner.lines_run == 1
 
 
-def test_runner_refuses_an_unrunnable_program_before_the_first_cycle(tmp_path: Path) -> None:
-    cfg = _ideal_machine(tmp_path)
-    job = load_gcode_job(CONFIGS / "gcode" / "planes_helix.ngc", cfg)
-    with build(cfg) as machine:
-        with pytest.raises(GcodeError) as info:
-            GcodeRunner(job, machine)
-        assert machine.runtime.tick == 0
-    assert [e.split(": ", 2)[1] for e in info.value.errors] == ["G2"]
-    assert info.value.errors[0].startswith(f"{job.path}:6: G2: helix")
-
-
-# ------------------------------------------------------------------------------ the gantry
 def _programmed_corners() -> list[tuple[float, float, float]]:
     """The end point of every motion line of rounded_rectangle.ngc, by pygcode's machine."""
     pygcode = pytest.importorskip("pygcode")

@@ -1,0 +1,237 @@
+"""The RS274/NGC interpreter against hand-computed LinuxCNC results (motionplc.gcode)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from motionplc.gcode import (
+    GcodeError,
+    GcodeEvent,
+    GcodeMove,
+    Interpreter,
+    MachineSetup,
+    Tool,
+    escape,
+    move_path,
+    parse_gcode,
+)
+
+XYZ = MachineSetup.for_axes(("x", "y", "z"))
+XYZA = MachineSetup(
+    axes={"X": 0, "Y": 1, "Z": 2, "A": 3}, names=("x", "y", "z", "a"), rotary=frozenset("A")
+)
+
+
+def run(text: str, setup: MachineSetup = XYZ, start=None) -> list[GcodeMove | GcodeEvent]:
+    return list(Interpreter("t.ngc", setup, start, text=text).run())
+
+
+def moves(text: str, setup: MachineSetup = XYZ, start=None) -> list[GcodeMove]:
+    return [m for m in run(text, setup, start) if isinstance(m, GcodeMove)]
+
+
+def ends_mm(text: str, setup: MachineSetup = XYZ) -> list[list[float]]:
+    return [[round(v * 1000.0, 6) for v in m.end] for m in moves(text, setup)]
+
+
+def error_of(text: str, setup: MachineSetup = XYZ) -> str:
+    with pytest.raises(GcodeError) as exc:
+        run(text, setup)
+    return str(exc.value)
+
+
+def test_modal_group_conflicts_and_unknown_words_are_located() -> None:
+    assert "t.ngc:2: G1: G0 and G1 on one line are of the same modal group" in error_of(
+        "G21\nG0 G1 X1\n"
+    )
+    assert "t.ngc:1: M5: M3 and M5" in error_of("M3 M5\n")
+    assert "t.ngc:1: A1: the machine has no A axis" in error_of("G0 A1\n")
+    assert "G41 (cutter radius compensation" in error_of("G41 D1\n")
+    assert "t.ngc:1: G92: G92 and G1 both use the axis words" in error_of("G92 G1 X1 F1\n")
+    assert "X1: axis word with G80" in error_of("G80 X1\n")
+    assert "Q word with nothing on the line" in error_of("G1 X1 F1 Q2\n")
+
+
+def test_work_offsets_g10_g92_g53_give_machine_coordinates() -> None:
+    got = ends_mm(
+        "G21 G90\n"
+        "G10 L2 P1 X100 Y50 Z-10\n"  # G54 offsets
+        "G0 X0 Y0 Z0\n"  # machine (100, 50, -10)
+        "G10 L20 P2 X5 Y5 Z5\n"  # G55: the current point is (5, 5, 5) in G55
+        "G55 G0 X0 Y0 Z0\n"  # machine (95, 45, -15)
+        "G54 G92 X10 Y10\n"  # the current point, (-5, -5) in G54, becomes (10, 10)
+        "G0 X20 Y20\n"  # machine 20 + 100 - 15 = 105, 55
+        "G92.1\n"
+        "G0 X1 Y1\n"  # machine (101, 51)
+        "G53 G0 X3 Y4 Z-1\n"  # machine coordinates
+        "G91 G0 X1\n"  # incremental
+    )
+    assert got == [
+        [100.0, 50.0, -10.0],
+        [95.0, 45.0, -15.0],
+        [105.0, 55.0, -15.0],
+        [101.0, 51.0, -15.0],
+        [3.0, 4.0, -1.0],
+        [4.0, 4.0, -1.0],
+    ]
+
+
+def test_tool_length_offsets_from_the_table_and_dynamic() -> None:
+    setup = MachineSetup.for_axes(("x", "y", "z"), tools={1: Tool(1, {"Z": 0.025})})
+    got = ends_mm(
+        "G21 T1 M6\nG43 H1\nG0 Z0\nG43.1 Z-5\nG0 Z0\nG49\nG0 Z0\n",
+        setup,
+    )
+    assert got == [[0.0, 0.0, 25.0], [0.0, 0.0, -5.0], [0.0, 0.0, 0.0]]
+    assert "tool 7 is not in the tool table" in error_of("G43 H7\n", setup)
+
+
+def test_parameters_expressions_functions_and_control_flow() -> None:
+    got = ends_mm(
+        "G21 F600\n"
+        "#1 = 3 #<len> = [2 ** 3]\n"
+        "#<_g> = [ATAN[1]/[1] + SQRT[16] + ABS[-1] + FIX[2.7] + FUP[2.1] + 7 MOD 4]\n"
+        "o<sq> sub\n"
+        "  G1 X#1 Y[#1 * 2]\n"
+        "  o<sq> return [#1 + 1]\n"
+        "o<sq> endsub\n"
+        "o<sq> call [#<len>]\n"  # X8 Y16
+        "G1 X#<_value>\n"  # X9
+        "#2 = 0\n"
+        "o10 while [#2 LT 2]\n"
+        "  #2 = [#2 + 1]\n"
+        "  o11 if [#2 EQ 1]\n"
+        "    G1 Z-1\n"
+        "  o11 else\n"
+        "    G1 Z-2\n"
+        "  o11 endif\n"
+        "o10 endwhile\n"
+        "o12 repeat [2]\n"
+        "  G91 G1 Y1\n"
+        "o12 endrepeat\n"
+        "G90 G1 X[#<_g>]\n"  # 45 + 4 + 1 + 2 + 3 + 3 = 58
+        "o13 do\n"
+        "  #2 = [#2 - 1]\n"
+        "o13 while [#2 GT 0]\n"
+        "G1 Y#2\n"
+    )
+    assert got == [
+        [8.0, 16.0, 0.0],
+        [9.0, 16.0, 0.0],
+        [9.0, 16.0, -1.0],
+        [9.0, 16.0, -2.0],
+        [9.0, 17.0, -2.0],
+        [9.0, 18.0, -2.0],
+        [58.0, 18.0, -2.0],
+        [58.0, 0.0, -2.0],
+    ]
+
+
+def test_parameter_assignments_take_effect_after_the_line() -> None:
+    got = ends_mm("G21 G0 X1\n#1 = 5 G0 X#1\nG0 X#1\n")
+    assert got == [[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [5.0, 0.0, 0.0]]
+
+
+def test_units_from_the_machine_and_arcs_with_linuxcnc_tolerance() -> None:
+    inch = MachineSetup.for_axes(("x", "y", "z"), units="inch")
+    assert ends_mm("G0 X1\n", inch) == [[25.4, 0.0, 0.0]]
+    assert ends_mm("G0 X1\n") == [[1.0, 0.0, 0.0]]
+    # end radius 10.01 against 10: 0.01 mm < 0.028 mm, LinuxCNC accepts it
+    mv = moves("G21 G0 X0 Y0\nG2 X20.01 Y0 I10 J0 F100\n")[-1]
+    assert mv.kind == "arc_cw"
+    # 0.1 mm and 1 %: refused with the figures
+    msg = error_of("G21 G0 X0 Y0\nG2 X20.1 Y0 I10 J0 F100\n")
+    assert "t.ngc:2: G2: radius to the end 10.1 differs from the radius to the start 10" in msg
+
+
+def test_helix_with_turns_is_one_move_and_the_path_ends_at_the_end() -> None:
+    (m,) = moves("G21 G17 G0 X10 Y0 Z0\nG3 I-10 J0 Z-6 P3 F600\n")[1:]
+    assert m.turns == 2 and m.kind == "arc_ccw"
+    path = move_path(m)
+    assert path.length == pytest.approx(math.hypot(3 * 2 * math.pi * 0.01, 0.006))
+    assert list(path.evaluate(path.u_end)) == pytest.approx([0.01, 0.0, -0.006], abs=1e-12)
+    # the feed applies to the XYZ length: duration = length / F
+    assert m.duration == pytest.approx(path.length / 0.01)
+    # a huge P is one arc (its turns a parameter, never expanded)
+    (big,) = moves("G21 G0 X10 Y0\nG2 I-10 P100000000 F600\n")[1:]
+    assert big.turns == 99_999_999
+
+
+def test_rotary_axis_in_degrees_and_feed_on_the_linear_axes() -> None:
+    ms = moves("G21 G1 X10 A90 F600\nG1 A180\n", XYZA)
+    assert ms[0].end == pytest.approx((0.01, 0.0, 0.0, math.pi / 2))
+    assert ms[0].duration == pytest.approx(1.0)  # 10 mm at 10 mm/s, A follows
+    assert ms[1].duration == pytest.approx(9.0)  # 90 deg at 600 deg/min = 10 deg/s
+
+
+def test_canned_cycles_expand_like_linuxcnc() -> None:
+    got = ends_mm("G21 G0 X0 Y0 Z10\nG98 G81 X5 Y5 Z-3 R2 F100\nG99 X10\nG80\n")
+    assert got == [
+        [0.0, 0.0, 10.0],
+        [5.0, 5.0, 10.0],
+        [5.0, 5.0, 2.0],
+        [5.0, 5.0, -3.0],
+        [5.0, 5.0, 10.0],  # G98: back to the initial level
+        [10.0, 5.0, 10.0],
+        [10.0, 5.0, 2.0],
+        [10.0, 5.0, -3.0],
+        [10.0, 5.0, 2.0],  # G99: to R
+    ]
+    peck = ends_mm("G21 G0 X0 Y0 Z5\nG83 Z-5 R1 Q2.5 F100\n")
+    assert [p[2] for p in peck[1:]] == [1.0, -1.5, 1.0, -0.5, -4.0, 1.0, -3.0, -5.0, 5.0]
+
+
+def test_machine_events_in_order() -> None:
+    items = run("G21 S1000 M3\nM8\nG4 P0.5\nM62 P0\nG0 X1\nM5 M9\nM2\n")
+    kinds = [(i.kind, i.value) for i in items if isinstance(i, GcodeEvent)]
+    assert kinds == [
+        ("spindle", 1000.0),
+        ("coolant", 1.0),
+        ("dwell", 0.5),
+        ("spindle", 0.0),
+        ("coolant", 0.0),
+        ("coolant", 0.0),
+        ("end", 2.0),
+    ]
+    mv = next(i for i in items if isinstance(i, GcodeMove))
+    assert mv.outputs == ((0, True),)
+
+
+def test_path_control_modes() -> None:
+    ms = moves("G21 G61 G0 X1\nG61.1 G0 X2\nG64 G0 X3\nG64 P0.5 Q0.1 G0 X4\nG64 P0 G0 X5\n")
+    assert [(m.exact_path, m.exact_stop, m.tolerance, m.naive_tolerance) for m in ms] == [
+        (True, False, None, None),
+        (False, True, None, None),
+        (False, False, None, None),
+        (False, False, pytest.approx(0.0005), pytest.approx(0.0001)),
+        (False, False, None, None),
+    ]
+
+
+def test_validate_collects_every_error_with_file_and_line() -> None:
+    with pytest.raises(GcodeError) as exc:
+        parse_gcode("G21\nG1 X1\nG0 Q1 X1\nG2 X5 R1 F1\nM2\n", "p.ngc")
+    errs = exc.value.errors
+    assert errs[0].startswith("p.ngc:2: G1: F word missing")
+    assert errs[1].startswith("p.ngc:3: Q1:")
+    assert errs[2].startswith("p.ngc:4: R1: radius 1 too small")
+
+
+def test_hostile_input_is_bounded_and_escaped() -> None:
+    msg = error_of("G1 X1\x1b[31m\n")
+    assert "\x1b" not in msg and "\\x1b" in msg
+    assert escape("a\x07b") == "a\\x07b"
+    assert "longer than 1024" in error_of("G0 X1 " + "(c)" * 400 + "\n")
+    loop = "#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n"
+    assert "blocks executed" in error_of(loop, MachineSetup.for_axes("xyz", max_blocks=10_000))
+    assert "nested deeper" in error_of("G0 X" + "[" * 100 + "1" + "]" * 100 + "\n")
+    rec = "o1 sub\no1 call\no1 endsub\no1 call\n"
+    assert "nested deeper than 64" in error_of(rec)
+
+
+def test_zero_length_moves_are_skipped_without_memory_per_move() -> None:
+    interp = Interpreter("z.ngc", XYZ, text="G21 G1 F100 X0\n" * 5000)
+    assert list(interp.run()) == [GcodeEvent(5000, "end", text="end of file")]
+    assert interp.n_skipped == 5000 and len(interp.skipped) == 100
