@@ -26,6 +26,7 @@ from pathlib import Path
 
 from setuptools import Extension, setup
 from setuptools.command.build_ext import build_ext
+from setuptools.command.build_py import build_py
 
 ROOT = Path(__file__).resolve().parent
 # The compiled modules, as in motionplc/_purepy.py (COMPILED_MODULES); both lists are checked
@@ -169,6 +170,22 @@ class OptionalBuildExt(build_ext):
         self.extensions = []
 
 
+class BuildPyWithExamples(build_py):
+    """``build_py`` that also copies the example machines and programs of ``configs/`` into the
+    built package as ``motionplc/_examples/`` (``motionplc examples DIR`` hands them out from an
+    installed wheel; an editable install reads ``configs/`` itself)."""
+
+    def run(self) -> None:
+        super().run()
+        src = ROOT / "configs"
+        dest = Path(self.build_lib) / "motionplc" / "_examples"
+        for path in sorted(src.rglob("*")):
+            if path.is_file() and "__pycache__" not in path.parts:
+                out = dest / path.relative_to(src)
+                out.parent.mkdir(parents=True, exist_ok=True)
+                self.copy_file(str(path), str(out))
+
+
 def _placeholder() -> list[Extension]:
     if os.environ.get("MOTIONPLC_NO_MYPYC", "") not in ("", "0"):
         (ROOT / MANIFEST).unlink(missing_ok=True)  # extensions of an earlier build: unused
@@ -176,4 +193,7 @@ def _placeholder() -> list[Extension]:
     return [Extension(f"{GROUP}__mypyc", sources=[])]
 
 
-setup(ext_modules=_placeholder(), cmdclass={"build_ext": OptionalBuildExt})
+setup(
+    ext_modules=_placeholder(),
+    cmdclass={"build_ext": OptionalBuildExt, "build_py": BuildPyWithExamples},
+)

@@ -1,7 +1,7 @@
 """The ``motionplc`` command line.
 
 ``motionplc run CONFIG [SEQUENCE|PROGRAM|GCODE] [--group NAME]``, ``validate``, ``plot``,
-``drives``, ``plan``, ``schema``; ``motionplc --version``.
+``drives``, ``plan``, ``schema``, ``examples DIR``; ``motionplc --version``.
 
 Exit codes (also in ``motionplc --help``):
 
@@ -60,6 +60,7 @@ import dataclasses
 import logging
 import math
 import os
+import re
 import sys
 import traceback
 from collections.abc import Callable, Iterator, Sequence
@@ -67,7 +68,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from motionplc.errors import MotionPlcError, ProgramError
+from motionplc.errors import MotionPlcError, PlanningError, ProgramError
 
 LIBRARY_LOGGERS = ("pymodbus", "canopen", "can")
 """Loggers of the fieldbus libraries, routed through the CLI's handler (see :func:`log_routing`)."""
@@ -297,6 +298,26 @@ class _VersionAction(argparse.Action):
 
 
 # ---------------------------------------------------------------------------- plan
+# the planner's field names as the options of ``plan`` (an error names what the user typed)
+_PLAN_OPTIONS = {
+    **{f"Limits.{k}": "--" + k.replace("_", "-") for k in ("v_max", "a_max", "j_max", "v_min")},
+    "Limits.a_min": "--a-min",
+    **{f"start.{k}": f"--{k}0" for k in "pva"},
+    **{f"target.{k}": f"--{k}f" for k in "pva"},
+}
+_PLAN_FIELD = re.compile(r"\b(Limits\.[a-z_]+|start\.[pva]|target\.[pva])\b")
+
+
+def _plan_option_message(text: str) -> str:
+    """A planner error with its field names replaced by the ``plan`` options that set them
+    (``Limits.v_max must be ...`` -> ``--v-max: must be ...``)."""
+    m = _PLAN_FIELD.match(text)
+    if m and m.group(1) in _PLAN_OPTIONS:
+        rest = text[m.end() :].lstrip(": ")
+        text = f"{_PLAN_OPTIONS[m.group(1)]}: {rest}"
+    return _PLAN_FIELD.sub(lambda k: _PLAN_OPTIONS.get(k.group(1), k.group(1)), text)
+
+
 def _cmd_plan(args: argparse.Namespace) -> int:
     from motionplc.planning import Limits, State, plan
 
@@ -304,16 +325,19 @@ def _cmd_plan(args: argparse.Namespace) -> int:
     plot_path = _check_output("--plot", args.plot, PLOT_SUFFIXES)
     if not (args.dt > 0 and math.isfinite(args.dt)):
         raise MotionPlcError(f"--dt: got {_num(args.dt)} (allowed: a number of seconds > 0)")
-    lim = Limits(
-        v_max=args.v_max,
-        a_max=args.a_max,
-        j_max=args.j_max,
-        v_min=args.v_min,
-        a_min=args.a_min,
-    )
-    start = State(args.p0, args.v0, args.a0)
-    target = State(args.pf, args.vf, args.af)
-    prof = plan(start, target, lim)
+    try:
+        lim = Limits(
+            v_max=args.v_max,
+            a_max=args.a_max,
+            j_max=args.j_max,
+            v_min=args.v_min,
+            a_min=args.a_min,
+        )
+        start = State(args.p0, args.v0, args.a0)
+        target = State(args.pf, args.vf, args.af)
+        prof = plan(start, target, lim)
+    except PlanningError as exc:
+        raise MotionPlcError(_plan_option_message(str(exc))) from exc
     n = max(2, int(math.ceil(prof.duration / args.dt)) + 1)
     if n > 10_000_000:
         raise MotionPlcError(
@@ -376,10 +400,17 @@ def _cmd_plan(args: argparse.Namespace) -> int:
 # ---------------------------------------------------------------------------- run / validate
 def _load_script(path: str, config: Any, group: str | None = None) -> Any:
     """Validate a sequence, load a program or parse a G-code file before anything is built."""
-    from motionplc.gcode_runner import is_gcode, load_gcode_job
+    from motionplc.gcode_runner import GCODE_SUFFIXES, is_gcode, load_gcode_job
 
     if is_gcode(path):
         return load_gcode_job(path, config, group)
+    suffix = Path(path).suffix.lower()
+    if suffix not in (".yaml", ".yml", ".py"):
+        kind = repr(suffix) if suffix else "(none)"
+        raise MotionPlcError(
+            f"{path}: unknown program type {kind} (allowed: .yaml or .yml sequence, .py "
+            f"Python program, {', '.join(GCODE_SUFFIXES)} G-code)"
+        )
     if group is not None:
         raise MotionPlcError(f"{path}: --group: only for G-code programs (.ngc, .nc, ...)")
     if Path(path).suffix == ".py":
@@ -989,10 +1020,13 @@ def _cmd_drives(args: argparse.Namespace) -> int:
             except (NotImplementedError, RuntimeError):
                 pass
 
-        def ready(info: dict[str, object]) -> None:
-            print(json.dumps(info), flush=True)
-
         async def one(bus: Any, spec: DrivesSpec) -> None:
+            def ready(info: dict[str, object]) -> None:
+                if args.json:
+                    print(json.dumps(info), flush=True)
+                else:
+                    print(_drives_summary(bus, cfg, info, args.duration), flush=True)
+
             try:
                 await run_drives(spec, ready=ready, stop=stop)
             except DrivesStartError as exc:
@@ -1003,6 +1037,21 @@ def _cmd_drives(args: argparse.Namespace) -> int:
 
     asyncio.run(serve())  # a server that cannot start: MotionPlcError, exit code 2
     return EXIT_OK
+
+
+def _drives_summary(bus: Any, cfg: Any, info: dict[str, Any], duration: float | None) -> str:
+    """One readable line of what ``drives`` serves on ``bus`` (``--json``: the raw record)."""
+    axes = [a for a in cfg.axes if a.drive.bus == bus.name]
+    until = f"for {_num(duration)} s" if duration is not None else "until Ctrl-C or SIGTERM"
+    if bus.type == "can":
+        can = info.get("can", {})
+        nodes = ", ".join(f"node {a.drive.node_id} ({a.name})" for a in axes if a.drive.node_id)
+        where = f"CAN {can.get('interface', bus.interface)} {can.get('channel', bus.channel)}"
+        return f"bus {bus.name!r}: {where}: {nodes}; serving {until}"
+    ports = info.get("modbus", {})
+    units = ", ".join(f"unit {a.drive.unit_id} ({a.name})" for a in axes if a.drive.unit_id)
+    port = next(iter(ports.values()), bus.port)
+    return f"bus {bus.name!r}: Modbus TCP on 127.0.0.1:{port}: {units}; serving {until}"
 
 
 # ---------------------------------------------------------------------------- schema
@@ -1025,6 +1074,17 @@ def _cmd_schema(args: argparse.Namespace) -> int:
     with _writing("--output", out):
         out.write_text(text, encoding="utf-8")
     print(f"wrote {out} ({args.kind}, {args.format})")
+    return EXIT_OK
+
+
+# ---------------------------------------------------------------------------- examples
+def _cmd_examples(args: argparse.Namespace) -> int:
+    from motionplc.examples import copy_examples
+
+    written = copy_examples(args.dir, overwrite=args.force)
+    print(f"wrote {len(written)} example files to {args.dir}")
+    d = Path(args.dir)
+    print(f"  try: motionplc run {d / 'demo.yaml'} {d / 'demo_sequence.yaml'}")
     return EXIT_OK
 
 
@@ -1191,6 +1251,12 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="S",
         help="serve for S seconds [s] (default: until Ctrl-C or SIGTERM)",
     )
+    d.add_argument(
+        "--json",
+        action="store_true",
+        help="announce each bus as one JSON line (ports, nodes) for scripts (default: a "
+        "readable line)",
+    )
     d.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     d.set_defaults(func=_cmd_drives)
 
@@ -1262,6 +1328,13 @@ def build_parser() -> argparse.ArgumentParser:
         "-o", "--output", metavar="FILE", help="write to FILE instead of stdout (default: stdout)"
     )
     sc.set_defaults(func=_cmd_schema)
+
+    ex = command("examples", "copy the shipped example machines and programs into a folder")
+    ex.add_argument("dir", metavar="DIR", help="destination folder (created if missing)")
+    ex.add_argument(
+        "--force", action="store_true", help="replace files that exist (default: refuse)"
+    )
+    ex.set_defaults(func=_cmd_examples)
     return parser
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -152,11 +153,21 @@ def test_plot_rejects_a_non_trace(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 
 def test_drives_serves_modbus_of_the_gantry(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2"]) == 0
+    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2", "--json"]) == 0
     out, err = capsys.readouterr()
     info = json.loads(out.strip().splitlines()[-1])
     assert list(info["modbus"]) == ["1"] and info["modbus"]["1"] > 0
     assert "virtual bus does not reach other processes" in err
+
+
+def test_drives_says_what_it_serves_in_words(capsys: pytest.CaptureFixture[str]) -> None:
+    """issue 30: a readable line per bus by default (the JSON record with --json)."""
+    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2"]) == 0
+    out = capsys.readouterr().out.strip().splitlines()
+    assert len(out) == 1, out
+    assert re.fullmatch(
+        r"bus 'mb0': Modbus TCP on 127\.0\.0\.1:\d+: unit 1 \(z\); serving for 0\.2 s", out[0]
+    ), out[0]
 
 
 def test_plan_still_works(tmp_path: Path) -> None:

@@ -37,7 +37,7 @@ def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentP
 def test_every_option_of_every_command_has_help_with_its_default() -> None:
     parser = build_parser()
     commands = _subparsers(parser)
-    assert set(commands) == {"run", "validate", "plot", "drives", "plan", "schema"}
+    assert set(commands) == {"run", "validate", "plot", "drives", "plan", "schema", "examples"}
     for name, sub in commands.items():
         for action in sub._actions:
             if isinstance(action, argparse._HelpAction):
@@ -140,7 +140,7 @@ def test_drives_of_a_config_without_can_drives_announce_no_can(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
     """issue 14: ``drives configs/gantry.yaml`` reported socketcan/vcan0 for a virtual bus."""
-    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2"]) == 0
+    assert main(["drives", str(CONFIGS / "gantry.yaml"), "--duration", "0.2", "--json"]) == 0
     out, err = capsys.readouterr()
     info = json.loads(out.strip().splitlines()[-1])
     assert set(info) == {"modbus"} and list(info["modbus"]) == ["1"]

@@ -74,7 +74,7 @@ def test_run_against_the_drives_of_its_own_config(tmp_path: Path) -> None:
     cfg = tmp_path / "machine.yaml"
     cfg.write_text(CONFIG.replace("PORT", str(port)))
     drives = subprocess.Popen(
-        [sys.executable, "-m", "motionplc", "drives", str(cfg), "--duration", "60"],
+        [sys.executable, "-m", "motionplc", "drives", str(cfg), "--duration", "60", "--json"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
