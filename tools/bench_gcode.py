@@ -362,13 +362,14 @@ def path_length(r: dict) -> float:
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="programs at 1/5 size, short RT run")
+    ap.add_argument("--scale", type=float, default=1.0, help="program size factor")
     ap.add_argument("--seed", type=int, default=25)
     ap.add_argument("--rt-segments", type=int, default=3000, help="0: no real-time run")
     ap.add_argument("--rt-idle", type=int, default=2000, help="idle cycles before and after")
     ap.add_argument("--only", default="", help="comma-separated program names")
     ap.add_argument("--out", default=None, help="keep the programs in this directory")
     args = ap.parse_args()
-    scale = 0.2 if args.quick else 1.0
+    scale = 0.2 if args.quick else args.scale
     tmp = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_gcode_"))
     tmp.mkdir(parents=True, exist_ok=True)
     sim_cfg = tmp / "gantry_ideal_1ms.yaml"
