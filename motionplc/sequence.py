@@ -482,7 +482,18 @@ class _Parser:
                 val = r
             elif decl.group and pin in _POINT_PINS:
                 if pin == "aux_point" and _is_number(val):
-                    val = (float(val),)  # the radius (CircMode RADIUS)
+                    # the radius (CircMode RADIUS): in the schema's range (negative: long arc)
+                    if not any(n.accepts(float(val)) for n in _schema.RADIUS):
+                        c.error(
+                            line,
+                            p,
+                            f"got {val!r}",
+                            "a point, or a radius "
+                            + " or ".join(n.range_text() for n in _schema.RADIUS)
+                            + " (negative: the arc longer than half a circle)",
+                        )
+                        continue
+                    val = (float(val),)
                 else:
                     pt = self.point(val, line, p, members, pin)
                     if pt is None:

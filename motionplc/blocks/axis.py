@@ -826,11 +826,14 @@ class Axis(AxisCore):
     def step(self, dt: float) -> None:
         """MOTION KERNEL: execute the inbox, advance the active job by ``dt``, supervise.
 
-        Fault barrier: no exception escapes. A planner failure while starting a command ends
-        that command with Error PLANNING_FAILED (the axis keeps its motion); any other failure
+        Fault barrier: no exception escapes. A failure while starting a command ends that
+        command with Error (PLANNING_FAILED for the planner's PlanningError, INTERNAL_ERROR
+        naming any other exception: a defect; the axis keeps its motion); any other failure
         inside the kernel puts the axis in ErrorStop (PLANNING_FAILED for a planner failure,
         INTERNAL_ERROR otherwise; the reason in ``axis_error_reason``) with a controlled stop
-        using the axis' own limits.
+        using the axis' own limits, which runs from this very cycle when the failure came
+        before the set position moved (the set values never stand still for a cycle while the
+        velocity says otherwise).
         """
         p0, v0, a0, j0, off0 = self.p, self.v, self.a, self.j, self.offset
         try:
@@ -906,6 +909,20 @@ class Axis(AxisCore):
                 self._lg_after_group = (p0, v0, a0, j0, off0)
         except Exception as exc:  # noqa: BLE001 - no kernel failure escapes the cycle
             self._kernel_failed(exc)
+            if self.p == p0:
+                self._stop_now(dt)
+
+    def _stop_now(self, dt: float) -> None:
+        """After :meth:`_kernel_failed` in a step that had not moved the set position: its
+        stop ramp (planned from the set state of the last cycle) takes this cycle's step."""
+        job = self.mq.active
+        if job is None or job.kind != "estop" or job.tau != 0.0:
+            return
+        try:
+            self._advance(job, dt, dt)
+        except Exception:  # noqa: BLE001 - last line of defence: hold still
+            self.mq.active = None
+            self.v = self.a = self.j = 0.0
 
     # -- limit supervision -------------------------------------------------------------------
     def guard_after_group(self, dt: float) -> None:
@@ -1201,9 +1218,14 @@ class Axis(AxisCore):
                         job.handle._finish(Status.ERROR, err, self._why)
                         return False
                 self._prepare_move(job, self._tau_state())
-        except PlanningError as exc:  # keep the old motion, fail the new FB
-            job.handle._finish(Status.ERROR, ErrorID.PLANNING_FAILED, f"planner: {exc}")
-            self.axis_error_reason = f"planner: {exc}"
+        except Exception as exc:  # noqa: BLE001 - keep the old motion, fail the new FB:
+            # PLANNING_FAILED for the planner's verdict, INTERNAL_ERROR naming a defect
+            if isinstance(exc, PlanningError):
+                eid, why = ErrorID.PLANNING_FAILED, f"planner: {exc}"
+            else:
+                eid, why = ErrorID.INTERNAL_ERROR, f"internal error: {type(exc).__name__}: {exc}"
+            job.handle._finish(Status.ERROR, eid, why)
+            self.axis_error_reason = why
             if folded is not None:
                 sup.unfold(self, folded)
             return False
@@ -1721,10 +1743,14 @@ class Axis(AxisCore):
                 if act is not None and act.cmd.is_move and not act.handle.terminal:
                     if job.cmd.mode >= BufferMode.BLENDING_LOW:
                         self._prepare_move(act, self._tau_state(), keep_rest=True)  # new junction
-        except PlanningError as exc:
-            self.axis_error_reason = f"planner (continuous update): {exc}"
-            self._fail_command(handle, ErrorID.PLANNING_FAILED, f"planner: {exc}")
-            return ErrorID.PLANNING_FAILED
+        except Exception as exc:  # noqa: BLE001 - PLANNING_FAILED or INTERNAL_ERROR (a defect)
+            if isinstance(exc, PlanningError):
+                eid, why = ErrorID.PLANNING_FAILED, f"planner: {exc}"
+            else:
+                eid, why = ErrorID.INTERNAL_ERROR, f"internal error: {type(exc).__name__}: {exc}"
+            self.axis_error_reason = f"{why} (continuous update)"
+            self._fail_command(handle, eid, why)
+            return eid
         return ErrorID.OK
 
     def _fail_command(self, handle: Handle, error_id: ErrorID, reason: str = "") -> None:

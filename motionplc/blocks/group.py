@@ -792,13 +792,11 @@ class AxesGroup:
                 raise _MoveError(ErrorID.INVALID_CIRCLE, "aux_point[0] must hold the radius")
             r = aux[0]
             if n == 2:
-                return [Arc.from_radius(base, target, abs(r), clockwise=cw, long=r < 0.0)]
+                return [Arc.from_radius(base, target, abs(r), clockwise=cw, large=r < 0.0)]
             return [
-                Arc.from_radius(base, target, abs(r), normal=normal, clockwise=cw, long=r < 0.0)
+                Arc.from_radius(base, target, abs(r), normal=normal, clockwise=cw, large=r < 0.0)
             ]
-        except PlanningError as exc:
-            raise _MoveError(ErrorID.INVALID_CIRCLE, f"circle: {exc}") from None
-        except TypeError as exc:
+        except PlanningError as exc:  # the geometry's own verdict on validated inputs
             raise _MoveError(ErrorID.INVALID_CIRCLE, f"circle: {exc}") from None
 
     def _check_limits(self, p: Sequence[float], what: str) -> None:
@@ -1689,12 +1687,9 @@ def _duration(lk: Link) -> float:
 
 
 def _guard_plan(lk: Link) -> Profile:
-    try:
-        prof = lk.plan_rest()
-    except PlanningError:
-        raise
-    except Exception as exc:  # noqa: BLE001
-        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+    # (a PlanningError is the planner's verdict; anything else is a defect and reaches the
+    # group's fault barrier as it is: INTERNAL_ERROR naming it, not PLANNING_FAILED)
+    prof = lk.plan_rest()
     # a profile that leaves its piece (junction speeds it cannot join) would stand still at
     # the piece's end and jump: never run it
     (_, pmax), (vmin, _), _ = prof.extrema()

@@ -148,13 +148,19 @@ def drive_home_step(axis: Axis, job: AxisJob, dt: float) -> None:
         v_target = min(cfg.v_max, max(-cfg.v_neg, axis.act_v + math.copysign(corr, e)))
     else:
         v_target = 0.0  # the drive rests (or follows the set values again): come to rest
-    v = axis.v
-    v = min(v + cfg.a_max * dt, max(v - cfg.a_neg * dt, v_target))
-    if abs(v) < 1e-12 * cfg.v_max:
+    # towards v_target on a jerk-limited velocity profile within the axis' own limits, sampled
+    # at the end of the step: set values that hold the limits and agree with each other (was
+    # a velocity step of up to a_max * dt with the acceleration and jerk written as 0)
+    prof = guarded(
+        plan_velocity, State(axis.p, axis.v, axis.a), v_target, axis._axis_limits(0, 0, 0)
+    )
+    s = prof.at(dt)
+    v = s.v
+    if abs(v) < 1e-12 * cfg.v_max and s.a == 0.0:
         v = 0.0
-    axis.p += v * dt
-    axis.v = v
-    axis.a = axis.j = 0.0
+    # (a profile shorter than the step ends at v_target: cruising at it for the rest)
+    p = s.p + v * (dt - prof.duration) if dt > prof.duration else s.p
+    axis.p, axis.v, axis.a, axis.j = p, v, s.a, s.j
     if job.home_phase < 5:
         result = drive.homing_result()
         if result is None:

@@ -1,17 +1,18 @@
-"""Planner calls of the motion kernels (axes and groups): counted and guarded.
+"""Planner calls of the motion kernels (axes and groups): counted.
 
 Every profile a kernel plans goes through :func:`guarded`: it counts the call (the runtime reads
-:func:`planner_calls` to find quiet cycles for planning ahead) and turns any failure into a
-:class:`~motionplc.planning.PlanningError`, which the kernels turn into an FB or axis error, so
-nothing escapes the cycle.
+:func:`planner_calls` to find quiet cycles for planning ahead). A planner's documented failure is
+a :class:`~motionplc.planning.PlanningError` (inputs that cannot be planned, and the planners' own
+"planner defect" reports of a numerical failure): the kernels turn it into PLANNING_FAILED.
+Anything else (a TypeError, an AttributeError...) is a programming error: it propagates
+unchanged to the fault barrier of the FB or the kernel, which reports INTERNAL_ERROR naming the
+exception (README "Faults, limits and bounds"), never disguised as a planning failure.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from typing import TypeVar
-
-from motionplc.planning import PlanningError
 
 __all__ = ["guarded", "planner_calls"]
 
@@ -26,13 +27,8 @@ def planner_calls() -> int:
 
 
 def guarded(fn: Callable[..., T], *args: object) -> T:
-    """Call a planner for the kernel: every failure is a PlanningError (the kernel's handlers
-    turn it into an FB or axis error; nothing escapes the cycle)."""
+    """Call a planner for the kernel, counted. Its PlanningError goes to the kernel's handlers;
+    any other exception is a defect and propagates as it is (to INTERNAL_ERROR)."""
     global _planner_calls
     _planner_calls += 1
-    try:
-        return fn(*args)
-    except PlanningError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - a planner defect must not end the cycle
-        raise PlanningError(f"planner defect: {type(exc).__name__}: {exc}") from exc
+    return fn(*args)

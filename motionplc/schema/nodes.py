@@ -90,16 +90,20 @@ class Node:
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class Number(Node):
-    """A real number (integers accepted). ``gt``: exclusive lower bound, ``ge``/``le``:
-    inclusive bounds; ``inf_ok``: ``.inf`` is accepted beside the range."""
+    """A real number (integers accepted). ``gt``/``lt``: exclusive lower/upper bounds,
+    ``ge``/``le``: inclusive bounds; ``inf_ok``: ``.inf`` is accepted beside the range."""
 
     gt: float | None = None
     ge: float | None = None
     le: float | None = None
+    lt: float | None = None
     inf_ok: bool = False
 
     def bounds(self) -> dict[str, Any]:
-        """The keyword arguments of ``Checker.number``."""
+        """The keyword arguments of ``Checker.number`` (which has no ``lt``: a node with one is
+        checked with :meth:`accepts`)."""
+        if self.lt is not None:
+            raise TypeError("Checker.number has no exclusive upper bound: use accepts()")
         return {"gt": self.gt, "ge": self.ge, "le": self.le, "inf_ok": self.inf_ok}
 
     def range_text(self) -> str:
@@ -110,6 +114,8 @@ class Number(Node):
             parts.append(f">= {fmt_number(self.ge)}")
         if self.le is not None:
             parts.append(f"<= {fmt_number(self.le)}")
+        if self.lt is not None:
+            parts.append(f"< {fmt_number(self.lt)}")
         text = " and ".join(parts) if parts else "any"
         return text + (", or .inf" if self.inf_ok else "")
 
@@ -123,6 +129,7 @@ class Number(Node):
             (self.gt is None or x > self.gt)
             and (self.ge is None or x >= self.ge)
             and (self.le is None or x <= self.le)
+            and (self.lt is None or x < self.lt)
         )
 
     def type_text(self) -> str:

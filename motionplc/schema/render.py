@@ -111,6 +111,8 @@ def _node(node: Node) -> dict[str, Any]:
             out["minimum"] = node.ge
         if node.le is not None:
             out["maximum"] = node.le
+        if node.lt is not None:
+            out["exclusiveMaximum"] = node.lt
         if node.inf_ok and node.le is not None:
             out = {"anyOf": [out, {"type": "number", "minimum": _INF_STANDIN}]}
     elif isinstance(node, Integer):

@@ -37,6 +37,7 @@ __all__ = [
     "GROUP_ADMIN",
     "GROUP_FIELDS",
     "POINT_PINS",
+    "RADIUS",
     "REF_PINS",
     "STEP",
     "SYNC_MOVE",
@@ -230,7 +231,10 @@ _PIN_TEXT = {
     "the distance from the corner [m]; TM_MAX_CORNER_DEVIATION: the largest deviation [m], 0 = "
     "the group's tolerance; TM_START_VELOCITY / TM_CONSTANT_VELOCITY: the speed [m/s]).",
     "circ_mode": "How `aux_point` defines the arc.",
-    "aux_point": "Auxiliary point (or a number: the radius, CircMode RADIUS).",
+    "aux_point": (
+        "Auxiliary point (or a number: the radius, CircMode RADIUS; negative: the arc longer "
+        "than half a circle)."
+    ),
     "end_point": "End point of the arc.",
     "path_choice": "Direction of the arc.",
     "points": "The passing points (a list of points).",
@@ -305,6 +309,14 @@ _POINT = OneOf(
 )
 
 
+# aux_point as a number: the radius of CircMode RADIUS (MC_MoveCircular*), as the FB takes it
+# (aux_point[0]): positive for the arc shorter than half a circle, negative for the longer one
+RADIUS = (
+    Number(gt=0.0, le=1e12, description="The radius: the arc shorter than half a circle."),
+    Number(ge=-1e12, lt=0.0, description="Minus the radius: the arc longer than half a circle."),
+)
+
+
 def fb_types() -> tuple[dict[str, type], dict[str, type]]:
     """The FB classes a sequence may use: (axis FBs, group FBs) by name."""
     import motionplc.blocks as blocks
@@ -328,9 +340,7 @@ def _pin_node(cls: type, pin: str, default: Any, group: bool) -> Node:
     if group and pin in POINT_PINS:
         if pin == "aux_point":
             return OneOf(
-                description=text,
-                variants=(*_POINT.variants, Number(gt=0.0, description="The radius.")),
-                checks=_POINT.checks,
+                description=text, variants=(*_POINT.variants, *RADIUS), checks=_POINT.checks
             )
         return OneOf(description=text, variants=_POINT.variants, checks=_POINT.checks)
     if group and pin == "points":

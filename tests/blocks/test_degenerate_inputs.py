@@ -155,8 +155,9 @@ def test_a_move_too_slow_for_its_distance_is_an_input_error() -> None:
 
 
 def test_planner_exception_becomes_an_fb_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A planner that raises anything (here ZeroDivisionError) at a command's start: the FB
-    ends with PLANNING_FAILED (not Busy), the axis keeps its motion, the cycle goes on."""
+    """A planner that raises something other than its PlanningError (here ZeroDivisionError, a
+    defect) at a command's start: the FB ends with INTERNAL_ERROR naming it -- not disguised as
+    PLANNING_FAILED -- (not Busy), the axis keeps its motion, the cycle goes on."""
     b = _bench()
     mv = b.add(MC_MoveVelocity(velocity=20.0))
     ma = b.add(MC_MoveAbsolute(position=5.0, velocity=10.0))
@@ -170,8 +171,8 @@ def test_planner_exception_becomes_an_fb_error(monkeypatch: pytest.MonkeyPatch) 
     tick = b.rt.tick
     ma.execute = True
     b.run(3)
-    assert ma.error and ma.error_id is E.PLANNING_FAILED and not ma.busy
-    assert "ZeroDivisionError" in ma.error_text
+    assert ma.error and ma.error_id is E.INTERNAL_ERROR and not ma.busy
+    assert "ZeroDivisionError: float division by zero" in ma.error_text
     assert mv.in_velocity and b.x.state is AxisState.CONTINUOUS_MOTION
     assert b.rt.tick == tick + 3 and len(b.col("x.position")) == b.rt.tick
 

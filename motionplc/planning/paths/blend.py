@@ -453,6 +453,10 @@ def _solve_deviation(
     returned blend always satisfies the bound. None if no blend is feasible.
     """
     corner = a.end
+    # the blend needs d <= both lengths; a caller's cap is the room it trimmed a and b to, but
+    # a trimmed piece's length is computed again (an arc's as radius * angle, a line's as
+    # u1 - u0 of the trim points) and may be one rounding step short of it
+    cap = min(cap, a.length, b.length)
     dev_top = CornerBlend._probe(a, b, cap).distance_to(corner)[0]
     if dev_top <= tol:
         return CornerBlend(a, b, cap)
