@@ -22,7 +22,6 @@ __all__ = ["examples_root", "example_files", "copy_examples"]
 
 _PACKAGED = Path(__file__).resolve().parent / "_examples"
 _CHECKOUT = Path(__file__).resolve().parent.parent / "configs"
-_SUFFIXES = frozenset({".yaml", ".yml", ".py", ".csv", ".ngc", ".nc", ".gcode", ".tap"})
 
 
 def examples_root() -> Path:
@@ -43,7 +42,7 @@ def example_files(root: Path | None = None) -> list[Path]:
     return sorted(
         p.relative_to(base)
         for p in base.rglob("*")
-        if p.is_file() and p.suffix in _SUFFIXES and "__pycache__" not in p.parts
+        if p.is_file() and "__pycache__" not in p.parts
     )
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -69,11 +70,19 @@ def test_refuses_to_replace_unless_forced(
 def test_a_built_package_carries_the_examples(tmp_path: Path) -> None:
     """setup.py's build_py copies configs/ into the package (the wheel's contents), and the
     built package hands them out without a checkout beside it."""
+    # built from a copy of the sources: setup.py run in the checkout itself would void the
+    # editable install's compiled build (a pure-Python build removes its manifest)
+    src = tmp_path / "src"
+    ignore = shutil.ignore_patterns("__pycache__", "*.so", "_compiled.json", "*.egg-info")
+    shutil.copytree(ROOT / "motionplc", src / "motionplc", ignore=ignore)
+    shutil.copytree(ROOT / "configs", src / "configs", ignore=ignore)
+    for name in ("setup.py", "pyproject.toml", "README.md", "LICENSE"):
+        shutil.copyfile(ROOT / name, src / name)
     build = tmp_path / "build"
     env = {**os.environ, "MOTIONPLC_NO_MYPYC": "1"}
     subprocess.run(
         [sys.executable, "setup.py", "-q", "build_py", "-d", str(build)],
-        cwd=ROOT,
+        cwd=src,
         env=env,
         check=True,
         capture_output=True,
