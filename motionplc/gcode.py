@@ -683,6 +683,30 @@ def _split_comments(raw: str) -> tuple[str, list[str]]:
     return "".join("".join(code).split()).upper(), comments
 
 
+_EXPONENT = re.compile(r"([A-DF-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))E([-+]?\d+)", re.IGNORECASE)
+
+
+def _exponent_error(b: _Block) -> None:
+    """An E word right after a number (``F1e15``): a number written with an exponent, which
+    G-code does not have (it reads ``F1`` and ``E15``): say so, with the value written out."""
+    m = _EXPONENT.search(b.text)
+    if m is None:
+        return
+    letter, mant, exp = m.groups()
+    value = float(f"{mant}e{exp}")
+    if not abs(value) < _MAX_VALUE:
+        allowed = f"|value| < {_MAX_VALUE:g}, written out without an exponent"
+    else:
+        num = f"{value:.12g}"
+        if "e" in num:
+            num = f"{value:.15f}".rstrip("0")
+        allowed = f"the number written out, e.g. {letter.upper()}{num}"
+    raise _Err(
+        m.group(0),
+        f"G-code numbers have no exponent: {letter}{mant} and E{exp} (allowed: {allowed})",
+    )
+
+
 class _Block:
     """One line, its values evaluated."""
 
@@ -1756,6 +1780,8 @@ class Interpreter:
                         f"the machine has no {letter} axis (allowed: its axes {have})",
                     )
             elif letter not in "FSTHDIJKRPQL":
+                if letter == "E":
+                    _exponent_error(b)
                 raise _Err(
                     b.word_text[letter], "unknown word (allowed: the words of the G-code reference)"
                 )

@@ -235,3 +235,29 @@ def test_zero_length_moves_are_skipped_without_memory_per_move() -> None:
     interp = Interpreter("z.ngc", XYZ, text="G21 G1 F100 X0\n" * 5000)
     assert list(interp.run()) == [GcodeEvent(5000, "end", text="end of file")]
     assert interp.n_skipped == 5000 and len(interp.skipped) == 100
+
+
+@pytest.mark.parametrize(
+    ("line", "expected"),
+    [
+        (
+            "G1 F1e3 X1",
+            "F1e3: G-code numbers have no exponent: F1 and E3 (allowed: the number "
+            "written out, e.g. F1000)",
+        ),
+        (
+            "G1 X1.5E-3",
+            "X1.5E-3: G-code numbers have no exponent: X1.5 and E-3 (allowed: the "
+            "number written out, e.g. X0.0015)",
+        ),
+        (
+            "G1 X1 F1e15",
+            "F1e15: G-code numbers have no exponent: F1 and E15 (allowed: |value| < "
+            "1e+15, written out without an exponent)",
+        ),
+        ("G1 X1 E5", "E5: unknown word (allowed: the words of the G-code reference)"),
+    ],
+)
+def test_a_number_with_an_exponent_is_named_as_such(line: str, expected: str) -> None:
+    """issue 30: ``F1e15`` read as 'E15: unknown word'; the message names the exponent."""
+    assert expected in error_of(f"G21\n{line}\n")
