@@ -1189,13 +1189,22 @@ def _parse_bus(c: Checker, name: str, line: int, body: Any) -> BusSpec | None:
 
 
 def _parse_axis(
-    c: Checker, name: str, line: int, body: Any, buses: dict[str, BusSpec], tasks: list[str]
+    c: Checker,
+    name: str,
+    line: int,
+    body: Any,
+    buses: dict[str, BusSpec],
+    tasks: list[str],
+    spindle: bool = False,
 ) -> AxisSpec | None:
+    """One axis; ``spindle``: the machine names it its spindle (``gcode: spindle:``), whose
+    speeds are judged as a spindle's by the plausibility warnings."""
     path = join("axes", name)
     m = c.mapping(body, line, path, _AXIS)
     if m is None:
         return None
     units = c.field(m, "units", path, S.AXIS["units"])
+    plaus = "spindle" if spindle and units == "rad" else units or "m"
     task = c.choice(m, "task", path, tuple(tasks) or ("",), tasks[0] if tasks else "")
     lp = join(path, "limits")
     lim = None
@@ -1232,7 +1241,7 @@ def _parse_axis(
             ("a_min", a_min, "acceleration"),
             ("j_max", j_max, "jerk"),
         ):
-            c.plausible(lm, key, lp, val, units or "m", qty)
+            c.plausible(lm, key, lp, val, plaus, qty)
     sw_min = sw_max = None
     if m.get("software_limits") is not None:
         sp = join(path, "software_limits")
@@ -1587,6 +1596,8 @@ def parse_config(data: Any, file: str | Path) -> Config:
                 if bus is not None:
                     buses[name] = bus
     axes: list[AxisSpec] = []
+    gm = top.get("gcode")
+    spindle_name = gm.get("spindle") if isinstance(gm, dict) else None
     am = c.mapping(top["axes"], top.line_of("axes"), "axes", None) if "axes" in top else None
     lines: dict[str, int] = {}
     if am is not None:
@@ -1597,7 +1608,9 @@ def parse_config(data: Any, file: str | Path) -> Config:
                 # every axis defined counts as known, also one with errors of its own: a
                 # reference to it elsewhere is not a second error (the root cause is reported)
                 lines[name] = am.line_of(name)
-                ax = _parse_axis(c, name, am.line_of(name), body, buses, tasks)
+                ax = _parse_axis(
+                    c, name, am.line_of(name), body, buses, tasks, name == spindle_name
+                )
                 if ax is not None:
                     axes.append(ax)
         # bus-wide rules: unique node/unit ids, one task per CAN bus

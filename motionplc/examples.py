@@ -40,9 +40,7 @@ def example_files(root: Path | None = None) -> list[Path]:
     """Every example file, relative to :func:`examples_root`, sorted."""
     base = examples_root() if root is None else root
     return sorted(
-        p.relative_to(base)
-        for p in base.rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts
+        p.relative_to(base) for p in base.rglob("*") if p.is_file() and "__pycache__" not in p.parts
     )
 
 

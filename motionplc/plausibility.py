@@ -25,6 +25,14 @@ BOUNDS: dict[str, dict[str, tuple[float, str]]] = {
         "acceleration": (1e5, "/s²"),
         "jerk": (1e8, "/s³"),
     },
+    # a rotary axis the machine names as its spindle (``gcode: spindle:``): in rad, but a
+    # spindle turns up to ~60,000 rpm (6283 rad/s)
+    "spindle": {
+        "position": (math.inf, ""),
+        "velocity": (1e4, "/s"),
+        "acceleration": (1e6, "/s²"),
+        "jerk": (1e9, "/s³"),
+    },
 }
 
 
@@ -34,15 +42,26 @@ def _g(x: float) -> str:
 
 def warning(value: float, units: str, quantity: str, what: str = "") -> str | None:
     """The warning text for ``value`` of ``quantity`` (position, velocity, acceleration,
-    jerk) on an axis in ``units`` (``"m"`` or ``"rad"``), or None when it is plausible (or
+    jerk) on an axis in ``units`` (``"m"``, ``"rad"``, or ``"spindle"``: a rotary axis in rad
+    that is the machine's spindle), or None when it is plausible (or
     infinite: no limit). ``what`` names the value in the text (default: the quantity)."""
     if units not in BOUNDS or not math.isfinite(value):
         return None
     bound, suffix = BOUNDS[units][quantity]
     if abs(value) <= bound:
         return None
-    unit = units + suffix
     name = what or quantity
+    if units == "spindle":
+        unit = "rad" + suffix
+        return (
+            f"{name} {_g(value)} {unit} is implausible for a spindle (beyond ±{_g(bound)} "
+            f"{unit}): rpm typed as rad/s? ({_g(value)} rpm is {_g(value * math.pi / 30)} "
+            "rad/s)"
+            if quantity == "velocity"
+            else f"{name} {_g(value)} {unit} is implausible for a spindle (beyond "
+            f"±{_g(bound)} {unit})"
+        )
+    unit = units + suffix
     if units == "m":
         mistake = f"mm typed as m? ({_g(value)} mm{suffix} is {_g(value / 1000)} m{suffix})"
     else:

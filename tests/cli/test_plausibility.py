@@ -35,6 +35,25 @@ def test_bounds_and_the_mistake_named() -> None:
     assert "F is in program units per minute" in (feed_warning(1.7e7) or "")
 
 
+def test_a_spindle_is_judged_as_a_spindle(tmp_path: Path) -> None:
+    """A rotary axis the machine names its spindle (``gcode: spindle:``) may turn at 2000 rad/s
+    (~19,000 rpm) without a warning; the same axis not named spindle warns (degrees?), and a
+    spindle beyond 1e4 rad/s warns with the rpm mistake named."""
+    assert warning(2000.0, "spindle", "velocity") is None
+    text = warning(20000.0, "spindle", "velocity", "v_max") or ""
+    assert "implausible for a spindle" in text and "(2e+04 rpm is 2094 rad/s)" in text
+    body = (ROOT / "configs" / "gcode" / "mill3.yaml").read_text(encoding="utf-8")
+    assert "spindle: s" in body
+    (tmp_path / "tools.tbl").write_text((ROOT / "configs" / "gcode" / "tools.tbl").read_text())
+    named = tmp_path / "named.yaml"
+    named.write_text(body)
+    assert load_config(named).warnings == ()
+    unnamed = tmp_path / "unnamed.yaml"
+    unnamed.write_text(body.replace("  spindle: s\n", ""))
+    (warned,) = load_config(unnamed).warnings
+    assert "axes.s.limits.v_max: warning: v_max 2000 rad/s" in warned and "degrees" in warned
+
+
 def test_shipped_configurations_warn_about_nothing() -> None:
     for cfg in sorted((ROOT / "configs").rglob("*.yaml")):
         text = cfg.read_text(encoding="utf-8")

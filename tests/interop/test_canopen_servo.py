@@ -336,7 +336,12 @@ def _abort_cases() -> list[tuple[str, Callable[[Peer], object], int]]:
     ]
 
 
-@pytest.mark.parametrize(("what", "action", "code"), _abort_cases(), ids=lambda c: str(c))
+@pytest.mark.parametrize(
+    ("what", "action", "code"),
+    _abort_cases(),
+    # the case's name and abort code (a function's repr differs between processes)
+    ids=lambda c: f"0x{c:08X}" if isinstance(c, int) else (c if isinstance(c, str) else ""),
+)
 def test_abort_codes(
     shared_peer: Peer, what: str, action: Callable[[Peer], object], code: int
 ) -> None:
