@@ -690,6 +690,22 @@ class VirtualCia402Drive:
         if self.consumer_heartbeat is not None and can_id == 0x700 + self.consumer_heartbeat[0]:
             self._last_master_hb_t = timestamp
 
+    def next_due(self) -> float:
+        """When :meth:`advance` next has something to judge (SYNC loss, master heartbeat
+        loss), on the same time as ``advance``'s ``t``; ``inf`` if nothing is supervised.
+        (With the stall clock on, its elapsed time runs slower than the plain difference:
+        the plain deadline is then early, never late.)"""
+        due = math.inf
+        if (
+            self.comm_cycle_period > 0.0
+            and self._last_sync_t is not None
+            and self.node.nmt._state == NMT_OPERATIONAL
+        ):
+            due = self._last_sync_t + 1.5 * self.comm_cycle_period + 1e-6
+        if self.consumer_heartbeat is not None and self._last_master_hb_t is not None:
+            due = min(due, self._last_master_hb_t + self.consumer_heartbeat[1] + 1e-6)
+        return due
+
     def advance(self, t: float) -> None:
         """Time-driven supervision at simulated time ``t`` (after the frames of this step)."""
         d = self.device
@@ -764,6 +780,7 @@ class VirtualCanBus(GuardedEndpoint):
         self.t = 0.0
         self._was_bus_off = False
         self._fast: dict[int, list[Callable[[int, bytearray, float], None]]] | None = None
+        self._first: can.Message | None = None  # the frame serve() waited for
         for drive in drives:
             self.add(drive)
 
@@ -809,11 +826,33 @@ class VirtualCanBus(GuardedEndpoint):
     def _relevant_ids(self) -> set[int]:
         return self._cyclic_ids() | self.network.subscribers.keys()
 
+    def next_due(self) -> float:
+        """The earliest time [s] a time-driven service is due: a periodic frame (the
+        heartbeat), a drive's SYNC-loss or master-heartbeat deadline; ``inf`` if none."""
+        due = self.network._next_due
+        for drive in self.drives.values():
+            due = min(due, drive.next_due())
+        return due
+
+    def serve(self, clock: Callable[[], float], max_wait: float) -> int:
+        """One step of a drives process (``motionplc drives``): block until a frame arrives
+        or the next time service is due (:meth:`next_due`, at most ``max_wait`` s), then
+        :meth:`step` at ``clock()`` read *after* the wait, so a frame is stamped with the time
+        it was taken, not the time the wait began. No polling: an idle bus costs a wake-up
+        per heartbeat, not one per millisecond. Returns the number of frames processed."""
+        wait = min(max_wait, self.next_due() - clock())
+        first = self.faults.recv(timeout=wait) if wait > 0.0 else None
+        self._first = first
+        try:
+            return self.step(clock())
+        finally:
+            self._first = None
+
     def step(self, t: float, wait: float = 0.0) -> int:
         """Process every frame received so far at simulated time ``t``, then the timers.
 
         ``wait`` > 0 blocks up to that long for the first frame (only for the threaded
-        third-party-master test and the separate-process entry point). Returns the number of
+        third-party-master tests; a drives process uses :meth:`serve`). Returns the number of
         frames processed.
         """
         self.t = t
@@ -828,9 +867,11 @@ class VirtualCanBus(GuardedEndpoint):
 
     def _step(self, t: float, wait: float) -> int:
         n = 0
-        if wait > 0.0:
+        first = self._first
+        if first is None and wait > 0.0:
             first = self.faults.recv(timeout=wait)
-            frames = [] if first is None else [first]
+        if first is not None:
+            frames = [first]
             frames.extend(drain(self.faults))
         else:
             frames = drain(self.faults)
