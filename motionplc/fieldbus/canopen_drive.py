@@ -27,8 +27,8 @@ write: everything it does follows CiA 301 / CiA 402 and its configuration, not o
   heartbeat, and node-guarding requests when due) and steps the in-process peer if there is
   one. Without a peer on the simulated clock it then waits (at most ``external_wait`` of wall
   time, with ``bus.recv(timeout)``) for the TPDOs of this SYNC, so runs against a drive in
-  another thread are reproducible; a drive that missed one wait is not waited for again
-  until it sends again. On the real-time clock it never waits.
+  another thread are reproducible; a drive that missed more than ``tpdo_loss_limit`` waits in
+  a row is not waited for again until it sends again. On the real-time clock it never waits.
 
 Feedback read in cycle k+1 reflects the setpoint written in cycle k (one cycle of transport
 delay with the virtual drives, which answer the SYNC of cycle k before cycle k+1).
@@ -617,8 +617,8 @@ class CanopenMaster(GuardedEndpoint):
         """Simulated clock, external drives: receive until every drive expected to answer
         this SYNC has sent its TPDOs (and its SDO answer, while one is in flight), each
         ``recv`` bounded by the drives' ``external_wait``. Frames are kept for the next
-        cycle's drain. A drive still missing is marked and not waited for again until it
-        sends again."""
+        cycle's drain. A drive still missing after more than ``tpdo_loss_limit`` waits in a
+        row is marked and not waited for again until it sends again."""
         expected: dict[int, CanopenDrive] = {}
         wait = 0.0
         for drive in self.drives:
@@ -643,8 +643,17 @@ class CanopenMaster(GuardedEndpoint):
             missing.discard(msg.arbitration_id)
         if missing:
             self.external_waits += 1
-            for cob_id in missing:
-                expected[cob_id]._waived = True
+        # a drive late for this SYNC is waited for again next cycle, up to its TPDO loss
+        # limit (a process starved for one wait on a loaded machine is not lost); beyond
+        # that (FEEDBACK_LOST by then) it is not waited for until it sends again
+        late = {id(expected[cob_id]) for cob_id in missing}
+        for drive in {id(d): d for d in expected.values()}.values():
+            if id(drive) in late:
+                drive._wait_misses += 1
+                if drive._wait_misses > drive.config.tpdo_loss_limit:
+                    drive._waived = True
+            else:
+                drive._wait_misses = 0
 
     # ----------------------------------------------------------------- setup
     def attach(self, drive: CanopenDrive) -> None:
@@ -977,6 +986,7 @@ class CanopenDrive(Drive):
         self._setup_error = ""
         self._lost_detail = ""
         self._waived = False
+        self._wait_misses = 0  # SYNCs in a row the master waited for this drive in vain
         self.guard_toggle_errors = 0
         # acyclic SDO transfers in the cycle (touch probe): one in flight, the rest queued
         self._acyclic: deque[_AcyclicSdo] = deque()
@@ -1160,6 +1170,7 @@ class CanopenDrive(Drive):
         self._guard_answer_t = None
         self._guard_toggle = None
         self._waived = False
+        self._wait_misses = 0
 
     def _tpdo_handler(self, c: _CompiledPdo) -> Callable[[bytearray], None]:
         unpack = c.struct.unpack

@@ -244,12 +244,13 @@ def test_external_drive_on_the_simulated_clock_is_waited_for(channel: str) -> No
             drive.write_outputs(t, DriveCommand(fb.position, enable=True))
         assert stale[2:] == [False] * 58 and fb.enabled
         assert master.external_waits == 0
-        # a dead drive costs one wait, then it is not waited for until it sends again
+        # a dead drive is waited for up to its TPDO loss limit (3) + 1 SYNCs in a row (a
+        # process starved for one wait is not lost), then not until it sends again
         rack.faults.drop_tx_ids.update({0x180 + N, 0x280 + N})
         for k in range(60, 70):
             fb = drive.read_inputs(k * DT)
             drive.write_outputs(k * DT, DriveCommand(fb.position, enable=True))
-        assert master.external_waits == 1
+        assert master.external_waits == 4
         assert not fb.comm_ok and fb.kind == "no_feedback"
     finally:
         stop.set()
@@ -270,9 +271,14 @@ def test_realtime_never_waits(channel: str) -> None:
         master.end_cycle(0.0)  # returns at once: nothing is waited for in real time
         assert master.external_waits == 0
         drive.bind_clock(False)
-        master.end_cycle(0.001)  # simulated clock: waits (0.2 s) and gives up
-        assert master.external_waits == 1 and drive._waived
-        master.end_cycle(0.002)  # not waited for again
-        assert master.external_waits == 1
+        # simulated clock: waits (0.2 s) and gives up, again for each SYNC up to the TPDO
+        # loss limit (3) + 1 in a row, then not waited for again
+        for k in range(4):
+            assert not drive._waived
+            master.end_cycle(0.001 * (k + 1))
+            assert master.external_waits == k + 1
+        assert drive._waived
+        master.end_cycle(0.005)
+        assert master.external_waits == 4
     finally:
         master.close()
