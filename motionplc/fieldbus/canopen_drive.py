@@ -478,6 +478,9 @@ class CanopenMaster(GuardedEndpoint):
         self.stall = StallClock()
         self._exchange_now = False
         self._in_setup = False  # LSS responses are accepted only during run_setup
+        # external drives, simulated clock: TPDO frames of earlier SYNCs still to come, per
+        # COB-ID (_wait_external)
+        self._owed: dict[int, int] = {}
         self._held: list[can.Message] = []  # received while waiting for external drives
         self.bus_ok = True
         self.bus_fault_latched = False
@@ -629,9 +632,12 @@ class CanopenMaster(GuardedEndpoint):
                     expected[cob_id] = drive
         if not expected or wait <= 0.0:
             return
-        missing = set(expected)
+        # frames to receive per COB-ID: this SYNC's, and the TPDOs of earlier SYNCs that came
+        # late (one late answer must not count as this SYNC's: the lockstep stays exact)
+        owed = self._owed
+        need = {cob_id: 1 + owed.get(cob_id, 0) for cob_id in expected}
         limit = self.rx.max_frames
-        while missing and len(self._held) < limit:
+        while need and len(self._held) < limit:
             try:
                 msg = self.bus.recv(timeout=wait)
             except can.CanError as exc:
@@ -640,7 +646,13 @@ class CanopenMaster(GuardedEndpoint):
             if msg is None:
                 break
             self._held.append(msg)
-            missing.discard(msg.arbitration_id)
+            n = need.get(msg.arbitration_id)
+            if n is not None:
+                if n > 1:
+                    need[msg.arbitration_id] = n - 1
+                else:
+                    del need[msg.arbitration_id]
+        missing = set(need)
         if missing:
             self.external_waits += 1
         # a drive late for this SYNC is waited for again next cycle, up to its TPDO loss
@@ -654,6 +666,11 @@ class CanopenMaster(GuardedEndpoint):
                     drive._waived = True
             else:
                 drive._wait_misses = 0
+        self._owed = {
+            cob_id: n
+            for cob_id, n in need.items()
+            if not expected[cob_id]._waived and cob_id in expected[cob_id]._expect_ids
+        }
 
     # ----------------------------------------------------------------- setup
     def attach(self, drive: CanopenDrive) -> None:

@@ -282,3 +282,30 @@ def test_realtime_never_waits(channel: str) -> None:
         assert master.external_waits == 4
     finally:
         master.close()
+
+
+def test_a_late_tpdo_is_not_taken_for_the_next_syncs(channel: str) -> None:
+    """Simulated clock, external drive: a TPDO that came after its SYNC's wait ran out is owed;
+    the next wait takes it *and* this SYNC's own, so the lockstep stays one SYNC per answer."""
+    master = CanopenMaster(can.Bus(interface="virtual", channel=channel))
+    drive_side = can.Bus(interface="virtual", channel=channel)
+    tpdo = can.Message(arbitration_id=0x180 + N, data=bytes(6), is_extended_id=False)
+    try:
+        drive = CanopenDrive("ax", master, CanopenDriveConfig(node_id=N))
+        drive.bind_clock(False)
+        drive._opened = True  # as if configured: TPDO1 expected after each SYNC
+        drive._configured = True
+        drive._expect_ids = (0x180 + N,)
+        master.end_cycle(0.001)  # no answer: the wait runs out (0.2 s), one TPDO owed
+        assert master.external_waits == 1 and master._owed == {0x180 + N: 1}
+        drive_side.send(tpdo)  # the late answer only: this SYNC's is still missing
+        master.end_cycle(0.002)
+        assert master.external_waits == 2 and master._owed == {0x180 + N: 1}
+        for _ in range(2):  # the late one and this SYNC's
+            drive_side.send(tpdo)
+        master.end_cycle(0.003)
+        assert master.external_waits == 2 and master._owed == {}
+        assert not drive._waived
+    finally:
+        master.close()
+        drive_side.shutdown()
