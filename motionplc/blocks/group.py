@@ -1160,7 +1160,8 @@ class AxesGroup:
         la, lb = seg_a.u_end, seg_b.u_end
 
         def deviation(dd: float) -> tuple[float, Any]:
-            cb = CornerBlend(seg_a, seg_b, dd)
+            # (a probe: the geometry without the arc-length table, built for the result only)
+            cb = CornerBlend._probe(seg_a, seg_b, dd)  # noqa: SLF001
             q = cb.evaluate(np.linspace(0.0, cb.u_end, 65))
             pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 513))
             pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 513))
@@ -1170,20 +1171,20 @@ class AxesGroup:
             # ignored; the samples bound the distance from above
             return float(dist.max()), cb
 
-        dev, cb = deviation(d)
+        dev, _ = deviation(d)
         if dev <= tol:
-            return cb
+            return CornerBlend(seg_a, seg_b, d)
         lo, hi, best = 0.0, d, None
         for _ in range(10):
             mid = 0.5 * (lo + hi)
-            dev, c = deviation(mid)
+            dev, _ = deviation(mid)
             if dev <= tol:
-                lo, best = mid, c
+                lo, best = mid, mid
                 if dev >= 0.9 * tol:
                     break
             else:
                 hi = mid
-        return best
+        return None if best is None else CornerBlend(seg_a, seg_b, best)
 
     def _replace_piece(self, lk: Link, pc: Piece, vm, am, jm) -> None:  # noqa: ANN001
         vp, ap, dp, jp = lk.caps
