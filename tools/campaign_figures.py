@@ -5,7 +5,7 @@
 
 One fault Monte Carlo campaign (written to a temporary directory: the demo machine's CAN bus
 with its two virtual CiA 402 drives, a short sequence - power on, one move of x with a drawn
-target and velocity - a drawn following-error window of y, and in half the scenarios a drive
+velocity and jerk limit - a drawn following-error window of y, and in half the scenarios a drive
 fault on x or y at a drawn time) is run
 
 1. serially in this process (``workers=0``),
@@ -63,7 +63,7 @@ program: short.yaml
 seed: 29
 draws: {n}
 random:
-  program.steps[1].call[0].position: {{uniform: [0.005, 0.03]}}
+  config.axes.x.limits.j_max: {{uniform: [5.0, 40.0]}}
   program.steps[1].call[0].velocity: {{uniform: [0.05, 0.5]}}
   config.axes.y.following_error: {{loguniform: [0.001, 0.01]}}
 faults:

@@ -319,7 +319,10 @@ def _run(job: Job, sc: Scenario, loaded: _Loaded, t0: float) -> dict[str, Any]:
 
 def _figures(rt: Any, cfg: Any) -> dict[str, Any]:
     """Per axis: the largest |following error|, and |v|, |a|, |j| of the set position by
-    differencing (and each against the axis' limit)."""
+    differencing (and each against the axis' limit), over the cycles where the axis is
+    commanded (not DISABLED or ERROR_STOP: there the set position follows the actual one, a
+    coasting or switched-off axis, and no limit applies): a difference counts when every
+    sample it takes is such a cycle."""
     tr = rt.trace
     out: dict[str, Any] = {}
     if len(tr) < 2:
@@ -329,20 +332,24 @@ def _figures(rt: Any, cfg: Any) -> dict[str, Any]:
         n = ax.name
         p = tr.column(f"{n}.position")
         fe = tr.column(f"{n}.following_error")
+        state = tr.column(f"{n}.state")
         out[f"{n}.fe_max"] = float(np.max(np.abs(fe))) if len(fe) else 0.0
-        dt = np.diff(t)
-        ok = dt > 0
-        v = np.diff(p)[ok] / dt[ok]
-        tv = t[1:][ok]
-        dtv = np.diff(tv)
-        a = np.diff(v) / dtv if len(v) > 1 else np.zeros(0)
-        dta = np.diff(tv[1:]) if len(a) > 1 else np.zeros(0)
-        j = np.diff(a) / dta if len(a) > 1 else np.zeros(0)
+        ok = (state != 0) & (state != _ERROR_STOP)
         lim = ax.limits
-        for name, arr, limit in (("v", v, lim.v_max), ("a", a, lim.a_max), ("j", j, lim.j_max)):
-            m = float(np.max(np.abs(arr))) if len(arr) else 0.0
-            out[f"{n}.{name}_max"] = m
-            out[f"{n}.{name}_ratio"] = m / limit if math.isfinite(limit) and limit > 0 else 0.0
+        d = p
+        ts = t
+        m = ok
+        for name, limit in (("v", lim.v_max), ("a", lim.a_max), ("j", lim.j_max)):
+            dt = np.diff(ts)
+            good = (dt > 0) & m[1:] & m[:-1]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                d = np.where(good, np.diff(d) / np.where(dt > 0, dt, 1.0), 0.0)
+            ts = ts[1:]
+            m = good
+            vals = np.abs(d[m])
+            peak = float(np.max(vals)) if len(vals) else 0.0
+            out[f"{n}.{name}_max"] = peak
+            out[f"{n}.{name}_ratio"] = peak / limit if math.isfinite(limit) and limit > 0 else 0.0
     return out
 
 

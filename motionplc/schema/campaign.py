@@ -133,8 +133,7 @@ FAULT = Obj(
             OneOf(
                 variants=(Number(ge=0), DISTRIBUTION),
                 unit="s",
-                description="Simulated time of the injection [s] (a number >= 0 or a "
-                "distribution).",
+                description="Simulated time of the injection (a number >= 0 or a distribution).",
             ),
             required=True,
         ),
@@ -144,7 +143,7 @@ FAULT = Obj(
                 variants=(Number(gt=0), DISTRIBUTION),
                 unit="s",
                 default_text="to the end of the run",
-                description="How long a loss or bus-off lasts [s].",
+                description="How long a loss, a SYNC loss or a bus-off lasts.",
             ),
         ),
         Key(
@@ -257,7 +256,7 @@ VERDICT = Obj(
                 gt=0,
                 unit="s",
                 description="An injected fault (not `load_step`) must bring its axis to "
-                "ErrorStop within this time [s] (absent: detected at all).",
+                "ErrorStop within this time (absent: it must be detected at all).",
             ),
         ),
         Key(
@@ -317,7 +316,7 @@ TOP = Obj(
                 gt=0,
                 unit="s",
                 default_text="the program's timeout (1 s without a program)",
-                description="Simulated time limit of a scenario [s].",
+                description="Simulated time limit of a scenario.",
             ),
         ),
         Key(
@@ -326,7 +325,7 @@ TOP = Obj(
                 gt=0,
                 unit="s",
                 default=300.0,
-                description="Wall-clock limit of a scenario [s]: beyond it the scenario is a "
+                description="Wall-clock limit of a scenario: beyond it the scenario is a "
                 "`timeout` result.",
             ),
         ),
@@ -362,8 +361,10 @@ TOP = Obj(
         "program.* a value of the sequence or a module constant of a Python program",
         "every grid value and the bounds of every distribution are accepted by the "
         "configuration's or the sequence's validator",
-        "plant.<axis>.<name>: an axis on a simulated CiA 402 drive, name one of "
-        + ", ".join(PLANT_PARAMS),
+        "plant.<axis>.<name>: an axis on a simulated CiA 402 drive (CAN or Modbus), name one "
+        "of " + ", ".join(PLANT_PARAMS) + " (motionplc.fieldbus.plant.PlantParams; v_max, "
+        "a_max, coulomb and load in the axis' units per s, s² - scaled by counts_per_unit - "
+        "kp in 1/s, tau_v and tau_coast in s, kff and viscous as they are)",
         "grid points x draws <= 1,000,000",
     ),
 )

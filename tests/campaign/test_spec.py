@@ -113,3 +113,19 @@ def test_unknown_keys_and_missing_files(tmp_path: Path) -> None:
 def test_scheduler_must_be_loopback(tmp_path: Path) -> None:
     text = _errors(tmp_path, "execution: {scheduler: 'tcp://10.0.0.1:8786'}\n")
     assert "execution.scheduler" in text and "127.0.0.1" in text
+
+
+def test_shipped_example_is_valid_for_the_json_schema() -> None:
+    import jsonschema
+
+    from motionplc.config import load_yaml
+    from motionplc.schema.campaign import CAMPAIGN
+    from motionplc.schema.render import to_json_schema
+    from tests.schema.walk import plain
+
+    s = to_json_schema(CAMPAIGN)
+    jsonschema.Draft202012Validator.check_schema(s)
+    v = jsonschema.Draft202012Validator(s)
+    assert not list(v.iter_errors(plain(load_yaml(ROOT / "configs/campaigns/demo_faults.yaml"))))
+    assert not v.is_valid({"config": "a.yaml", "grid": {"velocity": [1]}})  # not a path
+    assert not v.is_valid({"config": "a.yaml", "faults": [{"fault": "melt", "axis": "x", "at": 0}]})
