@@ -111,6 +111,7 @@ def cmd_campaign(args: argparse.Namespace) -> int:
             trace=args.trace or None,
             quiet=args.quiet,
             only=args.only,
+            rerun=True,
         )
         for row in res.table:
             _print_row(row)

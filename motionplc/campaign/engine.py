@@ -158,6 +158,7 @@ def run_campaign(
     only: Iterable[int] | None = None,
     on_rows: Callable[[list[dict[str, Any]]], None] | None = None,
     client: Any = None,
+    rerun: bool = False,
 ) -> CampaignResult:
     """Run the scenarios of ``c`` not yet stored under ``output`` and return the table.
 
@@ -166,7 +167,8 @@ def run_campaign(
     ``execution.scheduler``) names an existing Dask scheduler, or ``client`` is a
     ``distributed.Client`` to use as is. ``only``: these scenario numbers (and the table
     holds just them). ``on_rows``: called with the rows of every finished task (after they
-    are stored)."""
+    are stored). ``rerun``: run them even when stored (``--only``: to look at one again,
+    with its trace)."""
     out = output_dir(c, output)
     store = ResultStore(out)
     job = job_of(c, out, trace)
@@ -176,7 +178,7 @@ def run_campaign(
             raise MotionPlcError(f"--only {i}: the campaign has scenarios 0..{len(c) - 1}")
     scenarios = list(c.scenarios(indices))
     keys = {s.index: s.key for s in scenarios}
-    done = store.done(keys)
+    done = set() if rerun else store.done(keys)
     todo = [s for s in scenarios if s.index not in done]
     scheduler = scheduler if scheduler is not None else c.execution.scheduler
     if workers is None:

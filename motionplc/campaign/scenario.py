@@ -415,10 +415,13 @@ def _verdict(job: Job, out: dict[str, Any], faulted: bool, failures: list[str]) 
 
 def param_columns(sc: Scenario) -> dict[str, Any]:
     """The scenario's varied values as table columns ``param:<path>`` (numbers as floats,
-    booleans as they are, anything else as text) and all of them as JSON (``params``)."""
+    booleans as they are, None for the fields of a fault not injected, anything else as
+    text) and all of them as JSON (``params``)."""
     out: dict[str, Any] = {"params": json.dumps([[p, v] for p, v in sc.params])}
     for p, v in sc.params:
-        if isinstance(v, bool):
+        if v is None:
+            out[f"param:{p}"] = None
+        elif isinstance(v, bool):
             out[f"param:{p}"] = v
         elif isinstance(v, (int, float)):
             out[f"param:{p}"] = float(v)

@@ -33,7 +33,7 @@ __all__ = [
     "parse_path",
 ]
 
-ENGINE_VERSION = 1
+ENGINE_VERSION = 2
 """Part of every scenario's key: a result computed by another engine version is rerun."""
 
 MAX_SCENARIOS = 1_000_000
@@ -290,6 +290,11 @@ class Campaign:
                     values[name] = v
             if tpl.probability < 1.0:
                 params[f"faults[{i}].injected"] = injected
+            if not injected:  # drawn all the same (the others do not shift), not used
+                for name, v in tpl.fields:
+                    p = f"faults[{i}].{name}"
+                    if isinstance(v, Distribution):
+                        params[p] = None
             if injected:
                 faults.append(
                     Fault(
