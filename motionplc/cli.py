@@ -1462,6 +1462,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sc.set_defaults(func=_cmd_schema)
 
+    from motionplc.campaign.cli import add_command as add_campaign_command
+
+    add_campaign_command(command)  # motionplc campaign (motionplc/campaign/cli.py)
+
     ex = command("examples", "copy the shipped example machines and programs into a folder")
     ex.add_argument("dir", metavar="DIR", help="destination folder (created if missing)")
     ex.add_argument(
