@@ -26,6 +26,7 @@ import contextvars
 import hashlib
 import logging
 import socket
+import sys
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -103,11 +104,23 @@ class OpcUaServer:
 
     ``start()`` runs it in a thread of its own (its own asyncio loop) and returns once it
     listens (``endpoint``: ``opc.tcp://HOST:PORT/motionplc/``); ``stop()`` ends it.
-    ``name``: the MotionDeviceSystem's browse name.
+    ``name``: the MotionDeviceSystem's browse name. ``switch_interval`` [s]: on the real-time
+    clock the interpreter's thread switch interval is lowered to it while the server runs
+    (``sys.setswitchinterval``; Python's default 5 ms is how long the cycle's thread may wait
+    for the GIL the server's thread holds; None: left as it is).
     """
 
-    def __init__(self, desk: OperatorDesk, settings: OpcUaSettings, name: str = "Machine") -> None:
+    def __init__(
+        self,
+        desk: OperatorDesk,
+        settings: OpcUaSettings,
+        name: str = "Machine",
+        *,
+        switch_interval: float | None = 0.0005,
+    ) -> None:
         self.desk = desk
+        self.switch_interval = switch_interval
+        self._old_switch: float | None = None
         self.settings = settings
         self.name = name
         self.port = settings.port or free_port(settings.host)
@@ -129,6 +142,9 @@ class OpcUaServer:
     def start(self, timeout: float = 60.0) -> str:
         if self._thread is not None:
             return self.endpoint
+        if self.switch_interval is not None and self.desk.rt.clock.realtime:
+            self._old_switch = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._old_switch, self.switch_interval))
         self._thread = threading.Thread(target=self._main, name="motionplc-opcua", daemon=True)
         self._thread.start()
         if not self._ready.wait(timeout):
@@ -146,6 +162,9 @@ class OpcUaServer:
                 pass
         if self._thread is not None:
             self._thread.join(timeout)
+        if self._old_switch is not None:
+            sys.setswitchinterval(self._old_switch)
+            self._old_switch = None
         self.desk.close("the OPC UA server stopped")
 
     def __enter__(self) -> OpcUaServer:
