@@ -408,10 +408,9 @@ def test_program_start_stop(plant: Plant, tmp_path: Path) -> None:
     prog = tmp_path / "square.ngc"
     prog.write_text("G21 G90\nG1 X40 Y0 F3000\nG1 X40 Y40\nG1 X0 Y40\nG1 X0 Y0\nM2\n")
     job = load_gcode_job(prog, plant.cfg, "xy")
-    with plant.paused():
-        runner = GcodeRunner(job, plant.machine)
     for client in CLIENTS:
-        req = plant.desk.load(runner if client == "asyncua" else GcodeRunner(job, plant.machine))
+        with plant.paused():  # (the runner reads the group's position: not while it cycles)
+            req = plant.desk.load(GcodeRunner(job, plant.machine))
         res = plant.ops(
             client,
             [
@@ -440,7 +439,13 @@ def test_program_start_stop(plant: Plant, tmp_path: Path) -> None:
 
 def test_operator_actions_are_in_the_trace_and_the_log(plant: Plant) -> None:
     plant.ops(
-        "asyncua", [user(), call(AX, "Power", (True, "Boolean")), until("s=axis.r.Powered", True)]
+        "asyncua",
+        [
+            user(),
+            call(AX, "Power", (True, "Boolean")),
+            call(AX, "SetOverride", (1.0, "Double")),
+            until("s=axis.r.Powered", True),
+        ],
     )
     with plant.paused():
         trace = plant.machine.runtime.trace
