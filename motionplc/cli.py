@@ -860,7 +860,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     cfg = _apply_realtime_options(cfg, args)
     max_overruns = getattr(cfg.runtime, "max_overruns", None)
     overrun_source = "--max-overruns" if args.max_overruns is not None else "runtime.max_overruns"
-    machine = _build(cfg, True if args.realtime else None)
+    # an operator acts in real time: --opcua (or an opcua: block) runs on the wall clock
+    wants_rt = args.realtime or args.opcua or cfg.opcua is not None
+    machine = _build(cfg, True if wants_rt else None)
     failures: list[str] = []
     interrupted = False
     try:
@@ -881,10 +883,18 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
                 runner = ProgramRunner(script, machine)
                 task = script.task or cfg.runtime.tasks[0].name
+        operator = None
+        if args.opcua or cfg.opcua is not None:  # the OPC UA server (motionplc.operator)
+            from motionplc.operator.run import start_operator
+
+            operator = start_operator(machine, runner, task if runner is not None else None)
+        elif runner is not None:
             machine.attach(runner, task)
         rt = machine.runtime
         realtime = bool(rt.clock.realtime)
         limit = args.seconds
+        if limit is None and operator is not None and runner is None:
+            limit = 10 * 365 * 86400.0  # an operator's machine idles until Ctrl-C
         if limit is None:
             limit = 1.0 if runner is None else getattr(script, "timeout", 600.0) + rt.cycle
         mode = "real time" if realtime else "simulated time"
@@ -910,6 +920,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 print(
                     f"running {args.config}{what} ({mode}, tick {rt.cycle * 1e3:g} ms)", flush=True
                 )
+                if operator is not None:
+                    print(operator.line(), flush=True)
             if rt.time < limit - 1e-9:
                 timer.restart()
                 rt.run_until(stop_now, max_seconds=limit - rt.time)
@@ -954,6 +966,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             stop = rt.shutdown(why)
         finally:
             ending.restore()
+            if operator is not None:
+                operator.close()
         if stop.quick and not ending.signal:
             interrupted = True
             failures.append("quick stop (Ctrl-C during the stop at the end of the run)")
@@ -1340,6 +1354,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="no progress and, unless the run fails, no summary table (default: progress bar "
         "on a terminal, else a line every 5 s of simulated time)",
     )
+    r.add_argument(
+        "--opcua",
+        action="store_true",
+        help="serve the machine over OPC UA (the config's opcua: block, else 127.0.0.1:4840, "
+        "Sign/SignAndEncrypt); implies --realtime; without a script the machine idles until "
+        "Ctrl-C (default: only with an opcua: block)",
+    )
     r.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     r.set_defaults(func=_cmd_run)
 
@@ -1461,6 +1482,10 @@ def build_parser() -> argparse.ArgumentParser:
         "-o", "--output", metavar="FILE", help="write to FILE instead of stdout (default: stdout)"
     )
     sc.set_defaults(func=_cmd_schema)
+
+    from motionplc.campaign.cli import add_command as add_campaign_command
+
+    add_campaign_command(command)  # motionplc campaign (motionplc/campaign/cli.py)
 
     ex = command("examples", "copy the shipped example machines and programs into a folder")
     ex.add_argument("dir", metavar="DIR", help="destination folder (created if missing)")

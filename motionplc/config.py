@@ -898,6 +898,7 @@ class Config:
     cams: tuple[CamSpec, ...] = ()
     warnings: tuple[str, ...] = ()  # ``FILE:LINE: key.path: warning: ...`` (plausibility)
     gcode: dict[str, Any] | None = None  # the G-code machine (motionplc.gcode_runner)
+    opcua: Any = None  # the OPC UA server: motionplc.operator.settings.OpcUaSettings
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -1666,6 +1667,11 @@ def parse_config(data: Any, file: str | Path) -> Config:
                 if cam is not None:
                     cams.append(cam)
     gcode = _parse_gcode(c, top) if top.get("gcode") is not None else None
+    opcua = None
+    if top.get("opcua") is not None:  # the OPC UA server (motionplc.operator)
+        from motionplc.operator.settings import parse_opcua
+
+        opcua = parse_opcua(c, top, str(file))
     c.raise_if_any()
     assert runtime is not None
     return Config(
@@ -1677,6 +1683,7 @@ def parse_config(data: Any, file: str | Path) -> Config:
         tuple(cams),
         tuple(c.warnings),
         gcode,
+        opcua,
     )
 
 

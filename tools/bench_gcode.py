@@ -262,7 +262,7 @@ def run(path: Path, config: Path, realtime: bool, idle: int = 0) -> dict:
             r = state["runner"]
             dry = 0
             if r is not None and r.t_motion is not None and not r.over:
-                left = getattr(r, "_next", 0) < len(r.moves)
+                left = not r._exhausted or r._next is not None  # program not all queued
                 dry = int(left and not g.mq.queue and not g.mq.inbox)
             per_cycle.append((cycle, task.exec_last_ns, state["phase"], dry))
 
@@ -408,7 +408,7 @@ def main() -> int:
         dev = path_deviation(g64, prog.tolerance * 1e-3 / 20.0) / (prog.tolerance * 1e-3)
         d61, w61 = trace_check(g61)
         d64, w64 = trace_check(g64)
-        moves = len(g64["runner"].moves)
+        moves = g64["runner"].moves_sent
         print(
             f"{prog.name:<12} {prog.kind:>9} {moves:>6} {length:>9.1f} {prog.feed:>6.0f} "
             f"{prog.tolerance:>5g} {lf:>8.3f} {g61['motion']:>8.3f} {g64['motion']:>8.3f} "
@@ -458,7 +458,7 @@ def main() -> int:
         length = path_length(r) * 1e3
         print(
             "\nreal time, 1 kHz (realtime clock, ideal drives): 'arc corners' "
-            f"{len(r['runner'].moves)} moves ({n} segments, {length:.0f} mm at F{prog.feed:g}, "
+            f"{r['runner'].moves_sent} moves ({n} segments, {length:.0f} mm at F{prog.feed:g}, "
             f"G64 P{prog.tolerance:g}), "
             f"{s.cycle_count} cycles, overruns {s.overruns}, omitted {s.omitted_cycles}, "
             f"lateness p99 {s.lateness_p99 * 1e6:.0f} us"

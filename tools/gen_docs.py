@@ -28,6 +28,11 @@ def generated() -> dict[Path, str]:
         out[Path("docs/reference") / f"{kind}.md"] = reference_markdown(kind)
         out[Path("docs/schema") / f"{kind}.schema.json"] = dumps(json_schema(kind))
     out[Path("docs/reference") / "gcode.md"] = gcode_reference()
+    from motionplc.schema.campaign import CAMPAIGN  # scenario campaigns (motionplc campaign)
+    from motionplc.schema.render import to_json_schema, to_markdown
+
+    out[Path("docs/reference") / "campaign.md"] = to_markdown(CAMPAIGN)
+    out[Path("docs/schema") / "campaign.schema.json"] = dumps(to_json_schema(CAMPAIGN))
     return out
 
 

@@ -125,9 +125,10 @@ class GroupConfig:
     # through the joints, the acceleration carried over (1: never merged)
     merge_ratio: float = 0.8
     max_run: int = 256  # pieces per run at most
-    # a line-line corner blend is made smaller (1/4, 1/16) or an exact stop where that passes
-    # the corner faster (see AxesGroup._corner_share); off: the blend uses the tolerance
-    corner_choice: bool = False
+    # under TMMaxCornerDeviation (G64 P) a line-line corner blend is made smaller (1/4, 1/16)
+    # or an exact stop where that passes the corner faster (see AxesGroup._corner_share): the
+    # tolerance is a bound, not a size (off: the blend always uses the tolerance)
+    corner_choice: bool = True
     task: str | None = None
 
 
@@ -1059,7 +1060,7 @@ class AxesGroup:
         parts: list[Piece]
         if lines:
             bp = BlendPiece(pa.end, ta, tb, d)
-            if self.cfg.corner_choice:
+            if self.cfg.corner_choice and tm is TransitionMode.TM_MAX_CORNER_DEVIATION:
                 share = self._corner_share(prev, first, bp, vj, vm, am, jm)
                 if share == 0.0:
                     return idx  # the exact corner is faster (prev.cap_out is 0)
@@ -1159,7 +1160,8 @@ class AxesGroup:
         la, lb = seg_a.u_end, seg_b.u_end
 
         def deviation(dd: float) -> tuple[float, Any]:
-            cb = CornerBlend(seg_a, seg_b, dd)
+            # (a probe: the geometry without the arc-length table, built for the result only)
+            cb = CornerBlend._probe(seg_a, seg_b, dd)  # noqa: SLF001
             q = cb.evaluate(np.linspace(0.0, cb.u_end, 65))
             pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 513))
             pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 513))
@@ -1169,20 +1171,20 @@ class AxesGroup:
             # ignored; the samples bound the distance from above
             return float(dist.max()), cb
 
-        dev, cb = deviation(d)
+        dev, _ = deviation(d)
         if dev <= tol:
-            return cb
+            return CornerBlend(seg_a, seg_b, d)
         lo, hi, best = 0.0, d, None
         for _ in range(10):
             mid = 0.5 * (lo + hi)
-            dev, c = deviation(mid)
+            dev, _ = deviation(mid)
             if dev <= tol:
-                lo, best = mid, c
+                lo, best = mid, mid
                 if dev >= 0.9 * tol:
                     break
             else:
                 hi = mid
-        return best
+        return None if best is None else CornerBlend(seg_a, seg_b, best)
 
     def _replace_piece(self, lk: Link, pc: Piece, vm, am, jm) -> None:  # noqa: ANN001
         vp, ap, dp, jp = lk.caps
@@ -1239,12 +1241,15 @@ class AxesGroup:
         links = chain.links
         if not links:
             return
+        # the forward pass redoes every link from the lowest one whose w_back changed or that
+        # is new (a run merged at or after ``dirty`` starts with w_in = 0: a pass that skipped
+        # it as unchanged left a junction whose speeds disagree)
         if rest or not self._running:
-            low = chain.backward(dirty, 0)
+            low = min(chain.backward(dirty, 0), dirty)
             chain.forward(0, w_start, None if dirty == 0 else low)
             self._plan_near()
             return
-        low = chain.backward(dirty, 0)
+        low = min(chain.backward(dirty, 0), dirty)
         lk0 = links[0]
         want = lk0.w_back
         if lk0.sampled is None and not lk0.stopping and (want != lk0.w_out or lk0.stale):
@@ -1357,7 +1362,8 @@ class AxesGroup:
         if prof.end.p <= U:  # the stop fits in the running piece
             u_stop = prof.end.p
             rest = links[1:]
-            if keep and U - u_stop > 1e-12 * (1.0 + U):
+            tail_left = keep and U - u_stop > 1e-12 * (1.0 + U)
+            if tail_left:
                 tail = Link(
                     SubPiece(lk0.piece, u_stop, U),
                     lk0.V,
@@ -1382,7 +1388,9 @@ class AxesGroup:
             lk0.stopping = True
             lk0.w_out = 0.0
             lk0.cap_out = 0.0
-            lk0.last = not keep and lk0.last
+            # (kept for MC_GroupContinue with nothing of the piece left: the stop ends where
+            # the piece does, an exact corner, and its move is done there)
+            lk0.last = lk0.last and not tail_left
             self._cut(rest, [lk0], keep, status, eid, reason)
             return
         # the stop runs over the next pieces: end it at the end of the first link m for which

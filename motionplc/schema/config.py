@@ -27,6 +27,7 @@ from motionplc.schema.nodes import (
     Scalar,
     String,
 )
+from motionplc.schema.opcua import OPCUA
 from motionplc.schema.register_map import REGISTER_MAP
 
 __all__ = [
@@ -1342,6 +1343,7 @@ TOP = Obj(
             ),
         ),
         Key("gcode", GCODE),
+        Key("opcua", OPCUA),
     ),
 )
 

@@ -58,8 +58,8 @@ def _chain(
 
 
 def test_rectangle_with_blended_corners_keeps_limits_tolerance_and_ends_exactly() -> None:
-    # the blends as the tolerance sizes them (corner_choice off, the default: at these limits
-    # exact stops pass the rectangle's corners faster, see the test below)
+    # the blends as the tolerance sizes them (corner_choice off; with it, the default, exact
+    # stops pass the rectangle's corners faster at these limits, see the test below)
     b = GroupBench(corner_choice=False).enabled()
     fbs = _chain(b, RECT)
     b.run_until_idle()
@@ -112,7 +112,9 @@ def test_corner_choice_never_slower_than_the_tolerance_sized_blends() -> None:
 
 
 def test_corner_speed_is_near_the_highest_constant_speed_the_axis_limits_allow() -> None:
-    b = GroupBench().enabled()
+    # the tolerance-sized blend (with the corner choice, the default, this corner is an exact
+    # stop: faster at these limits)
+    b = GroupBench(corner_choice=False).enabled()
     _chain(b, RECT[:2])
     b.run_until_idle()
     pv = b.col("g.path_velocity")

@@ -37,7 +37,16 @@ def _subparsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentP
 def test_every_option_of_every_command_has_help_with_its_default() -> None:
     parser = build_parser()
     commands = _subparsers(parser)
-    assert set(commands) == {"run", "validate", "plot", "drives", "plan", "schema", "examples"}
+    assert set(commands) == {
+        "run",
+        "validate",
+        "plot",
+        "drives",
+        "plan",
+        "schema",
+        "examples",
+        "campaign",
+    }
     for name, sub in commands.items():
         for action in sub._actions:
             if isinstance(action, argparse._HelpAction):

@@ -40,7 +40,8 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         "unknown top-level key",
         _cfg(_X) + "extras: 1\n",
         [
-            "{f}:7: (top level).extras: unknown key (allowed: runtime, buses, axes, groups, cams, gcode)"
+            "{f}:7: (top level).extras: unknown key (allowed: runtime, buses, axes, groups, "
+            "cams, gcode, opcua)"
         ],
     ),
     (

@@ -190,8 +190,8 @@ def _corner_passes(pos: np.ndarray, corners, radius: float = 2e-3) -> list[float
 
 def test_corner_deviation_within_p_at_every_corner(positions) -> None:  # noqa: ANN001
     """G64 P0.1: every corner (the project's TMMaxCornerDeviation: the distance from the
-    programmed corner to the path) within P, and the tolerance used where the path has a
-    corner (blended, not an exact stop); the reversal at the circle is an exact stop."""
+    programmed corner to the path) within P, a corner blended with the tolerance or a share of
+    it, or stopped exactly where that is faster; the reversal at the circle is an exact stop."""
     pos, _ = positions
     corners = _programmed_corners()[:-1]
     moves = list(load_gcode(RECT).moves((0.0, 0.0, 0.0)))
@@ -221,7 +221,12 @@ def test_corner_deviation_within_p_at_every_corner(positions) -> None:  # noqa: 
             assert d >= 0.5 * P_TOL, (a.line, d)
         else:
             kinds.append("corner")
-            assert d >= 0.99 * P_TOL, (a.line, angle, d)  # the whole tolerance used
+            # the tolerance is a bound: the group blends with the whole of it, or with 1/4 or
+            # 1/16 of the blend, or stops exactly, whichever passes the corner fastest
+            # (GroupConfig.corner_choice)
+            assert d <= 1e-7 or any(
+                0.99 * s * P_TOL <= d <= s * P_TOL + slack for s in (1.0, 0.25, 0.0625)
+            ), (a.line, angle, d)
     # 8 corners of 90 degrees and 7 tangent line-arc junctions blended, the reversal where the
     # full circle meets the half circles stopped, the two half circles joined smoothly
     assert [kinds.count(k) for k in ("corner", "tangent", "stop", "smooth")] == [8, 7, 1, 1]

@@ -1,0 +1,309 @@
+"""Real-time cost and latencies of the OPC UA server (issue 28).
+
+    .venv/bin/python tools/bench_opcua.py [--seconds 20] [--clients 10] [--interval-ms 10]
+
+One process runs configs/demo.yaml (two axes on simulated CiA 402 drives over the in-process
+virtual CAN bus, 1 ms tick) in real time, both axes moving back and forth all the time. The
+same run has three phases of ``--seconds`` each:
+
+1. ``without``: no desk, no server;
+2. ``with``: the operator desk installed, the OPC UA server running, ``--clients`` asyncua
+   clients (anonymous, None channel, in one other process) subscribed at ``--interval-ms`` to
+   every axis' ActualPosition, SetPosition, PLCopenState, FollowingError and the cycle, and one
+   operator client (user, Sign) calling ``SetOverride(1.0)`` every 50 ms;
+3. ``after``: the server stopped, the desk still installed (its own in-cycle cost).
+
+Printed per phase: the task's execution time p50 / p99 / max and lateness p99 / max (the
+runtime's 1 us histograms, differenced between the phases), overruns; the ratio of phase 2 to
+phase 1; the latency from a method call to the cycle that acted on it and from a cycle to the
+subscribed clients seeing its values (median, p99; the monotonic clock is shared by both
+processes). The clients run on the same machine as the cycle: their CPU counts too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import json
+import math
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parent.parent
+NS = "urn:motionplc:machine"
+PASSWORD = "bench-password"
+
+
+# ------------------------------------------------------------------------------ clients
+async def _clients(url: str, n: int, interval: float, seconds: float, sec: dict[str, str]) -> Any:
+    from asyncua import Client, ua
+
+    seen: list[tuple[int, int]] = []  # (cycle, monotonic ns) of client 0's Cycle changes
+    counts = [0] * n
+
+    class Handler:
+        def __init__(self, k: int, cycle_node: Any) -> None:
+            self.k, self.cycle_node = k, cycle_node
+
+        def datachange_notification(self, node: Any, val: Any, data: Any) -> None:
+            counts[self.k] += 1
+            if self.k == 0 and node.nodeid == self.cycle_node:
+                seen.append((int(val), time.monotonic_ns()))
+
+    clients = []
+    for k in range(n):
+        c = Client(url, timeout=30)
+        await c.connect()
+        ns = await c.get_namespace_index(NS)
+        ids = [f"ns={ns};s=Runtime.Cycle"]
+        for a in ("x", "y"):
+            for v in ("ActualPosition", "SetPosition", "PLCopenState", "FollowingError"):
+                ids.append(f"ns={ns};s=axis.{a}.{v}")
+        nodes = [c.get_node(i) for i in ids]
+        sub = await c.create_subscription(interval, Handler(k, nodes[0].nodeid))
+        await sub.subscribe_data_change(nodes, sampling_interval=interval)
+        clients.append(c)
+    op = Client(url, timeout=30)
+    op.set_user("bench")
+    op.set_password(PASSWORD)
+    op.application_uri = sec["uri"]
+    await op.set_security_string(f"Basic256Sha256,Sign,{sec['cert']},{sec['key']}")
+    await op.connect()
+    ns = await op.get_namespace_index(NS)
+    obj = op.get_node(f"ns={ns};s=axis.x")
+    meth = op.get_node(f"ns={ns};s=axis.x.SetOverride")
+    calls: list[tuple[int, int, int]] = []  # (sent ns, cycle, answered ns)
+    print("CLIENTS READY", flush=True)  # noqa: T201
+    # the shared monotonic clock: the latencies are differences of its readings in two processes
+    t_end = time.monotonic() + seconds  # noqa: TID251
+    while time.monotonic() < t_end:  # noqa: TID251
+        t0 = time.monotonic_ns()
+        try:
+            out = await obj.call_method(meth, ua.Variant(1.0, ua.VariantType.Double))
+        except ua.UaStatusCodeError:  # the phase is over: the cycle no longer answers
+            break
+        calls.append((t0, int(out[2]), time.monotonic_ns()))
+        await asyncio.sleep(0.05)
+    await op.disconnect()
+    for c in clients:
+        await c.disconnect()
+    return {"seen": seen, "calls": calls, "counts": counts}
+
+
+def clients_main(argv: list[str]) -> int:
+    url, n, interval, seconds, sec = argv[0], int(argv[1]), float(argv[2]), float(argv[3]), argv[4]
+    res = asyncio.run(_clients(url, n, interval, seconds, json.loads(sec)))
+    print("RESULT " + json.dumps(res), flush=True)  # noqa: T201
+    return 0
+
+
+# ------------------------------------------------------------------------------ the machine
+class BackAndForth:
+    """Both axes: power, then MC_MoveAbsolute between two positions, for ever."""
+
+    def __init__(self, machine: Any) -> None:
+        from motionplc.blocks import MC_MoveAbsolute, MC_Power
+
+        self.axes = [machine.axes["x"], machine.axes["y"]]
+        self.power = [MC_Power(axis=a, enable=True) for a in self.axes]
+        self.move = [MC_MoveAbsolute(axis=a) for a in self.axes]
+        self.target = [0.5, 0.3]
+        self.far = [0.5, 0.3]
+
+    def __call__(self, ctx: Any) -> None:
+        for k, (p, m) in enumerate(zip(self.power, self.move, strict=True)):
+            p()
+            if not p.status:
+                continue
+            if m.done or m.error or not m.execute:
+                self.target[k] = self.far[k] if self.target[k] == 0.0 else 0.0
+                m(execute=False)
+                m(execute=True, position=self.target[k], velocity=0.3)
+            else:
+                m()
+
+
+def _hist(task: Any) -> tuple[list[int], list[int]]:
+    return list(task._exec_counts), list(task._lat_counts)
+
+
+def _stats(a: tuple[list[int], list[int]], b: tuple[list[int], list[int]], over: int) -> dict:
+    out: dict[str, Any] = {"overruns": over}
+    for name, k in (("exec", 0), ("late", 1)):
+        h = [y - x for x, y in zip(a[k], b[k], strict=True)]
+        n = sum(h)
+        out["cycles"] = n
+        acc, p50, p99, mx = 0, None, None, 0
+        for i, c in enumerate(h):
+            if not c:
+                continue
+            acc += c
+            if p50 is None and acc >= math.ceil(0.5 * n):
+                p50 = i + 1
+            if p99 is None and acc >= math.ceil(0.99 * n):
+                p99 = i + 1
+            mx = i + 1
+        out[name] = (p50 or 0, p99 or 0, mx)  # us (upper bin edges; the last bin: >= 20 ms)
+    return out
+
+
+def _pct(xs: list[float], q: float) -> float:
+    s = sorted(xs)
+    return s[min(len(s) - 1, max(0, math.ceil(q * len(s)) - 1))] if s else float("nan")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=20.0)
+    ap.add_argument("--clients", type=int, default=10)
+    ap.add_argument("--interval-ms", type=float, default=10.0)
+    ap.add_argument(
+        "--switch-interval",
+        type=float,
+        default=0.0005,
+        help="the server's thread switch interval [s] (0: Python's, 5 ms)",
+    )
+    args = ap.parse_args(argv)
+
+    from asyncua.crypto.cert_gen import setup_self_signed_certificate
+    from cryptography.x509.oid import ExtendedKeyUsageOID
+
+    from motionplc.config import build, load_config
+    from motionplc.operator.desk import OperatorDesk
+    from motionplc.operator.opcua import OpcUaServer
+    from motionplc.operator.settings import OpcUaSettings, hash_password
+
+    tmp = Path(tempfile.mkdtemp(prefix="bench_opcua_"))
+    sec = {"cert": str(tmp / "c.der"), "key": str(tmp / "k.pem"), "uri": "urn:bench:client"}
+    asyncio.run(
+        setup_self_signed_certificate(
+            Path(sec["key"]),
+            Path(sec["cert"]),
+            sec["uri"],
+            "localhost",
+            [ExtendedKeyUsageOID.CLIENT_AUTH],
+            {"commonName": "bench"},
+        )
+    )
+    cfg = load_config(ROOT / "configs" / "demo.yaml")
+    machine = build(cfg, realtime=True)
+    rt = machine.runtime
+    machine.attach(BackAndForth(machine))
+    task = rt.tasks[0]
+    secs = args.seconds
+    print(f"demo.yaml in real time, tick {rt.cycle * 1e3:g} ms, {secs:g} s per phase")  # noqa: T201
+
+    def phase(name: str) -> dict[str, Any]:
+        h0, o0 = _hist(task), task.overruns
+        rt.run(seconds=secs)
+        st = _stats(h0, _hist(task), task.overruns - o0)
+        st["name"] = name
+        st["t0"] = rt.clock._t0  # the run's clock zero (monotonic ns)
+        return st
+
+    rt.run(seconds=1.0)  # start-up: powered, moving
+    res = [phase("without")]
+    settings = OpcUaSettings(
+        port=0,
+        security=("None", "Sign"),
+        certificate_dir=str(tmp / "server"),
+        users=(("bench", hash_password(PASSWORD)),),
+        publish_interval=args.interval_ms * 1e-3,
+    )
+    desk = OperatorDesk(machine, publish_every=max(1, round(settings.publish_interval / rt.cycle)))
+    desk.install()
+    requests: list[Any] = []
+    submit = desk.submit
+
+    def recording_submit(req: Any) -> bool:
+        requests.append(req)
+        return submit(req)
+
+    desk.submit = recording_submit  # type: ignore[method-assign]
+    server = OpcUaServer(desk, settings, switch_interval=args.switch_interval or None)
+    url = server.start()
+    # the cycle must run while the clients connect (their calls need a cycle to answer)
+    ready = threading.Event()
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            __file__,
+            "--clients-worker",
+            url,
+            str(args.clients),
+            str(args.interval_ms),
+            str(secs + 3.0),  # beyond the phase: it starts after the clients are ready
+            json.dumps(sec),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    lines: list[str] = []
+
+    def reader() -> None:
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            lines.append(line)
+            if line.startswith("CLIENTS READY"):
+                ready.set()
+
+    th = threading.Thread(target=reader, daemon=True)
+    th.start()
+    while not ready.is_set():
+        rt.run(seconds=0.5)
+        if proc.poll() is not None:
+            raise SystemExit("the client process ended before it was ready")
+    desk.publish_log.clear()
+    k0 = rt.tick
+    res.append(phase("with"))
+    log = dict(desk.publish_log)
+    t0 = rt.clock._t0
+    while proc.poll() is None:  # the cycle answers the clients' last calls
+        rt.run(seconds=0.2)
+    th.join(10)
+    out = json.loads(next(ln for ln in lines if ln.startswith("RESULT "))[7:])
+    server.stop()
+    res.append(phase("after"))
+    machine.shutdown()
+    machine.close()
+
+    for st in res:
+        e, la = st["exec"], st["late"]
+        print(  # noqa: T201
+            f"{st['name']:8s} {st['cycles']:6d} cycles  exec p50 {e[0]:5d} us  p99 {e[1]:5d} us  "
+            f"max {e[2]:5d} us   lateness p99 {la[1]:5d} us  max {la[2]:5d} us  "
+            f"overruns {st['overruns']}"
+        )
+    a, b = res[0], res[1]
+    print(  # noqa: T201
+        f"ratio with/without: exec p99 {b['exec'][1] / max(1, a['exec'][1]):.2f}, "
+        f"exec max {b['exec'][2] / max(1, a['exec'][2]):.2f}, "
+        f"lateness p99 {b['late'][1] / max(1, a['late'][1]):.2f}"
+    )
+    by_cycle = {r.cycle: r.clock_ns for r in requests if r.cycle >= k0}
+    to_cycle = [(t0 + by_cycle[c] - s) * 1e-6 for s, c, _ in out["calls"] if c in by_cycle]
+    round_trip = [(r - s) * 1e-6 for s, _, r in out["calls"]]
+    to_client = [(t - (t0 + log[c])) * 1e-6 for c, t in out["seen"] if c in log]
+    print(  # noqa: T201
+        f"method call -> acting cycle: median {_pct(to_cycle, 0.5):.2f} ms, p99 "
+        f"{_pct(to_cycle, 0.99):.2f} ms ({len(to_cycle)} calls; round trip median "
+        f"{_pct(round_trip, 0.5):.2f} ms)"
+    )
+    print(  # noqa: T201
+        f"cycle -> subscribed client: median {_pct(to_client, 0.5):.2f} ms, p99 "
+        f"{_pct(to_client, 0.99):.2f} ms ({len(to_client)} changes of Runtime.Cycle at client 0;"
+        f" {sum(out['counts'])} notifications to {args.clients} clients, server updates "
+        f"{server.updates})"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1 and sys.argv[1] == "--clients-worker":
+        raise SystemExit(clients_main(sys.argv[2:]))
+    raise SystemExit(main())
