@@ -1,17 +1,16 @@
 """G-code programs run by the runtime on configs/gcode/mill4.yaml (ideal drives): every move
 one FB, helices with turns and rotary moves, machine events; set values checked by
-differencing the traced positions against each axis' limits."""
+differencing the traced positions against each axis' limits (group D of the invariants), the
+traced path against the program's G64 P."""
 
 from __future__ import annotations
 
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-from motionplc.config import build, load_config
-from motionplc.gcode_runner import GcodeRunner, load_gcode_job
+from tests.gcode.corpus_check import run_checked
 
 ROOT = Path(__file__).resolve().parents[2]
 MILL4 = ROOT / "configs" / "gcode" / "mill4.yaml"
@@ -44,32 +43,34 @@ M30
 def test_a_program_runs_within_the_limits_with_its_events(tmp_path: Path) -> None:
     prog = tmp_path / "run.ngc"
     prog.write_text(PROGRAM)
-    cfg = load_config(MILL4)
-    job = load_gcode_job(prog, cfg)
-    with build(cfg) as machine:
-        runner = GcodeRunner(job, machine)
-        machine.attach(runner, job.task)
-        rt = machine.runtime
-        rt.run_until(lambda: runner.over, max_seconds=120.0)
-        assert runner.finished, runner.failures
-        assert runner.moves_sent == runner.lines_total  # one FB per move (helix: 1 FB)
-        trace = rt.trace
-        dt = cfg.runtime.tasks[0].period
-        for name in ("x", "y", "z", "a"):
-            spec = cfg.axis(name).limits
-            p = trace.column(f"{name}.position")[:: int(round(dt / cfg.runtime.tick))]
-            v = np.diff(p) / dt
-            a = np.diff(v) / dt
-            assert np.max(np.abs(v)) <= spec.v_max * (1 + 1e-6) + 1e-9, name
-            assert np.max(np.abs(a)) <= spec.a_max * (1 + 1e-3) + 1e-6, name
-        g54 = {"X": 0.3, "Y": 0.2, "Z": -0.05}
-        tool_z = 0.05
-        assert trace.last("x.position") == pytest.approx(g54["X"] + 0.02, abs=1e-9)
-        assert trace.last("z.position") == pytest.approx(g54["Z"] + tool_z + 0.005, abs=1e-9)
-        assert trace.last("a.position") == pytest.approx(math.pi / 2, abs=1e-9)
-        edges = {(e.fb, e.output, e.value) for e in trace.events}
-        assert ("gcode", "coolant_flood", True) in edges
-        assert ("gcode", "coolant_flood", False) in edges
-        assert ("gcode", "clamp", True) in edges
-        kinds = [text for _, text in runner.events]
-        assert "spindle 3000 rev/min" in kinds and "dwell 0.1 s" in kinds
+    seen: dict[str, object] = {}
+
+    def inspect(machine, runner) -> None:  # noqa: ANN001
+        trace = machine.runtime.trace
+        seen["last"] = {n: trace.last(f"{n}.position") for n in ("x", "z", "a")}
+        seen["edges"] = {(e.fb, e.output, e.value) for e in trace.events}
+        seen["events"] = [text for _, text in runner.events]
+        seen["sent"] = (runner.moves_sent, runner.lines_total)
+
+    # limits by differencing every axis' traced positions, the path within G64 P of the
+    # program, exact corners, the end point (tests/gcode/corpus_check.py)
+    r = run_checked(prog, MILL4, inspect=inspect, timeout=120.0)
+    assert r.finished, r.failures
+    assert r.limit_violations == 0, r.worst_limit
+    assert r.excess <= 0.0, (r.excess, r.excess_at)
+    assert r.ok
+    assert r.deviation > 0.0 and r.tolerances == (5e-5,)
+    sent, total = seen["sent"]  # type: ignore[misc]
+    assert sent == total  # one FB per move (helix: 1 FB)
+    g54 = {"X": 0.3, "Y": 0.2, "Z": -0.05}
+    tool_z = 0.05
+    last = seen["last"]
+    assert last["x"] == pytest.approx(g54["X"] + 0.02, abs=1e-9)  # type: ignore[index]
+    assert last["z"] == pytest.approx(g54["Z"] + tool_z + 0.005, abs=1e-9)  # type: ignore[index]
+    assert last["a"] == pytest.approx(math.pi / 2, abs=1e-9)  # type: ignore[index]
+    edges = seen["edges"]
+    assert ("gcode", "coolant_flood", True) in edges  # type: ignore[operator]
+    assert ("gcode", "coolant_flood", False) in edges  # type: ignore[operator]
+    assert ("gcode", "clamp", True) in edges  # type: ignore[operator]
+    kinds = seen["events"]
+    assert "spindle 3000 rev/min" in kinds and "dwell 0.1 s" in kinds  # type: ignore[operator]
