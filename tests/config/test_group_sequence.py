@@ -87,7 +87,11 @@ def test_rectangle_corners_blended_within_the_tolerance(run: dict) -> None:
     slack = 4.0 * TASK_PERIOD**2 / 8.0  # a chord lies inside the curve by at most a dt^2/8
     for corner in ((0.3, 0.1, Z_WORK), (0.3, 0.25, Z_WORK), (0.1, 0.25, Z_WORK)):
         d = _corner_distance(work, corner)
-        assert 0.99e-3 <= d <= 1e-3 + slack, (corner, d)
+        # the tolerance is a bound (GroupConfig.corner_choice): a blend with the whole of it,
+        # 1/4 or 1/16 of the blend, or an exact stop, whichever passes the corner fastest
+        assert d <= 1e-7 or any(
+            0.99e-3 * s <= d <= 1e-3 * s + slack for s in (1.0, 0.25, 0.0625)
+        ), (corner, d)
     # the path never leaves the rectangle's edges by more than the tolerance
     rect = work[(work[:, 1] > 0.1 - 1e-12) & (work[:, 0] > 0.1 + 1e-9)]
     edge = np.minimum.reduce(

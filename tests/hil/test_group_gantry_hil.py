@@ -159,14 +159,21 @@ def test_gantry_draws_rectangle_circle_and_curve_within_limits_and_tolerance() -
         i0, i1 = int(near[0]), int(near[-1])
         seg = pos[i0 : i1 + 1]
         assert distance_to_polyline(seg, [RECT[-1], *RECT]).max() <= TOL * (1 + 1e-9)
+        stopped = 0
         for c in RECT[:3]:
             d = np.linalg.norm(seg - np.array(c), axis=1)
             k = int(np.argmin(d))
-            assert TOL * (1 - 1e-9) <= d[k] <= TOL * 1.01  # the tolerance is used
-            assert pv[i0 + k] > 0.01  # the blend keeps the path moving
+            # the tolerance is a bound (GroupConfig.corner_choice): the group blends with the
+            # whole of it, 1/4 or 1/16 of the blend, or stops exactly, whichever is fastest
+            if d[k] <= 1e-7:
+                stopped += 1
+                continue
+            assert any(s * TOL * (1 - 1e-9) <= d[k] <= s * TOL * 1.01 for s in (1, 0.25, 0.0625))
+            assert pv[i0 + k] > 0.001  # a blend keeps the path moving
         moving = pv[i0 + 1 : i1]
         inner = moving[np.nonzero(moving > 0)[0][0] : np.nonzero(moving > 0)[0][-1]]
-        assert inner.min() > 0.0  # continuous path speed from the first corner to the last
+        if not stopped:
+            assert inner.min() > 0.0  # continuous path speed from the first corner to the last
         # the circle: on the circle, passed without a stop at the half-circle junction
         start = np.array((CENTER[0] + R, CENTER[1], Z))
         at_start = np.nonzero(np.linalg.norm(pos - start, axis=1) <= 1e-4)[0]

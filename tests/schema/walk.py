@@ -35,6 +35,7 @@ SEQUENCE_CONFIG = {
     "gantry_groups_sequence.yaml": "gantry.yaml",
     "packaging_sequence.yaml": "packaging.yaml",
     "single_axis_sequence.yaml": "single_axis_can.yaml",
+    "vcan0_external_sequence.yaml": "vcan0_external.yaml",
 }
 SCALARS = (Number, Integer, Choice, String, Bool)
 
