@@ -13,30 +13,58 @@ from motionplc.sequence import runner_for
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
+# every machine configuration shipped in configs/ with the sequences and programs that belong
+# to it (paths relative to configs/)
 SHIPPED = [
     ("demo.yaml", "demo_sequence.yaml"),
     ("single_axis_can.yaml", "single_axis_sequence.yaml"),
     ("gantry.yaml", "gantry_sequence.yaml"),
     ("gantry.yaml", "gantry_groups_sequence.yaml"),
+    ("gantry.yaml", "gcode/rounded_rectangle.ngc"),
+    ("gantry.yaml", "gcode/planes_helix.ngc"),
     ("telescope.yaml", "telescope_program.py"),
     ("packaging.yaml", "packaging_sequence.yaml"),
+    ("cams/rotary_cam.yaml", "cams/rotary_cam_program.py"),
 ]
+# configurations without a program of their own in configs/: vcan0.yaml runs the single-axis
+# sequence on real CAN (test_vcan0_config); the mills run the G-code corpus of tests/gcode
+CONFIG_ONLY = {"vcan0.yaml", "gcode/mill3.yaml", "gcode/mill4.yaml"}
+# data files read by a configuration (not configurations, sequences or programs)
+DATA = {"cams/knife.csv", "gcode/tools.tbl"}
+
+
+def _shipped_files() -> set[str]:
+    return {str(p.relative_to(CONFIGS)) for p in CONFIGS.rglob("*") if p.is_file()}
 
 
 def test_every_config_is_covered() -> None:
-    covered = {c for c, _ in SHIPPED} | {s for _, s in SHIPPED} | {"vcan0.yaml"}
-    assert {p.name for p in CONFIGS.iterdir() if p.suffix in (".yaml", ".py")} == covered
+    """Every file of configs/ is a configuration with its programs, or a data file named here."""
+    covered = {c for c, _ in SHIPPED} | {s for _, s in SHIPPED} | CONFIG_ONLY | DATA
+    assert _shipped_files() == covered
 
 
-@pytest.mark.parametrize("name", sorted(p.name for p in CONFIGS.glob("*.yaml")))
+@pytest.mark.parametrize(
+    "name", sorted({c for c, _ in SHIPPED} | CONFIG_ONLY), ids=lambda n: n.replace("/", ":")
+)
 def test_validates(name: str) -> None:
-    if "sequence" in name:
-        return
     cfg = load_config(CONFIGS / name)
-    assert cfg.axes
+    assert cfg.axes and cfg.warnings == ()
 
 
 @pytest.mark.parametrize(("config", "script"), SHIPPED)
+def test_cli_validates_the_pair(
+    config: str, script: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``motionplc validate CONFIG PROGRAM`` says ok for both (the G-code, sequence or Python
+    program checked against its machine: axes, limits, software limits, arcs)."""
+    assert main(["validate", str(CONFIGS / config), str(CONFIGS / script)]) == 0
+    out = capsys.readouterr().out
+    assert f"{script.rsplit('/', 1)[-1]}: ok" in out, out
+
+
+# the G-code programs run on the gantry's CAN and Modbus drives for ~10 s of machine time each:
+# validated above; rounded_rectangle.ngc runs in tests/gcode/test_gcode_runner.py
+@pytest.mark.parametrize(("config", "script"), [p for p in SHIPPED if not p[1].endswith(".ngc")])
 def test_runs_and_meets_expectations(config: str, script: str) -> None:
     cfg = load_config(CONFIGS / config)
     with build(cfg) as machine:

@@ -17,7 +17,7 @@ import pytest
 
 from tests.planning._cases import RuckigOracle
 
-_SUMMARY_KEY = pytest.StashKey[list[str]]()
+_PROPERTY = "planning summary"  # the test report's user property that carries a line
 
 
 @pytest.fixture(scope="session")
@@ -28,17 +28,32 @@ def oracle() -> RuckigOracle:
 
 @pytest.fixture
 def summary(request: pytest.FixtureRequest) -> Callable[[str], None]:
-    lines = request.config.stash.setdefault(_SUMMARY_KEY, [])
+    """The lines travel in the test's report (``user_properties``), so that they reach the
+    printing process also from a pytest-xdist worker."""
 
     def add(text: str) -> None:
-        lines.append(f"{request.node.name}: {text}")
+        request.node.user_properties.append((_PROPERTY, f"{request.node.name}: {text}"))
 
     return add
 
 
-def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
-    lines = terminalreporter.config.stash.get(_SUMMARY_KEY, [])
-    if lines:
-        terminalreporter.section("planning summary")
-        for line in lines:
-            terminalreporter.write_line(line)
+class _SummaryLines:
+    """Collects the lines from the reports in the process that prints the summary (the only
+    one under pytest-xdist; the worker's own copy never prints)."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def pytest_runtest_logreport(self, report: pytest.TestReport) -> None:
+        if report.when == "call":
+            self.lines += [v for k, v in report.user_properties if k == _PROPERTY]
+
+    def pytest_terminal_summary(self, terminalreporter: pytest.TerminalReporter) -> None:
+        if self.lines:
+            terminalreporter.section("planning summary")
+            for line in self.lines:
+                terminalreporter.write_line(line)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.pluginmanager.register(_SummaryLines(), "planning-summary")

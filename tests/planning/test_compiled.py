@@ -257,7 +257,10 @@ def test_bit_identical_to_pure_python(summary: Callable[[str], None]) -> None:
 @needs_compiled
 def test_planning_suite_in_pure_python(summary: Callable[[str], None]) -> None:
     """The planning tests once more on the sources (the main run used the compiled core). The
-    path planners (tests/planning/paths) are not compiled: they ran on their sources already."""
+    path planners (tests/planning/paths) are not compiled: they ran on their sources already.
+    The quick set (``-m "not slow"``): the long property and oracle runs compare against the
+    compiled core's results, which test_bit_identical_to_pure_python compares with the sources'
+    on 16,300 cases."""
     res = subprocess.run(
         [
             sys.executable,
@@ -266,6 +269,8 @@ def test_planning_suite_in_pure_python(summary: Callable[[str], None]) -> None:
             str(ROOT / "tests" / "planning"),
             "--ignore",
             str(ROOT / "tests" / "planning" / "paths"),
+            "-m",
+            "not slow",
             "-q",
             "-x",
             "-p",
