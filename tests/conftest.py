@@ -132,21 +132,9 @@ def pytest_runtest_setup(item: pytest.Item) -> None:
 # D failures are recorded instead of raised; the test fails if none occurs (the entry must go
 # when the fix merges), a warning in the summary names them otherwise. Every other test runs
 # the full check.
-_HALT_OVERRIDE_HANDOVER = (
-    "axis kernel, blocks/axis.py + override.py, no owner in TEAM.md (lead): an MC_Halt that "
-    "ends while an MC_SetOverride ramp runs hands over to the buffered MC_MoveAbsolute with an "
-    "acceleration column spike (0.63 -> 19.37 -> 0.79 m/s^2 in two cycles, jerk column "
-    "+20000 then 172) that the set positions do not follow: K1 off by 5.4e-6 m, 2.1x its "
-    "allowance (widened 4x for the override ramp), cycle 1663 of seed 3"
-)
-KNOWN_DEFECTS: dict[str, str] = {
-    "tests/runtime/test_fast_paths.py::test_every_output_edge_is_traced[3]": (
-        _HALT_OVERRIDE_HANDOVER
-    ),
-    "tests/runtime/test_plan_ahead.py::test_random_trace_is_the_same_without_planning_ahead[3]": (
-        _HALT_OVERRIDE_HANDOVER
-    ),
-}
+# (empty: the MC_Halt / MC_SetOverride hand-over spike of seed 3 is fixed, issue 31 part 3 --
+# the override re-plans the running move instead of scaling its time)
+KNOWN_DEFECTS: dict[str, str] = {}
 
 
 @pytest.fixture(autouse=True)

@@ -223,6 +223,7 @@ class AxisCore:
     ts: Any
     sup: Any
     _junction_due: Any
+    _override_due: Any
     fbs: Any
     _warning_edges: Any
 
@@ -371,8 +372,8 @@ class AxisCore:
         """:meth:`step` then :meth:`write_outputs` (the runtime's fused per-axis kernel for a
         task without axes groups).
 
-        The common cycle (a one-profile move running unscaled and staying inside its profile,
-        nothing submitted, no feed or software-limit checks due, not a velocity or homing job,
+        The common cycle (a one-profile move staying inside its profile, nothing submitted, no
+        feed or software-limit checks or override re-plan due, not a velocity or homing job,
         the axis not Disabled) samples its profile here with the very arithmetic of
         :meth:`step` / ``_advance``; anything else goes through :meth:`step`. For a healthy
         in-process ideal drive the setpoints then go straight into it, with the arithmetic
@@ -388,7 +389,6 @@ class AxisCore:
         fast = False
         if active is not None:
             job: AxisJob = active  # (a C-field view of the job when compiled)
-            ts: ScaleCore = self.ts
             fast = not (
                 job.single is None
                 or mq.inbox
@@ -397,18 +397,17 @@ class AxisCore:
                 or self.sup is not None
                 or not self._feed_all
                 or self._sw_check
-                or ts.prof is not None
+                or self._override_due
                 or job.kind == "velocity"
                 or job.kind == "home"
-                or not (job.no_override or ts.f == 1.0)
                 or not job.tau + dt < job.duration
                 or self.state is _DISABLED
             )
         if not fast:
             self.step(dt)
         else:
-            # step() of a one-profile job that stays inside its profile in this step,
-            # unscaled (no override ramp; factor 1 or a job the override does not scale)
+            # step() of a one-profile job that stays inside its profile in this step
+            # (MC_SetOverride re-plans in step(): trajectory time is real time)
             try:
                 tau: float = job.tau
                 tau = tau + dt

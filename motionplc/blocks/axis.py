@@ -13,7 +13,7 @@ The kernel's parts, each in its own module of ``motionplc.blocks``:
 * ``axis_job``: :class:`Command` (an FB's request) and ``AxisJob`` (its profile chain).
 * ``motion_queue``: ``MotionQueue`` (inbox, active job, queue, stops, pending updates),
   :class:`Handle`, :class:`Status`, ``junction_velocity``, ``ReplanBudget`` (axes and groups).
-* ``override``: ``TimeScale``, the MC_SetOverride factor ramp and the chain rule.
+* ``override``: ``TimeScale`` (an axis keeps it at the identity: the override re-plans).
 * ``homing``: the MC_Home procedure. ``sw_limits``: braking distances, stops at a limit.
 * ``planner_guard``: every planner call of the kernels, counted (:func:`planner_calls`).
 * ``axis_state``: the PLCopen state diagram (tables).
@@ -43,9 +43,14 @@ Rules pinned here (the spec leaves them open):
   (``blend_after_continuous="previous"``) or is an error (``"error"``).
 * Asymmetric axis limits (``AxisConfig.v_min`` / ``a_min``) are used as they are; the FB
   dynamic inputs only cap them (:meth:`Axis._limits`), they never widen them.
-* MC_SetOverride scales time: the set velocity is ``f * v``; ``f`` follows the requested factor
-  along a jerk-limited ramp so the set values stay continuous. Stop, Halt, Home and the
-  ErrorStop ramp are not scaled. AccFactor/JerkFactor scale the limits of moves planned later.
+* MC_SetOverride's VelFactor ``f`` caps the velocity: a move plans with ``f * Velocity`` (and
+  ``f`` times the blending junction speed), MoveVelocity with ``f * Velocity`` as its target. A
+  change of ``f`` re-plans the running move from its set state in the next step (TwinCAT /
+  CODESYS: the new velocity is reached with the move's acceleration and jerk), so the set values
+  stay within the limits by construction -- the time scaling this replaces (``v = f x'``,
+  ``a = f^2 x'' + f' x'``) exceeded a_max and j_max by differencing while ``f`` ramped. ``f = 0``
+  brakes a move to standstill, where it waits Active. Stop, Halt, Home, couplings and the
+  ErrorStop ramp are not scaled. AccFactor/JerkFactor scale the limits of what is planned later.
 """
 
 from __future__ import annotations
@@ -85,7 +90,7 @@ from motionplc.blocks.motion_queue import (
     Status,
     junction_velocity,
 )
-from motionplc.blocks.override import TimeScale, ramp_limits
+from motionplc.blocks.override import TimeScale
 from motionplc.blocks.planner_guard import guarded as _guarded
 from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
@@ -291,8 +296,12 @@ class Axis(AxisCore):
         # it is for); served within the runtime's per-cycle budget (None: no budget)
         self._junction_due: AxisJob | None = None
         self.replan_budget: ReplanBudget | None = None
-        # override: factor f(t) along a ramp profile
+        # MC_SetOverride's factors (velocity, acceleration, jerk)
         self.override = (1.0, 1.0, 1.0)
+        self._override_due = False  # a new VelFactor: re-plan the running move (step)
+        self._paused: AxisJob | None = None  # the move VelFactor 0 holds at rest (Active)
+        # trajectory time is real time (the override re-plans): the compiled fast path and
+        # the couplings read this identity scale
         self.ts = TimeScale()
         # image for read FBs (refreshed in the input phase)
         self.img_state = S.DISABLED
@@ -615,31 +624,49 @@ class Axis(AxisCore):
 
     # -- override --------------------------------------------------------------------------
     def set_override(self, vel: float, acc: float, jerk: float) -> None:
-        """MC_SetOverride (validated by the FB): factors for velocity / acceleration / jerk."""
+        """MC_SetOverride (validated by the FB): factors for velocity / acceleration / jerk.
+
+        VelFactor caps the velocity of every move and MoveVelocity (``f * Velocity``, and the
+        blending junctions): a change re-plans the running move from its set state in this
+        cycle's step (:meth:`_apply_override`), with the axis' acceleration and jerk, so the
+        new velocity is reached within the limits (0: the move brakes to standstill and waits,
+        still Active). AccFactor/JerkFactor scale the limits of what is planned from then on
+        (a re-plan for a new VelFactor included)."""
         if (vel, acc, jerk) == self.override:
             return
         old_vel = self.override[0]
         self.override = (vel, acc, jerk)
-        if vel == old_vel:
-            return
-        cfg = self.cfg
-        # f' * v must stay within the tighter acceleration side at the faster velocity side
-        fa, fj = ramp_limits(max(cfg.v_max, cfg.v_neg), min(cfg.a_max, cfg.a_neg), cfg.j_max)
-        self.ts.set_factor(vel, fa, fj)
-
-    @property
-    def _f(self) -> float:
-        """The override factor now (read by runtime/invariants.py)."""
-        return self.ts.f
-
-    @property
-    def _f_prof(self) -> Profile | None:
-        """The running override ramp (None: constant factor; read by runtime/invariants.py)."""
-        return self.ts.prof
+        if vel != old_vel:
+            self._override_due = True
 
     def _tau_state(self) -> State:
-        """The set state in the (override-scaled) trajectory time of a new scalable job."""
-        return self.ts.to_trajectory(self.p, self.v, self.a)
+        """The set state a new (or re-planned) job starts from."""
+        return State(self.p, self.v, self.a)
+
+    def _apply_override(self) -> None:
+        """A new VelFactor (:meth:`set_override`): re-plan the running move or MoveVelocity
+        from the set state with the new velocity cap (what the axis plans from now on has it
+        anyway). Stops, homing, couplings and ramps are not scaled. If the re-plan fails, the
+        command ends with Error PLANNING_FAILED and the axis stops within its limits."""
+        self._override_due = False
+        job = self.mq.active
+        if job is None or job.no_override or job.sync or job.handle.terminal:
+            return
+        kind = job.kind
+        if kind != "velocity" and not job.cmd.is_move:
+            return
+        try:
+            if kind == "velocity":
+                self._prepare_velocity(job, self._tau_state())
+                job.handle.in_target = job.handle.in_target and job.duration <= 0.0
+            else:
+                self._prepare_move(job, self._tau_state())
+            job.dir = self._direction_of(job, self.p)
+            self._ahead = True
+        except PlanningError as exc:
+            why = f"planner (override {self.override[0]:g}): {exc}"
+            self.axis_error_reason = why
+            self._fail_command(job.handle, ErrorID.PLANNING_FAILED, why)
 
     # -- submission (program phase) --------------------------------------------------------
     def submit(self, cmd: Command) -> Handle:
@@ -847,11 +874,10 @@ class Axis(AxisCore):
             if mq.pending:
                 self._apply_pending()
                 self._ahead = True
+            if self._override_due:
+                self._apply_override()
             if self._junction_due is not None:
                 self._serve_junction()
-            # the override factor ramps in real time, also while no scalable job runs
-            ts = self.ts
-            ftau = ts.advance(dt) if ts.prof is not None else dt * ts.f
             state = self.state
             if state is S.DISABLED:
                 self._resync()
@@ -869,7 +895,7 @@ class Axis(AxisCore):
             if job is None:
                 self.v = self.a = self.j = 0.0
             else:
-                self._advance(job, dt, ftau)
+                self._advance(job, dt, dt)
             if sup is not None:  # superimposed motion: its contribution, then the guard
                 if self.sup is not None:
                     self.sup.apply(self, dt)
@@ -998,12 +1024,6 @@ class Axis(AxisCore):
             why = f"v {v:.6g} (differenced {vd:.6g}) beyond [{-cfg.v_neg:.6g}, {cfg.v_max:.6g}]"
         job = self.mq.active
         actual = job is not None and getattr(job, "actual", False)
-        ts = self.ts
-        if job is not None and not job.no_override and (ts.prof is not None or ts.f != 1.0):
-            # MC_SetOverride scaling a running job: its acceleration and jerk are not held
-            # here yet (the override's time scaling changes them beyond a_max by
-            # differencing: a known kernel defect, see the report of issue 31); v is
-            return True if not why else self._limit_exceeded(job, why, dt, p0, v0, a0, revert)
         if not why:
             vd0 = (p0 - p1) / h0
             ad = 2.0 * (vd - vd0) / (dt + h0)
@@ -1331,7 +1351,8 @@ class Axis(AxisCore):
             v_min=-cfg.v_neg,
             a_min=-min(a_neg, cfg.a_neg) * af,
         )
-        job.set_chain([_plan_velocity(start, job.cmd.velocity, lim)])
+        # VelFactor scales the commanded velocity (0: the axis stands, in ContinuousMotion)
+        job.set_chain([_plan_velocity(start, job.cmd.velocity * self.override[0], lim)])
 
     # -- discrete moves and blending -------------------------------------------------------
     def _successor_junction(self, job: AxisJob) -> tuple[float, AxisJob | None]:
@@ -1350,7 +1371,7 @@ class Axis(AxisCore):
         )
         if nxt.kind not in ("absolute", "relative", "additive", "velocity", "halt"):
             return 0.0, None
-        return junction_velocity(mode, v1, v2), nxt
+        return junction_velocity(mode, v1, v2) * self.override[0], nxt  # VelFactor caps it
 
     def _plan_memo(self, start: State, target: State, lim: Limits) -> Profile:
         """``plan(start, target, lim)``, reusing a profile planned ahead from the very same
@@ -1403,7 +1424,7 @@ class Axis(AxisCore):
         try:  # the same call as _move_chain's
             acc, dec, jerk = self._dyn(nxt.cmd)
             s = sign(target - start.p) or sign(v_end) or 1.0
-            v = min(nxt.cmd.velocity, self._v_side(s))
+            v = min(nxt.cmd.velocity, self._v_side(s)) * self.override[0]
             if abs(v_end) <= v:
                 lim = self._limits(v, acc, dec, jerk, s)
                 self._plan_memo(start, State(target, v_end, 0.0), lim)
@@ -1414,7 +1435,7 @@ class Axis(AxisCore):
     def _move_chain(self, cmd: Command, start: State, target: float, v_end: float) -> list[Profile]:
         acc, dec, jerk = self._dyn(cmd)
         s = sign(target - start.p) or sign(v_end) or 1.0
-        v = min(cmd.velocity, self._v_side(s))
+        v = min(cmd.velocity, self._v_side(s)) * self.override[0]  # VelFactor caps it
         if abs(v_end) <= v:
             lim = self._limits(v, acc, dec, jerk, s)
             return [self._plan_memo(start, State(target, v_end, 0.0), lim)]
@@ -1456,6 +1477,11 @@ class Axis(AxisCore):
         """
         target = job.target
         assert target is not None
+        if self.override[0] == 0.0:  # VelFactor 0: brake to standstill and wait there
+            self._pause(job, start)
+            return
+        if self._paused is job:
+            self._paused = None
         v_req, nxt = self._successor_junction(job)
         vj = 0.0
         chain: list[Profile] | None = None
@@ -1509,6 +1535,17 @@ class Axis(AxisCore):
         if vj == 0.0:
             job.rest_target = target
 
+    def _pause(self, job: AxisJob, start: State) -> None:
+        """VelFactor 0 on a move: a ramp from ``start`` to standstill (the move's Deceleration
+        and jerk, the axis' limits); the move stays Active there until the factor rises
+        (:meth:`_apply_override` re-plans it to its target)."""
+        acc, dec, jerk = self._dyn(job.cmd)
+        s = sign(start.v) or 1.0
+        lim = self._limits(self._v_side(s), acc, dec, jerk, s)
+        job.set_chain([_plan_velocity(start, 0.0, lim)])
+        job.handle.end_velocity = 0.0
+        self._paused = job
+
     def _replan_active(self) -> None:
         job = self.mq.active
         assert job is not None
@@ -1519,17 +1556,18 @@ class Axis(AxisCore):
 
     # -- stepping --------------------------------------------------------------------------
     def _advance(self, job: AxisJob, dt: float, ftau: float) -> None:
-        ts = self.ts
-        scaled = not job.no_override and (ts.prof is not None or ts.f != 1.0)
-        inc = ftau if scaled else dt
+        """Advance ``job`` by the trajectory time ``ftau`` of the real step ``dt`` (the kernel
+        passes ``dt``: MC_SetOverride re-plans instead of scaling time) and sample the set
+        values; a job ending inside the step hands the rest of the step to its successor."""
+        inc = ftau
         tau = job.tau = job.tau + inc
         if job.kind == "velocity" and self.mq.queue and tau - inc > job.duration:
             # cruising at its velocity since before this step, now taken over by a buffered
             # job: it ends at the current set state, the successor runs for this step only
             job.shift += job.chain[-1].end.v * (tau - inc - job.duration)
             tau = job.tau = job.duration + inc
-        if tau < job.duration and not scaled and job.single is not None and job.kind != "home":
-            # fast path: a one-profile job still running, no override scaling
+        if tau < job.duration and job.single is not None and job.kind != "home":
+            # fast path: a one-profile job still running
             p, self.v, self.a, self.j = job.single.at(tau)
             self.p = p + job.shift
             return
@@ -1538,7 +1576,11 @@ class Axis(AxisCore):
             return
         while True:
             tau = job.tau
-            if tau < job.duration or (job.kind == "velocity" and not self.mq.queue):
+            if (
+                tau < job.duration
+                or (job.kind == "velocity" and not self.mq.queue)
+                or job is self._paused
+            ):
                 if job.kind == "velocity" and tau >= job.duration:
                     job.handle.in_target = True
                 break
@@ -1558,11 +1600,10 @@ class Axis(AxisCore):
                 return
             job = nxt
             job.tau = excess
-        p, v, a, j = job.sample(job.tau)
-        if scaled:
-            self.p, self.v, self.a, self.j = ts.to_real(p, v, a, j)
-        else:
-            self.p, self.v, self.a, self.j = p, v, a, j
+        if job is self._paused and job.tau >= job.duration:  # VelFactor 0: at rest, waiting
+            self.p, self.v, self.a, self.j = job.end_state().p, 0.0, 0.0, 0.0
+            return
+        self.p, self.v, self.a, self.j = job.sample(job.tau)
         if job.kind == "home":
             home_check(self, job)
 

@@ -11,8 +11,11 @@ the job's trajectory ``x(tau)``:
 passes in (:func:`ramp_limits`: ``f' * v_top`` within the acceleration limit, ``f'' * v_top``
 within the jerk limit), so the set values stay continuous and within the limits' scale.
 
-Generic: it scales any trajectory time; an axis holds one, a group can hold one for its path
-parameter. Jobs that must not be scaled (stops, homing) just use real time.
+Generic: it scales any trajectory time. An axis no longer ramps its own: the chain rule's
+``f' x'`` and ``f'' x'`` terms took the differenced acceleration and jerk beyond the limits
+while ``f`` ramped (issue 31 part 3), so MC_SetOverride re-plans the running move with a
+velocity cap instead (``Axis.set_override``); the axis keeps an identity ``TimeScale``
+(``f = 1``), which the compiled fast path, the couplings and superimposed motion read.
 """
 
 from __future__ import annotations

@@ -9,9 +9,9 @@ Installed by ``Runtime(check_invariants=True)``; raises :class:`InvariantError` 
   busy (or at the edge that started the command); busy only rises at a rising edge.
 * C: the axis state changes only along the diagram's arrows (at most two per cycle: an input
   phase event plus a program/kernel one); set values: v_min <= v <= v_max, a_min <= a <= a_max
-  (without override; the axis' own, possibly asymmetric, limits), no position jump, v continuous
-  within a_max * dt (|a_min| * dt downwards), a continuous within
-  j_max * dt for finite j_max; zero velocity in Standstill and Disabled. SynchronizedMotion
+  (the axis' own, possibly asymmetric, limits; MC_SetOverride included), no position jump,
+  v continuous within a_max * dt (|a_min| * dt downwards), a continuous within j_max * dt for
+  finite j_max; zero velocity in Standstill and Disabled. SynchronizedMotion
   slaves are held to the same limits; a locked coupling (InGear / InSync) satisfies its law
   (``sync_job.check_coupling``: slave = law(master seen) to rounding).
 * H: tasks of a tick ran in (priority, declaration) order; virtual time t = k * cycle; in
@@ -64,9 +64,9 @@ times the largest of |a| and the acceleration limits; the divided differences pr
 bounds exactly (``8 rho / h^3`` in D3 at a uniform spacing: 5.7e-5 m/s^3 at 1 kHz and a scale of
 1 m). The limits get a relative ``1e-9`` on top (the planners' own accuracy, as in
 the C rules). The differencing window restarts (no rule spans the break) where the kernel
-breaks continuity by design: Disabled, a coordinate shift (MC_SetPosition, homing). While an
-override ramp runs, the *limit* rules are widened 4x as the C rules are (the factor ``f``
-changes ``a`` by ``f' v``), never the agreement rules.
+breaks continuity by design: Disabled, a coordinate shift (MC_SetPosition, homing). No rule is
+widened for MC_SetOverride (it re-plans the running move within the limits; its time scaling,
+``a = f^2 x'' + f' x'``, needed 4x here before issue 31).
 
 :func:`check_set_values` applies the same rules to a recorded sequence (arrays of one axis'
 set values), e.g. a trace read back from a file.
@@ -277,7 +277,7 @@ class InvariantChecker:
         self._ax_prev: dict[str, tuple[Any, ...]] = {}
         self._periods: dict[str, float] = {}  # axis -> period of its task
         self._tasks: dict[str, Any] | None = None  # axis -> its task (group D)
-        # axis -> [its group-D checker, the offset of its window, override samples to widen]
+        # axis -> [its group-D checker, the offset of its window]
         self._diff: dict[str, list[Any]] = {}
         self.cycles_checked = 0
 
@@ -355,7 +355,7 @@ class InvariantChecker:
         # (*Appl) ones keeps its plan (as the vendors do)
         cfg = getattr(ax, "cfg_system", ax.cfg)
         state = ax.state
-        cur = (state, ax.p, ax.v, ax.a, ax.offset, ax._f == 1.0 and ax._f_prof is None, cycle)
+        cur = (state, ax.p, ax.v, ax.a, ax.offset, cycle)
         prev = self._ax_prev.get(ax.name)
         self._ax_prev[ax.name] = cur
         who = f"axis {ax.name}"
@@ -367,14 +367,13 @@ class InvariantChecker:
             _fail(cycle, who, "C", f"v = {ax.v!r} > v_max {cfg.v_max}")
         if -ax.v > v_neg * (1 + 1e-9) + 1e-12:
             _fail(cycle, who, "C", f"v = {ax.v!r} < v_min {-v_neg}")
-        no_override = cur[5]
-        if no_override and ax.a > cfg.a_max * (1 + 1e-9) + 1e-9:
+        if ax.a > cfg.a_max * (1 + 1e-9) + 1e-9:
             _fail(cycle, who, "C", f"a = {ax.a!r} > a_max {cfg.a_max}")
-        if no_override and -ax.a > a_neg * (1 + 1e-9) + 1e-9:
+        if -ax.a > a_neg * (1 + 1e-9) + 1e-9:
             _fail(cycle, who, "C", f"a = {ax.a!r} < a_min {-a_neg}")
         if prev is None:
             return
-        pstate, pp, pv, pa, poff, pno, pcycle = prev
+        pstate, pp, pv, pa, poff, pcycle = prev
         if (pstate, state) not in _EDGES2:
             _fail(cycle, who, "C", f"transition {pstate.name} -> {state.name} not in the diagram")
         if S.DISABLED in (state, pstate) or poff != ax.offset:
@@ -383,16 +382,15 @@ class InvariantChecker:
         # the set values change once per cycle of the axis' task (its period may be several
         # base ticks): the change since the last check spans up to one task period
         dt = max(dt, self._period(rt, ax))
-        k = 1.0 if no_override and pno else 4.0
-        amax = k * max(cfg.a_max, a_neg)
+        amax = max(cfg.a_max, a_neg)
         dp_max = max(abs(pv), abs(ax.v)) * dt + amax * dt * dt + 1e-9 * (1 + abs(ax.p))
         if abs(ax.p - pp) > dp_max:
             _fail(cycle, who, "C", f"position jump {ax.p - pp!r} > {dp_max!r}")
         dv = ax.v - pv
-        dv_max = k * (cfg.a_max if dv >= 0.0 else a_neg) * dt * (1 + 1e-6) + 1e-9
+        dv_max = (cfg.a_max if dv >= 0.0 else a_neg) * dt * (1 + 1e-6) + 1e-9
         if abs(dv) > dv_max:
             _fail(cycle, who, "C", f"velocity jump {dv!r} > {dv_max!r}")
-        if math.isfinite(cfg.j_max) and no_override and pno:
+        if math.isfinite(cfg.j_max):
             da_max = cfg.j_max * dt * (1 + 1e-6) + 1e-6 * amax
             if abs(ax.a - pa) > da_max:
                 _fail(cycle, who, "C", f"acceleration jump {ax.a - pa!r} > {da_max!r}")
@@ -407,20 +405,15 @@ class InvariantChecker:
             return  # its task did not run in this tick: the set values did not change
         d = self._diff.get(ax.name)
         if d is None:
-            d = self._diff[ax.name] = [SetValueChecker(), ax.offset, 0]
+            d = self._diff[ax.name] = [SetValueChecker(), ax.offset]
         chk: SetValueChecker = d[0]
         if ax.state is S.DISABLED or d[1] != ax.offset:
             chk.reset()  # power off / coordinate shift: a new window
             d[1] = ax.offset
             if ax.state is S.DISABLED:
                 return
-        if ax._f_prof is not None:
-            d[2] = 4  # an override ramp: the window's limits widened (module docstring)
-        widen = 4.0 if d[2] else 1.0
-        if d[2]:
-            d[2] -= 1
         cfg = getattr(ax, "cfg_system", ax.cfg)
-        bad = chk.feed(cycle * rt.cycle, ax.p, ax.v, ax.a, ax.j, SetValueLimits.of(cfg), widen)
+        bad = chk.feed(cycle * rt.cycle, ax.p, ax.v, ax.a, ax.j, SetValueLimits.of(cfg), 1.0)
         if bad is not None:
             self._d_failed(cycle, f"axis {ax.name}", describe(*bad) + f" [{ax.state.name}]")
 
