@@ -1,4 +1,5 @@
-"""A corpus of hostile and broken YAML files (configurations, sequences, register maps).
+"""A corpus of hostile and broken files: YAML (configurations, sequences, register maps) and
+G-code programs (validated against ``configs/gcode/mill3.yaml``).
 
 Each entry is written by :func:`write_corpus` into a directory (the large ones are generated,
 never committed): bombs, nesting, huge numbers, huge files, encodings, tags, many keys. Every
@@ -18,6 +19,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = ROOT / "configs" / "demo.yaml"
+MILL3 = ROOT / "configs" / "gcode" / "mill3.yaml"  # the machine of the G-code cases
 SHIPPED_MAP = ROOT / "motionplc" / "fieldbus" / "data" / "modbus_maps" / "motionplc-v1.yaml"
 
 HEAD = (
@@ -41,7 +43,7 @@ MAP_HEAD = "format: 1\nname: hostile\nword_order: big\nregister_base: 0\n"
 
 @dataclass(frozen=True)
 class Case:
-    """One hostile file: ``kind`` config | sequence | regmap; ``line`` the expected line
+    """One hostile file: ``kind`` config | sequence | regmap | gcode; ``line`` the expected line
     (None: any); ``text`` what the error must contain; ``lines`` how many lines the error
     has (1, or the capped listing of many problems)."""
 
@@ -600,12 +602,44 @@ def cases() -> list[Case]:
             "more than",
         )
     )
+    c += _gcode_cases()
     return c
+
+
+def _gcode_cases() -> list[Case]:
+    """Hostile G-code programs: terminal escapes, binary bytes, long lines, loops that do not
+    end, recursion, nesting, huge numbers and counts, a bad encoding."""
+
+    def g(name: str, text: str | bytes, expected: str, line: int | None = None) -> Case:
+        data = text if isinstance(text, bytes) else text.encode()
+        return Case(f"gcode_{name}", "gcode", lambda: data, expected, line)
+
+    loop = "G21\n#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n"
+    return [
+        g("terminal_escape", "G21\nG1 X1\x1b[31m F100\n", "\\x1b", 2),
+        g("bell_and_nul", b"G21\nG1 X1 F100\x07\x00\n", "\\x07", 2),
+        g("binary_garbage", b"G21\n\xff\xfe\x00\x9b[2J\n", "", 2),
+        g("long_line", "G21\nG0 X1 " + "(c)" * 400 + "\n", "longer than 1024", 2),
+        g("endless_line", "G21\nG0 X1 " + "1" * 5_000_000, "longer than 1024", 2),
+        g("endless_loop", loop, "blocks executed"),
+        g("recursion", "G21\no1 sub\no1 call\no1 endsub\no1 call\n", "nested deeper than 64"),
+        g("nested_brackets", "G21\nG0 X" + "[" * 100 + "1" + "]" * 100 + "\n", "nested deeper", 2),
+        g("exponent_bomb", "G21\nG1 X1e999 F100\n", "exponent", 2),
+        g("huge_number", "G21\nG1 X" + "9" * 400 + " F100\n", "", 2),
+        # 10^8 full turns are one arc (never expanded), then a located error after it
+        g("huge_turns", "G21\nG0 X10 Y0\nG2 I-10 P100000000 F600\nG1 X1 Q\n", "Q", 4),
+        g("parameter_out_of_range", "G21\n#99999999=1\n", "", 2),
+        g("zero_length_then_error", "G21 G1 F100 X0\n" * 20_000 + "G1 X1 Q\n", "", 20_001),
+    ]
 
 
 def write_case(case: Case, directory: Path) -> tuple[list[str], Path]:
     """Write one case; return the ``validate`` arguments and the path of the hostile file."""
     directory.mkdir(parents=True, exist_ok=True)
+    if case.kind == "gcode":
+        path = directory / f"{case.name}.ngc"
+        path.write_bytes(case.content())
+        return [str(MILL3), str(path)], path
     path = directory / f"{case.name}.yaml"
     path.write_bytes(case.content())
     if case.kind == "config":

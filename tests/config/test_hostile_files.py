@@ -48,7 +48,7 @@ def _peak_meter() -> tuple[Callable[[], None], Callable[[], int]]:
 def test_the_corpus_is_large_enough() -> None:
     assert len(CASES) >= 50
     assert len({c.name for c in CASES}) == len(CASES)
-    assert {c.kind for c in CASES} == {"config", "sequence", "regmap"}
+    assert {c.kind for c in CASES} == {"config", "sequence", "regmap", "gcode"}
 
 
 @pytest.mark.parametrize("case", CASES, ids=[c.name for c in CASES])
@@ -77,7 +77,7 @@ def test_hostile_file_is_one_located_line(
     capped = case.lines > ConfigError.MAX_SHOWN
     problems = lines[1:-1] if capped else lines[1:]
     for row in problems:  # each further problem located too
-        assert re.match(r"/\S+\.yaml:\d+: ", row), row
+        assert re.match(r"/\S+\.(yaml|ngc):\d+: ", row), row
     if capped:
         assert re.fullmatch(r"\.\.\. and \d+ more problems \(not shown\)", lines[-1]), lines[-1]
     assert all(len(x) < 600 for x in lines)
