@@ -58,18 +58,6 @@ class QueueCore:
     pending: Any
 
 
-@mypyc_attr(allow_interpreted_subclasses=True)
-class ScaleCore:
-    """The fields of the override's time scale (``override.TimeScale`` subclasses it)."""
-
-    f: Any
-    fd: Any
-    fdd: Any
-    prof: Any
-    t: Any
-    target: Any
-
-
 # kinds the override does not scale (stops, homing, the ErrorStop ramp)
 NO_OVERRIDE: Final = frozenset({"halt", "stop", "home", "estop"})
 
@@ -220,7 +208,6 @@ class AxisCore:
     drive: Any
     _io_watch: Any
     mq: Any
-    ts: Any
     sup: Any
     _junction_due: Any
     _override_due: Any

@@ -13,7 +13,6 @@ The kernel's parts, each in its own module of ``motionplc.blocks``:
 * ``axis_job``: :class:`Command` (an FB's request) and ``AxisJob`` (its profile chain).
 * ``motion_queue``: ``MotionQueue`` (inbox, active job, queue, stops, pending updates),
   :class:`Handle`, :class:`Status`, ``junction_velocity``, ``ReplanBudget`` (axes and groups).
-* ``override``: ``TimeScale`` (an axis keeps it at the identity: the override re-plans).
 * ``homing``: the MC_Home procedure. ``sw_limits``: braking distances, stops at a limit.
 * ``planner_guard``: every planner call of the kernels, counted (:func:`planner_calls`).
 * ``axis_state``: the PLCopen state diagram (tables).
@@ -90,7 +89,6 @@ from motionplc.blocks.motion_queue import (
     Status,
     junction_velocity,
 )
-from motionplc.blocks.override import TimeScale
 from motionplc.blocks.planner_guard import guarded as _guarded
 from motionplc.blocks.planner_guard import planner_calls
 from motionplc.blocks.sw_limits import crossed_limit, limit_stop_profile, stop_distance, stop_speed
@@ -300,9 +298,6 @@ class Axis(AxisCore):
         self.override = (1.0, 1.0, 1.0)
         self._override_due = False  # a new VelFactor: re-plan the running move (step)
         self._paused: AxisJob | None = None  # the move VelFactor 0 holds at rest (Active)
-        # trajectory time is real time (the override re-plans): the compiled fast path and
-        # the couplings read this identity scale
-        self.ts = TimeScale()
         # image for read FBs (refreshed in the input phase)
         self.img_state = S.DISABLED
         self.img_p = 0.0
@@ -1411,7 +1406,6 @@ class Axis(AxisCore):
             or self.mq.pending
             or not act.cmd.is_move
             or act.handle.terminal
-            or not self.ts.identity
         ):
             return False
         nxt = queue[0]
@@ -1527,7 +1521,7 @@ class Axis(AxisCore):
                             break
                     vj = lo
         if chain is None:  # no junction speed (or only 0 reachable): plan to rest
-            if keep_rest and job.rest_target == target and job.shift == 0.0 and self.ts.identity:
+            if keep_rest and job.rest_target == target and job.shift == 0.0:
                 return
             chain = self._move_chain(job.cmd, start, target, s * vj)
         job.set_chain(chain)

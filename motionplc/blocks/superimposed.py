@@ -424,9 +424,7 @@ class SuperimposedLayer:
     def _tau0(self, axis: Axis, job: AxisJob | None, dt: float) -> tuple[float, float]:
         if job is None:
             return 0.0, 1.0
-        ts = axis.ts
-        f = 1.0 if job.no_override else ts.f
-        return job.tau - f * dt, f
+        return job.tau - dt, 1.0  # trajectory time is real time (MC_SetOverride re-plans)
 
     def _caps(self, cmd: Command, axis: Axis) -> tuple[float, float, float, float]:
         return (

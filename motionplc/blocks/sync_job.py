@@ -190,7 +190,7 @@ def master_peaks(master: Axis, mv: float) -> tuple[float, float, float]:
     job = mq.active
     v0, a0, j0 = abs(master.v), abs(master.a), abs(master.j)
     conf = (max(abs(mv), v0), a0, j0)
-    if mq.inbox or mq.queue or mq.pending or master.sup is not None or master.ts.prof is not None:
+    if mq.inbox or mq.queue or mq.pending or master.sup is not None:
         return conf
     if master.group is not None and master.group.moving:
         return conf
@@ -198,7 +198,6 @@ def master_peaks(master: Axis, mv: float) -> tuple[float, float, float]:
         return conf
     if getattr(job, "sync", False) or job.kind == "home" or not job.chain:
         return conf
-    f = 1.0 if job.no_override else master.ts.f
     pv, pa, pj = max(abs(mv), v0), a0, j0
     tau = job.tau
     t0 = 0.0
@@ -206,15 +205,15 @@ def master_peaks(master: Axis, mv: float) -> tuple[float, float, float]:
         end = t0 + prof.duration
         if end >= tau:
             e = prof.end
-            pv, pa = max(pv, abs(e.v) * f), max(pa, abs(e.a) * f * f)
+            pv, pa = max(pv, abs(e.v)), max(pa, abs(e.a))
             ts = prof._t
             for i in range(len(ts)):
                 nxt = t0 + ts[i + 1] if i + 1 < len(ts) else end
                 if nxt < tau:
                     continue  # a segment already passed
-                pv = max(pv, abs(prof._v[i]) * f)
-                pa = max(pa, abs(prof._a[i]) * f * f)
-                pj = max(pj, abs(prof._j[i]) * f * f * f)
+                pv = max(pv, abs(prof._v[i]))
+                pa = max(pa, abs(prof._a[i]))
+                pj = max(pj, abs(prof._j[i]))
         t0 = end
     return pv, pa, pj
 
