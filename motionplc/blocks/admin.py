@@ -14,7 +14,6 @@ from motionplc.blocks.base import (
     check_number,
 )
 from motionplc.blocks.enums import AxisState, BufferMode, ErrorID, ExecutionMode, Source
-from motionplc.errors import PlanningError
 
 
 class MC_Power(EnableFB):
@@ -154,10 +153,7 @@ class MC_SetOverride(EnableFB):
         vf = check_dynamic("vel_factor", self.vel_factor, eid, OVERRIDE_MIN, 1.0)
         af = check_number("acc_factor", self.acc_factor, eid, OVERRIDE_MIN, 1.0)
         jf = check_number("jerk_factor", self.jerk_factor, eid, OVERRIDE_MIN, 1.0)
-        try:
-            axis.set_override(vf, af, jf)
-        except PlanningError as exc:
-            raise InputError(ErrorID.PLANNING_FAILED, f"override ramp not planned: {exc}") from None
+        axis.set_override(vf, af, jf)  # a re-plan that fails ends the move, not this FB
         self.enabled = True
 
     def _scan(self) -> None:
