@@ -1471,6 +1471,13 @@ class CanopenDrive(Drive):
             # communication failure, the whole start-up after a reboot) over the next cycles;
             # reported as reset_pending
             bus_recovered = self.master.bus_fault_latched and self.master.bus_ok
+            # a drive the master stopped waiting for (simulated clock, external drives: too
+            # many SYNCs in vain, e.g. while the bus was down) is waited for again: the reset
+            # is the operator's "try again", and without the wait its TPDOs of the next SYNCs
+            # come after the cycles that look for them (reset_timeout passes with FEEDBACK
+            # lost although the drive answers)
+            self._waived = False
+            self._wait_misses = 0
             if bus_recovered:
                 self.master.bus_fault_latched = False  # re-initialise after recovery
                 self.master.bus_error = ""

@@ -1,7 +1,11 @@
 """The group's curved corner blends are sampled every cycle through a plain-float evaluation
 (``CurvePiece`` of a ``CornerBlend`` between lines and arcs): it must give the very values of the
-blend's own numpy evaluation (bit for bit: simulated runs stay reproducible against the numpy
-path), at every order up to the jerk."""
+blend's own numpy evaluation, at every order up to the jerk, to the rounding of the trigonometric
+functions: numpy's vectorised sin/cos (numpy >= 2) may differ from the C library's ``math.sin`` by
+an ulp (amplified to ~8 ulps in the jerk of a helix blend by its sums), so the two agree within
+1e-14 of each derivative's size, not bit for bit (a simulated run
+is reproducible for one installed numpy; an error in the plain-float formulas shows as many orders
+of magnitude more)."""
 
 from __future__ import annotations
 
@@ -41,4 +45,7 @@ def test_curve_piece_of_a_corner_blend_matches_the_blend_bit_for_bit(name: str) 
         fast = piece.at(float(u))
         uu = min(max(float(u), 0.0), piece._u1_in)  # noqa: SLF001 - the piece's own clamp
         ref = tuple(tuple(float(x) for x in np.ravel(k)) for k in piece._path.derivatives(uu, 3))  # noqa: SLF001
-        assert fast == ref, (name, u)
+        for k, (f, r) in enumerate(zip(fast, ref, strict=True)):
+            scale = max(abs(x) for x in r) or 1.0
+            err = max(abs(x - y) for x, y in zip(f, r, strict=True))
+            assert err <= 1e-14 * scale, (name, u, k, err / np.spacing(scale))
