@@ -23,7 +23,11 @@ Bounds (hostile files): a line is at most :data:`MAX_LINE` characters, a file at
 :data:`MAX_LINES` lines, expressions nest at most :data:`MAX_NESTING` deep, subroutine calls
 :data:`MAX_CALL_DEPTH` deep, control structures :data:`MAX_CONTROL_DEPTH` deep, and a program
 executes at most ``max_blocks`` blocks (a loop that does not end is an error, not a hang).
-Memory is flat in the file length (the O-word index holds one entry per O-word line).
+A while / do-while loop whose condition is true and reads only parameters that nothing in its
+body sets (no break, return, call, M2/M30 in it) is refused at its line when it is entered,
+and a repeat of more passes than blocks are left at its start. Lines with parameters or
+expressions are compiled once (up to ``_MAX_COMPILED`` distinct lines) and evaluated each time
+they run. Memory is flat in the file length (the O-word index holds one entry per O-word line).
 """
 
 from __future__ import annotations
@@ -32,7 +36,7 @@ import io
 import logging
 import math
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path as FilePath
 from typing import IO, Any, NamedTuple
@@ -647,6 +651,16 @@ _O_KEYWORDS = (
 )
 
 
+_M_WORD = re.compile(r"M(\d+\.?\d*|\.\d+)")
+_ASSIGNED = re.compile(r"#(\d+\.?\d*|<[^>]*>)=")
+_READ = re.compile(r"#(\d+\.?\d*|<[^>]*>)")
+
+
+def _param_key(text: str) -> Any:
+    """``12`` -> 12, ``<Name>`` -> "name": a parameter as the interpreter keys it."""
+    return text[1:-1].lower() if text.startswith("<") else int(float(text))
+
+
 def _shape_word(m: re.Match[str]) -> str:
     """A word's letter (G/M: the whole code): lines of one shape pass the same checks."""
     letter = m.group(1)
@@ -681,6 +695,15 @@ def _split_comments(raw: str) -> tuple[str, list[str]]:
             code.append(raw[i:j])
             i = j
     return "".join("".join(code).split()).upper(), comments
+
+
+Value = float | Callable[[], float]  # a value of a line: known, or computed when the line runs
+_Compiled = tuple[int | None, Any, list[tuple[Any, ...]], "_Err | None"]
+_MAX_COMPILED = 4096  # lines kept compiled (a loop body lexed once); more are compiled each time
+
+
+def _ev(v: Value) -> float:
+    return v if type(v) is float else v()  # type: ignore[operator]
 
 
 _EXPONENT = re.compile(r"([A-DF-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))E([-+]?\d+)", re.IGNORECASE)
@@ -876,6 +899,10 @@ class Interpreter:
         self._out: list[GcodeMove | GcodeEvent] = []
         self._line_start = 0
         self._literal = True
+        self._loops_checked: set[int] = set()
+        self._compiled: dict[
+            str, _Compiled
+        ] = {}  # line code -> its compiled words  # loops found able to end (their offsets)
 
     # -- public ----------------------------------------------------------------------------
     def close(self) -> None:
@@ -1020,43 +1047,36 @@ class Interpreter:
                     words[letter] = v
                     blk.word_text[letter] = letter + num
             return blk
-        bad = next((ch for ch in code if ch not in _ALLOWED_CHARS), None)
-        if bad is not None:
-            raise _Err(
-                bad,
-                f"unexpected character {escape(bad)!s} (allowed: words, comments, "
-                "# parameters, [expressions])",
-            )
         self._literal = False
-        i = 0
-        n = len(code)
-        if code[0] == "N":
-            m = _NUM.match(code, 1)
-            if m is not None:
-                blk.number = int(float(m.group()))
-                i = m.end()
-        if i < n and code[i] == "O":
-            self._parse_o(blk, code, i + 1)
-            return blk
-        while i < n:
-            ch = code[i]
-            if ch == "#":
-                key, i = self._param_ref(code, i + 1, 0)
-                if i >= n or code[i] != "=":
-                    raise _Err("#", "parameter without '=' (allowed: #1=2, #<name>=[1+2])")
-                val, i = self._value(code, i + 1, 0)
-                blk.assigns.append((key, val))
-                continue
-            if "A" <= ch <= "Z":
-                if ch == "O":
-                    raise _Err("O", "O-word not at the start of the line (allowed: o100 sub ...)")
-                j = i + 1
-                val, i = self._value(code, j, 0)
-                self._add_word(blk, ch, val, ch + code[j:i])
-                continue
-            raise _Err(
-                code[i : i + 8], "number without a letter (allowed: a letter before each number)"
-            )
+        compiled = self._compiled.get(code)
+        if compiled is None:
+            bad = next((ch for ch in code if ch not in _ALLOWED_CHARS), None)
+            if bad is not None:
+                raise _Err(
+                    bad,
+                    f"unexpected character {escape(bad)!s} (allowed: words, comments, "
+                    "# parameters, [expressions])",
+                )
+            compiled = self._compile_line(code)
+            if len(self._compiled) < _MAX_COMPILED:
+                self._compiled[code] = compiled
+        number, o_word, items, error = compiled
+        blk.number = number
+        if o_word is not None:
+            blk.o_label, blk.o_keyword, args = o_word
+            blk.o_args = [a if type(a) is float else a() for a in args]
+        for item in items:
+            if item[0] == "#":
+                key = item[1]
+                if type(key) is not str and type(key) is not int:
+                    key = key()
+                val = item[2]
+                blk.assigns.append((key, val if type(val) is float else val()))
+            else:
+                val = item[1]
+                self._add_word(blk, item[0], val if type(val) is float else val(), item[2])
+        if error is not None:
+            raise error
         return blk
 
     def _add_word(self, blk: _Block, letter: str, value: float, text: str) -> None:
@@ -1083,7 +1103,51 @@ class Interpreter:
             blk.words[letter] = value
             blk.word_text[letter] = text
 
-    def _parse_o(self, blk: _Block, code: str, i: int) -> None:
+    def _compile_line(self, code: str) -> _Compiled:
+        """A line with parameters, expressions or O-words, compiled once (its values as
+        closures, evaluated each time the line runs: a loop body is lexed once). A syntax
+        error comes after the words before it are evaluated, as when read left to right."""
+        number = None
+        o_word = None
+        items: list[tuple[Any, ...]] = []
+        i = 0
+        n = len(code)
+        try:
+            if code[0] == "N":
+                m = _NUM.match(code, 1)
+                if m is not None:
+                    number = int(float(m.group()))
+                    i = m.end()
+            if i < n and code[i] == "O":
+                o_word = self._compile_o(code, i + 1)
+                return number, o_word, items, None
+            while i < n:
+                ch = code[i]
+                if ch == "#":
+                    key, i = self._param_ref(code, i + 1, 0)
+                    if i >= n or code[i] != "=":
+                        raise _Err("#", "parameter without '=' (allowed: #1=2, #<name>=[1+2])")
+                    val, i = self._value(code, i + 1, 0)
+                    items.append(("#", key, val))
+                    continue
+                if "A" <= ch <= "Z":
+                    if ch == "O":
+                        raise _Err(
+                            "O", "O-word not at the start of the line (allowed: o100 sub ...)"
+                        )
+                    j = i + 1
+                    val, i = self._value(code, j, 0)
+                    items.append((ch, val, ch + code[j:i]))
+                    continue
+                raise _Err(
+                    code[i : i + 8],
+                    "number without a letter (allowed: a letter before each number)",
+                )
+        except _Err as exc:
+            return number, o_word, items, exc
+        return number, o_word, items, None
+
+    def _compile_o(self, code: str, i: int) -> tuple[Any, str, list[Value]]:
         n = len(code)
         if i < n and code[i] == "<":
             j = code.find(">", i)
@@ -1107,8 +1171,7 @@ class Interpreter:
                 "O-word without a keyword (allowed: sub endsub call return "
                 "if elseif else endif while endwhile do repeat endrepeat break continue)",
             )
-        blk.o_label = label
-        blk.o_keyword = kw
+        args: list[Value] = []
         while i < n:
             if code[i] != "[":
                 raise _Err(
@@ -1116,14 +1179,15 @@ class Interpreter:
                     f"after O{label} {kw}: only [expressions] (allowed: o100 call [1] [2])",
                 )
             val, i = self._value(code, i, 0)
-            blk.o_args.append(val)
-            if len(blk.o_args) > 30:
+            args.append(val)
+            if len(args) > 30:
                 raise _Err(f"O{label}", "more than 30 arguments (allowed: #1-#30)")
+        return label, kw, args
 
-    # -- values and expressions ------------------------------------------------------------
-    def _value(self, code: str, i: int, depth: int) -> tuple[float, int]:
+    # -- values and expressions: compiled to closures, evaluated when the line runs ----------
+    def _value(self, code: str, i: int, depth: int) -> tuple[Value, int]:
         """A real value at ``code[i]``: number, #parameter, [expression], function, with an
-        optional sign."""
+        optional sign; a float, or a closure that evaluates it."""
         if depth > MAX_NESTING:
             raise _Err(
                 "[", f"expression nested deeper than {MAX_NESTING} (allowed: up to {MAX_NESTING})"
@@ -1137,19 +1201,26 @@ class Interpreter:
         ch = code[i]
         if ch in "+-":
             v, j = self._value(code, i + 1, depth + 1)
-            return (-v if ch == "-" else v), j
+            if ch == "+":
+                return v, j
+            if type(v) is float:
+                return -v, j
+            f = v
+            return (lambda: -f()), j  # type: ignore[operator]
         m = _NUM.match(code, i)
         if m is not None:
             return float(m.group()), m.end()
         if ch == "#":
-            self._literal = False
             key, j = self._param_ref(code, i + 1, depth + 1)
-            return self._get_param(key), j
+            get = self._get_param
+            if type(key) is str or type(key) is int:
+                k = key
+                return (lambda: get(k)), j
+            kf = key
+            return (lambda: get(kf())), j  # type: ignore[operator]
         if ch == "[":
-            self._literal = False
             return self._expr(code, i + 1, depth + 1)
         if "A" <= ch <= "Z":
-            self._literal = False
             for name in _FUNCS:
                 if code.startswith(name, i):
                     return self._func(name, code, i + len(name), depth + 1)
@@ -1158,13 +1229,15 @@ class Interpreter:
             "letter without a number (allowed: e.g. X1.5, G1, X#1, X[1+2])",
         )
 
-    def _expr(self, code: str, i: int, depth: int) -> tuple[float, int]:
-        """An expression after its '['; returns after its ']'."""
+    def _expr(self, code: str, i: int, depth: int) -> tuple[Value, int]:
+        """An expression after its '['; returns after its ']'. The operators bind as
+        LinuxCNC's (precedence climbing, left to right), the operands are evaluated left to
+        right."""
         if depth > MAX_NESTING:
             raise _Err(
                 "[", f"expression nested deeper than {MAX_NESTING} (allowed: up to {MAX_NESTING})"
             )
-        vals: list[float] = []
+        vals: list[Value] = []
         ops: list[tuple[str, int]] = []
         v, i = self._value(code, i, depth)
         vals.append(v)
@@ -1187,15 +1260,108 @@ class Interpreter:
             while ops and ops[-1][1] >= prec:
                 o, _ = ops.pop()
                 b = vals.pop()
-                vals.append(self._binop(o, vals.pop(), b))
+                vals.append(self._node(o, vals.pop(), b))
             ops.append((op, prec))
             v, i = self._value(code, i, depth)
             vals.append(v)
         while ops:
             o, _ = ops.pop()
             b = vals.pop()
-            vals.append(self._binop(o, vals.pop(), b))
+            vals.append(self._node(o, vals.pop(), b))
         return vals[0], i
+
+    def _node(self, op: str, a: Value, b: Value) -> Callable[[], float]:
+        binop = self._binop
+        if type(a) is float:
+            if type(b) is float:
+                return lambda: binop(op, a, b)  # type: ignore[arg-type]
+            return lambda: binop(op, a, b())  # type: ignore[arg-type,operator]
+        if type(b) is float:
+            return lambda: binop(op, a(), b)  # type: ignore[arg-type,operator]
+        return lambda: binop(op, a(), b())  # type: ignore[operator]
+
+    def _func(self, name: str, code: str, i: int, depth: int) -> tuple[Value, int]:
+        if i >= len(code) or code[i] != "[":
+            raise _Err(name, f"{name} without [argument] (allowed: {name}[...])")
+        if name == "EXISTS":
+            j = i + 1
+            if code.startswith("#<", j):
+                k = code.find(">", j)
+                if k < 0 or not code.startswith("]", k + 1):
+                    raise _Err(name, "EXISTS needs [#<name>]")
+                nm = code[j + 2 : k].lower()
+                exists = self._named_exists
+                return (lambda: float(exists(nm))), k + 2
+            raise _Err(name, "EXISTS needs [#<name>]")
+        a, i = self._expr(code, i + 1, depth)
+        if name == "ATAN":
+            if not code.startswith("/[", i):
+                raise _Err(name, "ATAN needs ATAN[y]/[x]")
+            b, i = self._expr(code, i + 2, depth)
+            return (lambda: math.degrees(math.atan2(_ev(a), _ev(b)))), i
+        fn = self._apply
+        return (lambda: fn(name, _ev(a))), i
+
+    def _apply(self, name: str, a: float) -> float:
+        try:
+            if name == "ABS":
+                r = abs(a)
+            elif name == "ACOS":
+                r = math.degrees(math.acos(a))
+            elif name == "ASIN":
+                r = math.degrees(math.asin(a))
+            elif name == "COS":
+                r = math.cos(math.radians(a))
+            elif name == "EXP":
+                r = math.exp(a)
+            elif name == "FIX":
+                r = float(math.floor(a))
+            elif name == "FUP":
+                r = float(math.ceil(a))
+            elif name == "LN":
+                r = math.log(a)
+            elif name == "ROUND":
+                r = float(math.floor(a + 0.5)) if a >= 0 else -float(math.floor(-a + 0.5))
+            elif name == "SIN":
+                r = math.sin(math.radians(a))
+            elif name == "SQRT":
+                r = math.sqrt(a)
+            else:  # TAN
+                r = math.tan(math.radians(a))
+        except (ValueError, OverflowError):
+            if self._dry:
+                return 0.0
+            raise _Err(name, f"{name}[{_fmt(a)}] is not defined (allowed: its domain)") from None
+        return r
+
+    def _param_ref(self, code: str, i: int, depth: int) -> tuple[Any, int]:
+        """The parameter after a '#': a name (lower case), a number, or a closure giving the
+        number (computed, or out of range: checked when the line runs, never in the
+        prescan, where parameters read as 0)."""
+        if depth > MAX_NESTING:
+            raise _Err("#", f"parameters nested deeper than {MAX_NESTING}")
+        n = len(code)
+        if i < n and code[i] == "<":
+            j = code.find(">", i)
+            if j < 0:
+                raise _Err("#<", "unclosed parameter name (allowed: #<name>)")
+            name = code[i + 1 : j].lower()
+            if not name:
+                raise _Err("#<>", "empty parameter name")
+            return name, j + 1
+        v, j = self._value(code, i, depth + 1)
+        if type(v) is float and 1 <= v <= _MAX_PARAM and v == int(v):
+            return int(v), j
+        return (lambda: self._param_number(_ev(v))), j
+
+    def _param_number(self, v: float) -> int:
+        if self._dry:
+            return 1
+        if not 1 <= v <= _MAX_PARAM or v != int(v):
+            raise _Err(
+                f"#{_fmt(v)}", f"parameter number out of range (allowed: #1 to #{_MAX_PARAM})"
+            )
+        return int(v)
 
     def _binop(self, op: str, a: float, b: float) -> float:
         try:
@@ -1252,77 +1418,6 @@ class Interpreter:
                 return 0.0
             raise _Err(op, f"the result {r:g} is out of range (allowed: |value| < 1e18)")
         return r
-
-    def _func(self, name: str, code: str, i: int, depth: int) -> tuple[float, int]:
-        if i >= len(code) or code[i] != "[":
-            raise _Err(name, f"{name} without [argument] (allowed: {name}[...])")
-        if name == "EXISTS":
-            j = i + 1
-            if code.startswith("#<", j):
-                k = code.find(">", j)
-                if k < 0 or not code.startswith("]", k + 1):
-                    raise _Err(name, "EXISTS needs [#<name>]")
-                nm = code[j + 2 : k].lower()
-                return float(self._named_exists(nm)), k + 2
-            raise _Err(name, "EXISTS needs [#<name>]")
-        a, i = self._expr(code, i + 1, depth)
-        if name == "ATAN":
-            if not code.startswith("/[", i):
-                raise _Err(name, "ATAN needs ATAN[y]/[x]")
-            b, i = self._expr(code, i + 2, depth)
-            return math.degrees(math.atan2(a, b)), i
-        try:
-            if name == "ABS":
-                r = abs(a)
-            elif name == "ACOS":
-                r = math.degrees(math.acos(a))
-            elif name == "ASIN":
-                r = math.degrees(math.asin(a))
-            elif name == "COS":
-                r = math.cos(math.radians(a))
-            elif name == "EXP":
-                r = math.exp(a)
-            elif name == "FIX":
-                r = float(math.floor(a))
-            elif name == "FUP":
-                r = float(math.ceil(a))
-            elif name == "LN":
-                r = math.log(a)
-            elif name == "ROUND":
-                r = float(math.floor(a + 0.5)) if a >= 0 else -float(math.floor(-a + 0.5))
-            elif name == "SIN":
-                r = math.sin(math.radians(a))
-            elif name == "SQRT":
-                r = math.sqrt(a)
-            else:  # TAN
-                r = math.tan(math.radians(a))
-        except (ValueError, OverflowError):
-            if self._dry:
-                return 0.0, i
-            raise _Err(name, f"{name}[{_fmt(a)}] is not defined (allowed: its domain)") from None
-        return r, i
-
-    def _param_ref(self, code: str, i: int, depth: int) -> tuple[Any, int]:
-        """The parameter after a '#': an int or a name (lower case)."""
-        if depth > MAX_NESTING:
-            raise _Err("#", f"parameters nested deeper than {MAX_NESTING}")
-        n = len(code)
-        if i < n and code[i] == "<":
-            j = code.find(">", i)
-            if j < 0:
-                raise _Err("#<", "unclosed parameter name (allowed: #<name>)")
-            name = code[i + 1 : j].lower()
-            if not name:
-                raise _Err("#<>", "empty parameter name")
-            return name, j + 1
-        v, j = self._value(code, i, depth + 1)
-        if self._dry:
-            return 1, j
-        if v != int(v) or not 1 <= v <= _MAX_PARAM:
-            raise _Err(
-                f"#{_fmt(v)}", f"parameter number out of range (allowed: #1 to #{_MAX_PARAM})"
-            )
-        return int(v), j
 
     # -- parameters ------------------------------------------------------------------------
     def _named_exists(self, name: str) -> bool:
@@ -1635,15 +1730,24 @@ class Interpreter:
         elif kw == "WHILE":
             if top is not None and top.kind == "DO" and top.label == label:
                 if self._cond(b):
+                    self._check_loop_ends(b, here, top.start[0], here)
+                    if self.ended:
+                        return
                     self.src.seek(top.start)
                 else:
                     self.controls.pop()
             else:
-                if not (top is not None and top.kind == "WHILE" and top.label == label):
+                first = not (top is not None and top.kind == "WHILE" and top.label == label)
+                if first:
                     self._control_push(_Control("WHILE", label, (here, self.src.line_no - 1)))
                 if not self._cond(b):
                     self.controls.pop()
                     self._goto(self._find(label, ("ENDWHILE",), here), past=True)
+                elif first:
+                    _, end, _ = self._find(label, ("ENDWHILE",), here)
+                    self._check_loop_ends(b, here, self.src.tell()[0], end)
+                    if self.ended:
+                        return
         elif kw == "ENDWHILE":
             self._expect(top, "WHILE", label, kw)
             assert top is not None
@@ -1653,6 +1757,18 @@ class Interpreter:
             if count <= 0:
                 self._goto(self._find(label, ("ENDREPEAT",), here), past=True)
             else:
+                assert self.max_blocks is not None
+                left = self.max_blocks - self.blocks
+                if count > left:  # every pass runs at least one block (its end or continue)
+                    _, end, _ = self._find(label, ("ENDREPEAT",), here)
+                    if self._loop_body(self.src.tell()[0], end) is not None:
+                        self._fatal(
+                            b,
+                            f"repeat of {count} passes: more than the {left} blocks left to "
+                            f"run (allowed: gcode.max_blocks = {self.max_blocks} blocks in "
+                            "the machine configuration)",
+                        )
+                        return
                 self._control_push(_Control("REPEAT", label, self.src.tell(), count))
         elif kw == "ENDREPEAT":
             self._expect(top, "REPEAT", label, kw)
@@ -1692,6 +1808,76 @@ class Interpreter:
                 else:
                     self.controls.pop()
                     self._goto(self._find(label, ("ENDREPEAT",), here), past=True)
+
+    def _fatal(self, b: _Block, message: str) -> None:
+        """An error at the O-word ``b`` after which the program cannot go on: the run ends
+        here (with the errors found so far)."""
+        self._record(self._located(b.line, f"O{b.o_label}", message))
+        self.ended = True
+
+    def _loop_body(self, start: int, end: int) -> set[Any] | None:
+        """The parameters that the lines from byte ``start`` to ``end`` can set, or None when
+        they can leave the loop or the program another way (break, return, call, M2/M30, %) or
+        set a parameter whose number is computed. Reads the file there and comes back."""
+        src = self.src
+        back = src.tell()
+        writes: set[Any] = set()
+        try:
+            src.seek((start, 0))
+            while src.pos < end:
+                item = src.readline()
+                if item is None:
+                    break
+                raw = item[1]
+                if raw.lstrip().startswith("%") or raw.startswith("\x00"):
+                    return None
+                code, _ = _split_comments(raw)
+                if code.startswith(("O", "N")) and any(
+                    k in code for k in ("CALL", "RETURN", "BREAK", "SUB")
+                ):
+                    return None
+                if "M[" in code or "M#" in code:
+                    return None
+                if any(float(m) in (2.0, 30.0) for m in _M_WORD.findall(code)):
+                    return None
+                targets = _ASSIGNED.findall(code)
+                if len(targets) != code.count("="):
+                    return None  # #[...]= or ##1=: a computed parameter number
+                writes.update(_param_key(t) for t in targets)
+        except _Err:
+            return None
+        finally:
+            src.seek(back)
+        return writes
+
+    def _check_loop_ends(self, b: _Block, line_start: int, start: int, end: int) -> None:
+        """A while loop whose condition is true and reads nothing its body (``start`` to
+        ``end``) can change never ends: a located error at the loop's line now, not after
+        gcode.max_blocks blocks. Only where that is certain (the condition reads plain
+        parameters, the body has no way out but the condition)."""
+        if line_start in self._loops_checked:
+            return
+        self._loops_checked.add(line_start)
+        code, _ = _split_comments(b.text)
+        if "##" in code or "#[" in code:
+            return
+        reads = {_param_key(t) for t in _READ.findall(code)}
+        for key in reads:
+            if isinstance(key, str):
+                if key.startswith("_") and self._predefined(key) is not None:
+                    return  # the machine's state (a position, a mode)
+            elif key >= 5000:
+                return  # a system parameter (offsets, tool, positions)
+        writes = self._loop_body(start, end)
+        if writes is None or reads & writes:
+            return
+        names = ", ".join(sorted(f"#<{k}>" if isinstance(k, str) else f"#{k}" for k in reads))
+        self._fatal(
+            b,
+            "this loop never ends: its condition is true and reads "
+            + (f"{names}, which nothing in the loop sets" if names else "no parameter")
+            + " (allowed: a condition on a parameter the loop changes, a break, M2/M30)",
+        )
 
     def _control_push(self, c: _Control) -> None:
         if len(self.controls) >= MAX_CONTROL_DEPTH:

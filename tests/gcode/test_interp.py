@@ -224,11 +224,90 @@ def test_hostile_input_is_bounded_and_escaped() -> None:
     assert "\x1b" not in msg and "\\x1b" in msg
     assert escape("a\x07b") == "a\\x07b"
     assert "longer than 1024" in error_of("G0 X1 " + "(c)" * 400 + "\n")
-    loop = "#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n"
+    loop = "#1=0\no1 while [#1 GE 0]\n#1=[#1+1]\no1 endwhile\n"
     assert "blocks executed" in error_of(loop, MachineSetup.for_axes("xyz", max_blocks=10_000))
     assert "nested deeper" in error_of("G0 X" + "[" * 100 + "1" + "]" * 100 + "\n")
     rec = "o1 sub\no1 call\no1 endsub\no1 call\n"
     assert "nested deeper than 64" in error_of(rec)
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "reads"),
+    [
+        ("#1=0\no1 while [1]\n#1=[#1+1]\no1 endwhile\n", 2, "reads no parameter"),
+        ("#1=1\n#2=0\no7 while [#1 GT 0]\n#2=[#2+1]\no7 endwhile\n", 3, "reads #1, which"),
+        ("#<a>=1\no<x> do\nG0 X1\nG0 X0\no<x> while [#<a>]\n", 5, "reads #<a>, which"),
+        # nested: the inner loop never ends, found on the outer loop's first pass
+        (
+            "#1=0\no1 while [#1 LT 3]\n#1=[#1+1]\no2 while [#1]\nG0 X1\no2 endwhile\no1 endwhile\n",
+            4,
+            "reads #1, which",
+        ),
+    ],
+)
+def test_a_loop_that_cannot_end_is_found_at_its_line(text: str, line: int, reads: str) -> None:
+    setup = MachineSetup.for_axes("xyz", max_blocks=10**9)  # found at once, not by the limit
+    msg = error_of(text, setup)
+    assert msg.startswith(f"t.ngc:{line}: O") and "this loop never ends" in msg
+    assert reads in msg
+    assert "\n" not in msg  # one error: the run ends at the loop
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        "#1=[#1+1]\n",  # sets what the condition reads
+        "o9 if [#2 GT 5]\no1 break\no9 endif\n#2=[#2+1]\n",  # a way out
+        "o9 if [#2 GT 5]\nM2\no9 endif\n#2=[#2+1]\n",  # the program ends
+        "#[1]=[#1+1]\n",  # a computed parameter number: not known statically
+        "o<inc> call\n",  # a subroutine may set it
+    ],
+)
+def test_loops_that_can_end_are_not_refused(body: str) -> None:
+    text = "o<inc> sub\n#<_n>=[#<_n>+1]\no<inc> endsub\n#<_n>=0\n#1=0\n#2=0\n"
+    text += "o1 while [[#1 + #<_n>] LT 8]\n" + body + "G0 X[#1+#<_n>+#2+1]\no1 endwhile\nM2\n"
+    xs = [m.end[0] for m in moves(text)]
+    assert 1 <= len(xs) <= 9 and len(set(xs)) == len(xs)
+
+
+def test_a_condition_on_the_machine_state_is_left_to_the_block_limit() -> None:
+    # #5420 is the X position, which the loop's moves change: not refused statically
+    text = "G21 G0 X0\no1 while [#5420 LT 5]\nG91 G0 X1\no1 endwhile\nM2\n"
+    assert [round(m.end[0] * 1000, 9) for m in moves(text)][-1] == 5.0
+
+
+def test_a_repeat_longer_than_the_block_limit_is_refused_at_once() -> None:
+    setup = MachineSetup.for_axes("xyz", max_blocks=1000)
+    msg = error_of("o1 repeat [1000000000]\nG0 X1\nG0 X0\no1 endrepeat\n", setup)
+    assert msg.startswith("t.ngc:1: O1: repeat of 1000000000 passes: more than the 999 blocks")
+    # one with a way out is run (and ends by its break)
+    text = "#1=0\no1 repeat [1000000000]\n#1=[#1+1]\no9 if [#1 GE 3]\no1 break\no9 endif\n"
+    text += "G0 X[#1]\no1 endrepeat\nM2\n"
+    assert len(moves(text, setup)) == 2
+
+
+def test_compiled_lines_evaluate_afresh_each_pass() -> None:
+    # the loop's lines are compiled once; every pass sees the parameters of that pass,
+    # including a computed parameter number and functions
+    text = "#1=0\n#10=0\no1 while [#1 LT 6]\n#[11+#1]=[SIN[#1*30]*2]\n"
+    text += "G0 X[#[11+#1]] Y[ATAN[#1]/[1]] Z-[#1 MOD 4]\n#1=[#1+1]\no1 endwhile\nM2\n"
+    got = [[round(v * 1000, 9) for v in m.end] for m in moves(text)]
+    want = [
+        [
+            round(2 * math.sin(math.radians(30 * k)), 9),
+            round(math.degrees(math.atan2(k, 1)), 9),
+            -float(k % 4),
+        ]
+        for k in range(1, 6)  # k = 0 is the start point: a zero-length move, skipped
+    ]
+    assert len(got) == 5
+    for g, w in zip(got, want, strict=True):
+        assert g == pytest.approx(w, abs=1e-9)
+
+
+def test_more_distinct_lines_than_the_compiled_cache_holds() -> None:
+    text = "".join(f"#1=[{k}+0.5]\nG0 X[#1*2]\n" for k in range(5000))
+    assert [round(m.end[0] * 1000, 9) for m in moves(text)] == [2 * k + 1.0 for k in range(5000)]
 
 
 def test_zero_length_moves_are_skipped_without_memory_per_move() -> None:
