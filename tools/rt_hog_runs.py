@@ -70,10 +70,10 @@ def main() -> int:
                 faults = [ln for ln in failed if any(k in ln for k in DRIVE_FAULTS)]
                 if faults:
                     drive_faults += 1
-                    examples.append(faults[0][:200])
+                    examples.append(faults[0][:400])
                 elif any("did not finish" not in ln for ln in failed):
                     other += 1
-                    examples.append(failed[0][:200])
+                    examples.append(failed[0][:400])
                 else:
                     clean += 1
             bad += drive_faults

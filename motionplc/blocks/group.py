@@ -1166,7 +1166,20 @@ class AxesGroup:
             pa = seg_a.evaluate(np.linspace(max(0.0, la - 1.5 * dd), la, 513))
             pb = seg_b.evaluate(np.linspace(0.0, min(lb, 1.5 * dd), 513))
             ref = np.concatenate([pa, pb])
-            dist = np.sqrt(((q[:, None, :] - ref[None, :, :]) ** 2).sum(axis=2)).min(axis=1)
+            dim = ref.shape[1]
+            if dim < 8:
+                # per axis, 2-D arrays: the same sums in the same order as summing the 3-D
+                # array over its last axis (numpy adds fewer than 8 terms one after the
+                # other), without building the (65 x 1026 x dim) array
+                d2 = np.subtract.outer(q[:, 0], ref[:, 0])
+                d2 *= d2
+                for k in range(1, dim):
+                    dk = np.subtract.outer(q[:, k], ref[:, k])
+                    dk *= dk
+                    d2 += dk
+            else:
+                d2 = ((q[:, None, :] - ref[None, :, :]) ** 2).sum(axis=2)
+            dist = np.sqrt(d2).min(axis=1)
             # the reference is sampled: a chord error of at most (spacing / 2)^2 / (2 R) is
             # ignored; the samples bound the distance from above
             return float(dist.max()), cb
