@@ -18,6 +18,7 @@ import itertools
 import json
 import logging
 import os
+import signal
 import sys
 import time
 from typing import Any
@@ -210,6 +211,7 @@ async def _ready(ev: asyncio.Event, task: asyncio.Task[Any]) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
     req_fd, rep_fd = int(args[0]), int(args[1])
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the runtime's (its stop)
     spec = json.loads(sys.stdin.readline())
     if spec.get("nice"):
         os.nice(int(spec["nice"]))
