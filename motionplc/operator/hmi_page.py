@@ -229,6 +229,11 @@ function build(layout) {
       ovr,
       button("Override", t, "SetOverride", () => [num(ovr.id, 1.0)], "gset-override-" + g.name));
     sec.appendChild(row);
+    const mdi = document.createElement("div"); mdi.className = "controls";
+    const line = document.createElement("input");
+    line.id = "mdi-" + g.name; line.placeholder = "G1 X10 Y10 F3000"; line.style.width = "220px";
+    mdi.append(line, button("MDI", t, "Mdi", () => [line.value], "run-mdi-" + g.name));
+    sec.appendChild(mdi);
     gs.appendChild(sec);
     paths[g.name] = [];
   }

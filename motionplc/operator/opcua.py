@@ -1,4 +1,6 @@
-"""The machine's OPC UA server (asyncua) in its own thread and event loop.
+"""The machine's OPC UA server (asyncua): in the operator process (:meth:`OpcUaServer.serve`
+in its event loop, :mod:`motionplc.operator.server`), or in a thread of its own with its own
+event loop (:meth:`OpcUaServer.start`; the former design, kept for comparisons).
 
 The address space follows OPC 40010-1 (OPC UA for Robotics) in its structure and names and
 OPC 30000 (PLCopen / IEC 61131-3) for the tasks; see ``docs/operator.md`` for the mapping and
@@ -100,7 +102,8 @@ def free_port(host: str = "127.0.0.1") -> int:
 
 
 class OpcUaServer:
-    """The OPC UA server of a machine whose :class:`OperatorDesk` is installed.
+    """The OPC UA server of a machine whose :class:`OperatorDesk` is installed (``desk``: the
+    desk itself, or the operator process' :class:`~motionplc.operator.server.RemoteDesk`).
 
     ``start()`` runs it in a thread of its own (its own asyncio loop) and returns once it
     listens (``endpoint``: ``opc.tcp://HOST:PORT/motionplc/``); ``stop()`` ends it.

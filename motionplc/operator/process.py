@@ -11,9 +11,11 @@ motionplc.operator.server`` (:mod:`motionplc.operator.server`) and connects it w
 
 The cycle side (:meth:`OperatorProcess._hook`, a cycle hook after the desk's) only does
 non-blocking work with a bound per cycle: one ``pack_into`` when a snapshot is new, one
-``os.read`` of at most ``read_bytes`` from the request pipe, at most ``max_requests`` requests
-handed to the desk, one ``os.write`` of the pending replies (what the pipe does not take waits
-for the next cycle). It never waits for the operator process.
+``os.read`` of at most ``read_bytes`` from the request pipe (none while four times that is
+still waiting: the pipe then fills and the operator process holds its requests), at most
+``max_requests`` requests handed to the desk (a line over ``max_line`` bytes is dropped), one
+``os.write`` of the pending replies (what the pipe does not take waits for the next cycle; past
+``max_pending_bytes`` they are dropped and counted). It never waits for the operator process.
 
 The operator process runs at ``os.nice(10)`` and ends when the runtime's process ends: it
 reads the reply pipe, whose end-of-file says the writer is gone, and watches its parent pid.
@@ -64,6 +66,7 @@ class OperatorProcess:
         max_requests: int = 32,
         read_bytes: int = 65536,
         max_pending_bytes: int = 1 << 20,
+        max_line: int = 65536,
     ) -> None:
         if opcua is None and hmi is None:
             raise ValueError("an operator process serves OPC UA, the HMI or both")
@@ -74,6 +77,8 @@ class OperatorProcess:
         self.max_requests = max_requests
         self.read_bytes = read_bytes
         self.max_pending_bytes = max_pending_bytes
+        self.max_line = max_line
+        self._skipping = False
         self.board: Board | None = None
         self.proc: subprocess.Popen[bytes] | None = None
         self.endpoint: str | None = None  # opc.tcp://...
@@ -205,8 +210,12 @@ class OperatorProcess:
             return
         if self._out:
             self._flush()
-        try:
-            chunk = os.read(self._req_fd, self.read_bytes)
+        try:  # (a backlog of requests: nothing more read until it is worked off)
+            chunk = (
+                os.read(self._req_fd, self.read_bytes)
+                if len(self._in) < 4 * self.read_bytes
+                else None
+            )
         except BlockingIOError:
             chunk = None
         except OSError:
@@ -224,14 +233,25 @@ class OperatorProcess:
 
     def _take(self) -> None:
         buf = self._in
-        n = 0
+        pos = n = 0
         while n < self.max_requests:
-            line, sep, rest = buf.partition(b"\n")
-            if not sep:
+            i = buf.find(b"\n", pos)
+            if i < 0:
                 break
-            buf = rest
+            line, pos = buf[pos:i], i + 1
+            if self._skipping:  # the tail of a line that was too long
+                self._skipping = False
+                continue
+            if len(line) > self.max_line:
+                LOG.warning("operator process: a request line of %d bytes dropped", len(line))
+                continue
             n += 1
             self._request(line)
+        buf = buf[pos:]
+        if len(buf) > self.max_line and buf.find(b"\n") < 0:  # a line that does not end
+            LOG.warning("operator process: a request line over %d bytes dropped", self.max_line)
+            self._skipping = True
+            buf = b""
         self._in = buf
 
     def _request(self, line: bytes) -> None:

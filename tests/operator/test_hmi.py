@@ -200,6 +200,18 @@ def test_page_live_values_login_and_jog(demo: Demo) -> None:
                 timeout=10_000,
             )
             expect(page.locator("#log")).to_contain_text("axis:x.Jog(1, 0.02, 0): accepted")
+            # the group's path is drawn: path-coloured pixels on the canvas
+            drawn = page.evaluate(
+                """() => {
+                  const c = document.getElementById('path-xy');
+                  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+                  let n = 0;
+                  for (let i = 0; i < d.length; i += 4)
+                    if (d[i] < 80 && d[i + 1] < 140 && d[i + 2] > 200) n++;
+                  return n;
+                }"""
+            )
+            assert drawn > 100, drawn
             page.screenshot(path=str(keep / "hmi_after_jog.png"), full_page=True)
         finally:
             browser.close()

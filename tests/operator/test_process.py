@@ -180,3 +180,31 @@ def test_operator_process_ends_with_its_parent() -> None:
         if parent.poll() is None:
             parent.kill()
             parent.wait(10)
+
+
+def test_overlong_request_lines_are_dropped(desk: OperatorDesk) -> None:
+    op = OperatorProcess(desk, None, object(), max_line=1000)  # type: ignore[arg-type]
+    req_r, req_w = os.pipe()
+    rep_r, rep_w = os.pipe()
+    os.set_blocking(req_r, False)
+    os.set_blocking(rep_w, False)
+    op._req_fd, op._rep_fd = req_r, rep_w
+    op.board = Board.create(desk.layout)
+    desk.rt.add_cycle_hook(op._hook)
+    ok = json.dumps({"id": 1, "user": "t", "target": "axis:x", "method": "Reset", "args": []})
+    try:
+        os.write(req_w, b"x" * 5000 + b"\n" + ok.encode() + b"\n")
+        desk.rt.run(cycles=2)
+        assert op.requests == 1  # the long line dropped, the next one taken
+        os.write(req_w, b"y" * 3000)  # a line that does not end (yet)
+        desk.rt.run(cycles=2)
+        assert op._skipping and op._in == b""
+        os.write(req_w, b"yyy\n" + ok.encode() + b"\n")
+        desk.rt.run(cycles=2)
+        assert op.requests == 2 and not op._skipping
+        reply = json.loads(os.read(rep_r, 65536).splitlines()[0])
+        assert reply["id"] == 1 and reply["ok"] and reply["cycle"] >= 0
+    finally:
+        op.board.close()
+        for fd in (req_r, req_w, rep_r, rep_w):
+            os.close(fd)
