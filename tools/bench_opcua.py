@@ -1,7 +1,7 @@
 """Real-time cost and latencies of the operator process: OPC UA server + web HMI (issue 28).
 
     .venv/bin/python tools/bench_opcua.py [--seconds 20] [--clients 10] [--interval-ms 10]
-        [--hmi-pages 2] [--thread]
+        [--hmi-pages 2] [--browser-pages 0] [--thread]
 
 One process runs configs/demo.yaml (two axes on simulated CiA 402 drives over the in-process
 virtual CAN bus, 1 ms tick) in real time, both axes moving back and forth all the time. The
@@ -13,7 +13,8 @@ same run has these phases of ``--seconds`` each:
    (nice 10): ``--clients`` asyncua clients (anonymous, None channel) subscribed at
    ``--interval-ms`` to every axis' ActualPosition, SetPosition, PLCopenState, FollowingError
    and the cycle, one operator client (user, Sign) calling ``SetOverride(1.0)`` every 50 ms,
-   and ``--hmi-pages`` websocket clients of the HMI's live feed (what a page receives);
+   ``--hmi-pages`` websocket clients of the HMI's live feed (what a page receives) and
+   ``--browser-pages`` real pages in headless Chromium;
 3. ``after``: the operator process stopped, the desk still installed (its own in-cycle cost);
 4. with ``--thread``: ``thread``, the same clients against the OPC UA server in a thread of
    the runtime's process (the design before the operator process; no HMI).
@@ -67,10 +68,33 @@ async def _page(url: str, seen: list[tuple[int, int]], stop: asyncio.Event) -> i
     return n
 
 
+async def _browser(hmi: str, pages: int) -> Any:
+    """``pages`` real HMI pages in headless Chromium (Debian's /usr/bin/chromium)."""
+    from playwright.async_api import async_playwright
+
+    pw = await async_playwright().start()
+    browser = await pw.chromium.launch(
+        executable_path="/usr/bin/chromium", headless=True, args=["--no-sandbox"]
+    )
+    for _ in range(pages):
+        page = await browser.new_page(viewport={"width": 1400, "height": 1000})
+        await page.goto(hmi)
+    return pw, browser
+
+
 async def _clients(
-    url: str, n: int, interval: float, seconds: float, sec: dict[str, str], hmi: str, pages: int
+    url: str,
+    n: int,
+    interval: float,
+    seconds: float,
+    sec: dict[str, str],
+    hmi: str,
+    pages: int,
+    browser_pages: int = 0,
 ) -> Any:
     from asyncua import Client, ua
+
+    browser = await _browser(hmi, browser_pages) if hmi and browser_pages else None
 
     page_seen: list[tuple[int, int]] = []  # of page 0
     page_stop = asyncio.Event()
@@ -130,6 +154,9 @@ async def _clients(
         await c.disconnect()
     page_stop.set()
     page_counts = [r if isinstance(r, int) else -1 for r in await asyncio.gather(*page_tasks)]
+    if browser is not None:
+        await browser[1].close()
+        await browser[0].stop()
     return {
         "seen": seen,
         "calls": calls,
@@ -147,8 +174,10 @@ def clients_main(argv: list[str]) -> int:
 
     os.nice(10)  # the clients are the operator's side: below the runtime, like the server
     url, n, interval, seconds, sec = argv[0], int(argv[1]), float(argv[2]), float(argv[3]), argv[4]
-    hmi, pages = argv[5], int(argv[6])
-    res = asyncio.run(_clients(url, n, interval, seconds, json.loads(sec), hmi, pages))
+    hmi, pages, browser_pages = argv[5], int(argv[6]), int(argv[7])
+    res = asyncio.run(
+        _clients(url, n, interval, seconds, json.loads(sec), hmi, pages, browser_pages)
+    )
     print("RESULT " + json.dumps(res), flush=True)  # noqa: T201
     return 0
 
@@ -213,7 +242,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seconds", type=float, default=20.0)
     ap.add_argument("--clients", type=int, default=10)
     ap.add_argument("--interval-ms", type=float, default=10.0)
-    ap.add_argument("--hmi-pages", type=int, default=2, help="HMI live feeds (0: no HMI)")
+    ap.add_argument(
+        "--hmi-pages",
+        type=int,
+        default=2,
+        help="websocket clients of the HMI's live feed, what a page receives (0: no HMI)",
+    )
+    ap.add_argument(
+        "--browser-pages",
+        type=int,
+        default=0,
+        help="real HMI pages in headless Chromium (/usr/bin/chromium) besides",
+    )
     ap.add_argument(
         "--thread",
         action="store_true",
@@ -252,7 +292,8 @@ def main(argv: list[str] | None = None) -> int:
     secs = args.seconds
     print(  # noqa: T201
         f"demo.yaml in real time, tick {rt.cycle * 1e3:g} ms, {secs:g} s per phase; "
-        f"{args.clients} OPC UA clients at {args.interval_ms:g} ms, {args.hmi_pages} HMI pages"
+        f"{args.clients} OPC UA clients at {args.interval_ms:g} ms, {args.hmi_pages} HMI feeds, "
+        f"{args.browser_pages} HMI pages in Chromium"
     )
 
     def phase(name: str) -> dict[str, Any]:
@@ -272,7 +313,7 @@ def main(argv: list[str] | None = None) -> int:
         users=users,
         publish_interval=args.interval_ms * 1e-3,
     )
-    hmi = HmiSettings(port=0, users=users) if args.hmi_pages > 0 else None
+    hmi = HmiSettings(port=0, users=users) if args.hmi_pages + args.browser_pages > 0 else None
     desk = OperatorDesk(machine, publish_every=max(1, round(settings.publish_interval / rt.cycle)))
     desk.install()
 
@@ -291,6 +332,7 @@ def main(argv: list[str] | None = None) -> int:
                 json.dumps(sec),
                 hmi_url,
                 str(args.hmi_pages if hmi_url else 0),
+                str(args.browser_pages if hmi_url else 0),
             ],
             stdout=subprocess.PIPE,
             text=True,
