@@ -10,6 +10,7 @@ import signal
 import subprocess
 import sys
 import time
+import urllib.request
 from pathlib import Path
 from typing import Any
 
@@ -126,22 +127,6 @@ def test_cycle_side_is_bounded_and_never_blocks(desk: OperatorDesk) -> None:
             os.close(fd)
 
 
-PARENT = """
-import sys
-from motionplc.config import build, load_config
-from motionplc.operator.desk import OperatorDesk
-from motionplc.operator.process import OperatorProcess
-from motionplc.operator.settings import HmiSettings
-m = build(load_config(sys.argv[1]))
-d = OperatorDesk(m)
-d.install()
-p = OperatorProcess(d, None, HmiSettings(port=0)).start()
-print(p.pid, p.hmi_url, flush=True)
-import time
-time.sleep(600.0)
-"""
-
-
 def _alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -154,32 +139,51 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def test_operator_process_ends_with_its_parent() -> None:
+def test_run_hmi_and_the_operator_process_ends_with_its_parent(tmp_path: Path) -> None:
+    """``motionplc run CONFIG --hmi`` serves the live snapshot; killed (SIGKILL, no clean-up
+    at all), its operator process ends too."""
     pytest.importorskip("uvicorn")
-    parent = subprocess.Popen(
-        [sys.executable, "-c", PARENT, str(ROOT / "configs" / "demo.yaml")],
+    cfg = tmp_path / "demo.yaml"
+    cfg.write_text((ROOT / "configs" / "demo.yaml").read_text() + "hmi: {port: 0}\n")
+    run = subprocess.Popen(
+        [sys.executable, "-m", "motionplc.cli", "run", str(cfg), "--hmi"],
         stdout=subprocess.PIPE,
         text=True,
     )
     try:
-        assert parent.stdout is not None
-        pid_s, url = parent.stdout.readline().split()
-        child = int(pid_s)
-        assert url.startswith("http://127.0.0.1:")
+        assert run.stdout is not None
+        url = child = None
+        for line in run.stdout:
+            if line.startswith("web HMI: "):
+                url = line.split()[2]
+            if line.startswith("(operator process pid "):
+                child = int(line.split()[3].rstrip(")"))
+                break
+        assert url is not None and url.startswith("http://127.0.0.1:") and child is not None
+        cycles = []
+        t_end = time.monotonic() + 10.0  # noqa: TID251 - waiting for another process
+        while time.monotonic() < t_end:  # noqa: TID251 - (the first: before the first cycle)
+            with urllib.request.urlopen(url + "api/snapshot", timeout=10) as r:
+                snap = json.loads(r.read())
+            cycles.append(snap["cycle"])
+            if cycles[-1] > 100:
+                break
+            subprocess.run(["sleep", "0.05"], check=True)
+        assert [a["name"] for a in snap["axes"]] == ["x", "y"] and cycles[-1] > 100, cycles
         assert _alive(child)
         with open(f"/proc/{child}/stat") as f:
             nice = int(f.read().split(")")[-1].split()[16])
-        assert nice >= 10  # (os.nice(10) from the parent's niceness)
-        parent.send_signal(signal.SIGKILL)  # no clean-up in the parent at all
-        parent.wait(10)
+        assert nice >= 10  # (os.nice(10) from the runtime's niceness)
+        run.send_signal(signal.SIGKILL)
+        run.wait(10)
         t_end = time.monotonic() + 10.0  # noqa: TID251 - waiting for another process
         while _alive(child) and time.monotonic() < t_end:  # noqa: TID251
             subprocess.run(["sleep", "0.05"], check=True)
         assert not _alive(child), "the operator process outlived its parent"
     finally:
-        if parent.poll() is None:
-            parent.kill()
-            parent.wait(10)
+        if run.poll() is None:
+            run.kill()
+            run.wait(10)
 
 
 def test_overlong_request_lines_are_dropped(desk: OperatorDesk) -> None:
