@@ -861,7 +861,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     max_overruns = getattr(cfg.runtime, "max_overruns", None)
     overrun_source = "--max-overruns" if args.max_overruns is not None else "runtime.max_overruns"
     # an operator acts in real time: --opcua (or an opcua: block) runs on the wall clock
-    wants_rt = args.realtime or args.opcua or cfg.opcua is not None
+    operated = args.opcua or cfg.opcua is not None or args.hmi or cfg.hmi is not None
+    wants_rt = args.realtime or operated
     machine = _build(cfg, True if wants_rt else None)
     failures: list[str] = []
     interrupted = False
@@ -884,10 +885,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 runner = ProgramRunner(script, machine)
                 task = script.task or cfg.runtime.tasks[0].name
         operator = None
-        if args.opcua or cfg.opcua is not None:  # the OPC UA server (motionplc.operator)
+        if operated:  # the operator process: OPC UA server, web HMI (motionplc.operator)
             from motionplc.operator.run import start_operator
 
-            operator = start_operator(machine, runner, task if runner is not None else None)
+            operator = start_operator(
+                machine,
+                runner,
+                task if runner is not None else None,
+                opcua=args.opcua or cfg.opcua is not None,
+                hmi=args.hmi or cfg.hmi is not None,
+            )
         elif runner is not None:
             machine.attach(runner, task)
         rt = machine.runtime
@@ -1360,6 +1367,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="serve the machine over OPC UA (the config's opcua: block, else 127.0.0.1:4840, "
         "Sign/SignAndEncrypt); implies --realtime; without a script the machine idles until "
         "Ctrl-C (default: only with an opcua: block)",
+    )
+    r.add_argument(
+        "--hmi",
+        action="store_true",
+        help="serve the live web HMI (the config's hmi: block, else http://127.0.0.1:8480/ with "
+        "the opcua: users); implies --realtime; without a script the machine idles until "
+        "Ctrl-C (default: only with an hmi: block)",
     )
     r.add_argument("--verbose", "-v", action="count", default=0, help=_VERBOSE_HELP)
     r.set_defaults(func=_cmd_run)

@@ -899,6 +899,7 @@ class Config:
     warnings: tuple[str, ...] = ()  # ``FILE:LINE: key.path: warning: ...`` (plausibility)
     gcode: dict[str, Any] | None = None  # the G-code machine (motionplc.gcode_runner)
     opcua: Any = None  # the OPC UA server: motionplc.operator.settings.OpcUaSettings
+    hmi: Any = None  # the web HMI: motionplc.operator.settings.HmiSettings
 
     def axis(self, name: str) -> AxisSpec:
         return next(a for a in self.axes if a.name == name)
@@ -1672,6 +1673,11 @@ def parse_config(data: Any, file: str | Path) -> Config:
         from motionplc.operator.settings import parse_opcua
 
         opcua = parse_opcua(c, top, str(file))
+    hmi = None
+    if top.get("hmi") is not None:  # the web HMI (motionplc.operator)
+        from motionplc.operator.settings import parse_hmi
+
+        hmi = parse_hmi(c, top, opcua)
     c.raise_if_any()
     assert runtime is not None
     return Config(
@@ -1684,6 +1690,7 @@ def parse_config(data: Any, file: str | Path) -> Config:
         tuple(c.warnings),
         gcode,
         opcua,
+        hmi,
     )
 
 

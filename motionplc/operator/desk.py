@@ -423,6 +423,7 @@ class OperatorDesk:
         self._mdi_group = ""
         self._mdi_line = ""
         self._installed = False
+        self._layout: Any = None
         self.publish_log: deque[tuple[int, int]] = deque(maxlen=100_000)  # (cycle, clock_ns)
 
     # -- set-up ------------------------------------------------------------------------------
@@ -449,6 +450,17 @@ class OperatorDesk:
             self._groups[name] = _GroupDesk(self, g)
         self.rt.add_cycle_hook(self._hook)
         self._publish(self.rt.tick - 1)
+
+    @property
+    def layout(self) -> Any:
+        """The machine's :class:`~motionplc.operator.board.Layout` (axes, groups, tasks in the
+        snapshot's order; after :meth:`install`)."""
+        if self._layout is None:
+            from motionplc.operator.board import Layout
+
+            assert self.snapshot is not None, "install the desk first"
+            self._layout = Layout.of(self.machine, self.snapshot)
+        return self._layout
 
     def task_of(self, target: str) -> str | None:
         return self._task_of.get(target)

@@ -1,4 +1,6 @@
-"""The machine's OPC UA server (asyncua) in its own thread and event loop.
+"""The machine's OPC UA server (asyncua): in the operator process (:meth:`OpcUaServer.serve`
+in its event loop, :mod:`motionplc.operator.server`), or in a thread of its own with its own
+event loop (:meth:`OpcUaServer.start`; the former design, kept for comparisons).
 
 The address space follows OPC 40010-1 (OPC UA for Robotics) in its structure and names and
 OPC 30000 (PLCopen / IEC 61131-3) for the tasks; see ``docs/operator.md`` for the mapping and
@@ -100,7 +102,8 @@ def free_port(host: str = "127.0.0.1") -> int:
 
 
 class OpcUaServer:
-    """The OPC UA server of a machine whose :class:`OperatorDesk` is installed.
+    """The OPC UA server of a machine whose :class:`OperatorDesk` is installed (``desk``: the
+    desk itself, or the operator process' :class:`~motionplc.operator.server.RemoteDesk`).
 
     ``start()`` runs it in a thread of its own (its own asyncio loop) and returns once it
     listens (``endpoint``: ``opc.tcp://HOST:PORT/motionplc/``); ``stop()`` ends it.
@@ -135,14 +138,14 @@ class OpcUaServer:
         self._vars: list[tuple[Any, Callable[[Snapshot], Any], Any]] = []
         self._last: list[Any] = []
         self._login_ok: dict[tuple[str, bytes], bool] = {}
-        units = {a.name: a.units for a in desk.machine.config.axes}
-        self._units = units
+        self.layout = desk.layout
+        self._units = {a.name: a.units for a in self.layout.axes}
 
     # -- life cycle --------------------------------------------------------------------------
     def start(self, timeout: float = 60.0) -> str:
         if self._thread is not None:
             return self.endpoint
-        if self.switch_interval is not None and self.desk.rt.clock.realtime:
+        if self.switch_interval is not None and self.layout.realtime:
             self._old_switch = sys.getswitchinterval()
             sys.setswitchinterval(min(self._old_switch, self.switch_interval))
         self._thread = threading.Thread(target=self._main, name="motionplc-opcua", daemon=True)
@@ -187,9 +190,14 @@ class OpcUaServer:
             loop.close()
 
     async def _serve(self) -> None:
+        await self.serve(asyncio.Event(), self._ready.set)
+
+    async def serve(self, stop: asyncio.Event, on_ready: Callable[[], None]) -> None:
+        """Build the address space, listen, call ``on_ready`` and write the snapshots into
+        the address space until ``stop`` is set (in the running event loop)."""
         from asyncua import Server
 
-        self._stop = asyncio.Event()
+        self._stop = stop
         server = _make_server_class()(self)
         await server.init()
         await self._configure(server)
@@ -202,7 +210,7 @@ class OpcUaServer:
             ) from exc
         assert isinstance(server, Server)
         LOG.info("OPC UA server listening on %s", self.endpoint)
-        self._ready.set()
+        on_ready()
         try:
             period = self.settings.publish_interval
             while not self._stop.is_set():
@@ -287,7 +295,7 @@ class OpcUaServer:
         desk = self.desk
         snap = desk.snapshot
         assert snap is not None, "install the desk first"
-        cfg = desk.machine.config
+        lay = self.layout
         objects = server.nodes.objects
         device_set = await objects.add_folder(
             ua.NodeId("DeviceSet", ns), ua.QualifiedName("DeviceSet", ns)
@@ -307,10 +315,10 @@ class OpcUaServer:
         await system.add_folder(
             ua.NodeId(f"{self.name}.SafetyStates", ns), ua.QualifiedName("SafetyStates", ns)
         )
-        in_group = {a: g.name for g in cfg.groups for a in g.axes}
+        in_group = {a: g.name for g in lay.groups for a in g.axes}
         ax_index = {a.name: i for i, a in enumerate(snap.axes)}
         g_index = {g.name: i for i, g in enumerate(snap.groups)}
-        for g in cfg.groups:
+        for g in lay.groups:
             dev = await self._device(devices, ns, g.name, "group")
             await self._group(dev, ns, g.name, g_index[g.name], g.axes)
             axes_folder = await dev.add_folder(
@@ -318,7 +326,7 @@ class OpcUaServer:
             )
             for a in g.axes:
                 await self._axis(axes_folder, ns, a, ax_index[a])
-        for spec in cfg.axes:
+        for spec in lay.axes:
             if spec.name in in_group:
                 continue
             dev = await self._device(devices, ns, spec.name, "axis")
@@ -352,7 +360,7 @@ class OpcUaServer:
         from asyncua import ua
 
         vts = ua.VariantType
-        spec = self.desk.machine.config.axis(name)
+        spec = self.layout.axis(name)
         units = spec.units if spec.units in ("m", "rad") else "m"
         obj = await parent.add_object(ua.NodeId(f"axis.{name}", ns), ua.QualifiedName(name, ns))
         # OPC 40010-1 AxisMotionProfileEnumeration: ROTARY 1, ROTARY_ENDLESS 2, LINEAR 3,
@@ -362,11 +370,10 @@ class OpcUaServer:
         ps = await obj.add_object(
             ua.NodeId(f"axis.{name}.ParameterSet", ns), ua.QualifiedName("ParameterSet", ns)
         )
-        lim = spec.limits
         rng = {
             "": (spec.sw_limit_min, spec.sw_limit_max),
-            "/s": (-abs(lim.v_min) if lim.v_min is not None else -lim.v_max, lim.v_max),
-            "/s^2": (-abs(lim.a_min) if lim.a_min is not None else -lim.a_max, lim.a_max),
+            "/s": (-abs(spec.v_min) if spec.v_min is not None else -spec.v_max, spec.v_max),
+            "/s^2": (-abs(spec.a_min) if spec.a_min is not None else -spec.a_max, spec.a_max),
         }
 
         def analog(field: str, bname: str, suffix: str) -> Any:
@@ -510,11 +517,11 @@ class OpcUaServer:
         from asyncua import ua
 
         vts = ua.VariantType
-        rt = self.desk.rt
+        lay = self.layout
         ctl = await parent.add_object(ua.NodeId("Runtime", ns), ua.QualifiedName("Runtime", ns))
         await _prop(ctl, ns, "Runtime.Manufacturer", "Manufacturer", ua.LocalizedText("motionplc"))
-        await _prop(ctl, ns, "Runtime.Tick", "Tick", rt.cycle, vts.Double)
-        await _prop(ctl, ns, "Runtime.RealTime", "RealTime", bool(rt.clock.realtime), vts.Boolean)
+        await _prop(ctl, ns, "Runtime.Tick", "Tick", lay.tick, vts.Double)
+        await _prop(ctl, ns, "Runtime.RealTime", "RealTime", lay.realtime, vts.Boolean)
         ps = await ctl.add_object(
             ua.NodeId("Runtime.ParameterSet", ns), ua.QualifiedName("ParameterSet", ns)
         )
@@ -522,7 +529,7 @@ class OpcUaServer:
         await self._plain(ps, ns, "Runtime.Time", "Time", vts.Double, lambda s: s.t)
         await self._plain(ps, ns, "Runtime.SnapshotSeq", "SnapshotSeq", vts.Int64, lambda s: s.seq)
         tasks = await ctl.add_folder(ua.NodeId("Runtime.Tasks", ns), ua.QualifiedName("Tasks", ns))
-        for j, t in enumerate(rt.tasks):
+        for j, t in enumerate(lay.tasks):
             tn = t.name
             to = await tasks.add_object(ua.NodeId(f"task.{tn}", ns), ua.QualifiedName(tn, ns))
             # OPC 30000 CtrlTaskType: Priority (UInt32), Interval (String)

@@ -20,7 +20,14 @@ from motionplc.schema.opcua import OPCUA, POLICIES, SECURITY_MODES
 if TYPE_CHECKING:
     from motionplc.config import Checker, YamlMap
 
-__all__ = ["OpcUaSettings", "check_password", "hash_password", "parse_opcua"]
+__all__ = [
+    "HmiSettings",
+    "OpcUaSettings",
+    "check_password",
+    "hash_password",
+    "parse_hmi",
+    "parse_opcua",
+]
 
 _N, _R, _P = 2**14, 8, 1
 
@@ -81,6 +88,72 @@ class OpcUaSettings:
         return next((h for n, h in self.users if n == name), None)
 
 
+@dataclass(frozen=True, slots=True)
+class HmiSettings:
+    """The web HMI's settings (the ``hmi:`` block; defaults: the schema's). ``users``: the
+    operators who may log in (name, password hash); without its own ``users`` the block takes
+    those of ``opcua:``."""
+
+    host: str = "127.0.0.1"
+    port: int = 8480
+    users: tuple[tuple[str, str], ...] = ()
+    anonymous: bool = True
+    interval: float = 0.05
+
+    def with_(self, **changes: Any) -> HmiSettings:
+        return replace(self, **changes)
+
+    def user_hash(self, name: str) -> str | None:
+        return next((h for n, h in self.users if n == name), None)
+
+
+def _users(c: Checker, m: YamlMap, path: str) -> tuple[tuple[str, str], ...]:
+    um = c.mapping(m["users"], m.line_of("users"), f"{path}.users")
+    users = []
+    for name, body in (um or {}).items():
+        if not c.name(um, name, f"{path}.users"):
+            continue
+        bm = c.mapping(body, um.line_of(name), f"{path}.users.{name}", {"password_hash": True})
+        if bm is None:
+            continue
+        h = c.string(bm, "password_hash", f"{path}.users.{name}")
+        if h is None:
+            continue
+        parts = h.split("$")
+        if len(parts) != 6 or parts[0] != "scrypt" or not all(p.isdigit() for p in parts[1:4]):
+            c.error(
+                bm.line_of("password_hash"),
+                f"{path}.users.{name}.password_hash",
+                "not a password hash",
+                "scrypt$N$r$p$SALT$HASH from python -m motionplc.operator.passwd",
+            )
+            continue
+        users.append((str(name), h))
+    return tuple(users)
+
+
+def parse_hmi(c: Checker, top: YamlMap, opcua: OpcUaSettings | None = None) -> HmiSettings | None:
+    """The ``hmi:`` block checked against its schema (errors go to ``c``); its users default
+    to those of ``opcua`` (the parsed ``opcua:`` block)."""
+    from motionplc.schema.opcua import HMI
+
+    m = c.mapping(top["hmi"], top.line_of("hmi"), "hmi", HMI.table())
+    if m is None:
+        return None
+    keys = {k.name: k.node for k in HMI.keys}
+    out: dict[str, Any] = {}
+    for name in ("host", "port", "anonymous", "interval"):
+        if name in m and m[name] is not None:
+            v = c.field(m, name, "hmi", keys[name])
+            if v is not None:
+                out[name] = v
+    if m.get("users") is not None:
+        out["users"] = _users(c, m, "hmi")
+    elif opcua is not None:
+        out["users"] = opcua.users
+    return HmiSettings(**out)
+
+
 def parse_opcua(c: Checker, top: YamlMap, config_path: str) -> OpcUaSettings | None:
     """The ``opcua:`` block checked against its schema (errors go to ``c``)."""
     m = c.mapping(top["opcua"], top.line_of("opcua"), "opcua", OPCUA.table())
@@ -116,27 +189,6 @@ def parse_opcua(c: Checker, top: YamlMap, config_path: str) -> OpcUaSettings | N
         else:
             out["security"] = tuple(dict.fromkeys(sl))
     if m.get("users") is not None:
-        um = c.mapping(m["users"], m.line_of("users"), "opcua.users")
-        users = []
-        for name, body in (um or {}).items():
-            if not c.name(um, name, "opcua.users"):
-                continue
-            bm = c.mapping(body, um.line_of(name), f"opcua.users.{name}", {"password_hash": True})
-            if bm is None:
-                continue
-            h = c.string(bm, "password_hash", f"opcua.users.{name}")
-            if h is None:
-                continue
-            parts = h.split("$")
-            if len(parts) != 6 or parts[0] != "scrypt" or not all(p.isdigit() for p in parts[1:4]):
-                c.error(
-                    bm.line_of("password_hash"),
-                    f"opcua.users.{name}.password_hash",
-                    "not a password hash",
-                    "scrypt$N$r$p$SALT$HASH from python -m motionplc.operator.passwd",
-                )
-                continue
-            users.append((str(name), h))
-        out["users"] = tuple(users)
+        out["users"] = _users(c, m, "opcua")
     assert POLICIES  # (the schema's choices are checked by c.field)
     return OpcUaSettings(**out)

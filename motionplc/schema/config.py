@@ -27,7 +27,7 @@ from motionplc.schema.nodes import (
     Scalar,
     String,
 )
-from motionplc.schema.opcua import OPCUA
+from motionplc.schema.opcua import HMI, OPCUA
 from motionplc.schema.register_map import REGISTER_MAP
 
 __all__ = [
@@ -1344,6 +1344,7 @@ TOP = Obj(
         ),
         Key("gcode", GCODE),
         Key("opcua", OPCUA),
+        Key("hmi", HMI),
     ),
 )
 

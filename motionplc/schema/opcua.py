@@ -28,7 +28,8 @@ USER = Obj(
 
 OPCUA = Obj(
     title="OPC UA server",
-    description="The machine's OPC UA server (asyncua, in its own thread): an address space "
+    description="The machine's OPC UA server (asyncua, in the operator process outside the "
+    "real-time process): an address space "
     "modelled on OPC 40010-1 (MotionDeviceSystem, axes, controllers) with the operator "
     "methods. Anonymous sessions read and subscribe; a user of `users` on a Sign or "
     "SignAndEncrypt channel may also call the methods.",
@@ -123,6 +124,60 @@ OPCUA = Obj(
                 default_text="auto",
                 description="A program given to `motionplc run` starts at once (auto) or "
                 "waits for the operator's Start (operator).",
+            ),
+        ),
+    ),
+)
+
+HMI = Obj(
+    title="Web HMI",
+    description="The machine's live web HMI (Starlette and uvicorn in the operator process, "
+    "outside the real-time process; `motionplc run --hmi`): axis positions, states and "
+    "following errors, the group paths, the program's line and the cycle statistics; the "
+    "operator methods behind a login with the same users and password hashes as OPC UA.",
+    keys=(
+        Key(
+            "host",
+            String(
+                what="an IP address or host name",
+                default_text="127.0.0.1",
+                description="The address to listen on (loopback unless given).",
+            ),
+        ),
+        Key(
+            "port",
+            Integer(
+                lo=0,
+                hi=65535,
+                default_text="8480",
+                description="The TCP port (0: a free one, printed at the start).",
+            ),
+        ),
+        Key(
+            "users",
+            MapOf(
+                value=USER,
+                description="The operators who may log in by user name (default: the users "
+                "of `opcua:`).",
+                example={"alice": {"password_hash": "scrypt$16384$8$1$c2FsdA==$aGFzaA=="}},
+            ),
+        ),
+        Key(
+            "anonymous",
+            Bool(
+                default_text="true",
+                description="The page shows the live values without a login (the buttons "
+                "always need one).",
+            ),
+        ),
+        Key(
+            "interval",
+            Number(
+                gt=0.0,
+                le=10.0,
+                unit="s",
+                default_text="0.05",
+                description="How often the page is sent the last snapshot (over a websocket).",
             ),
         ),
     ),

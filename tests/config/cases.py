@@ -41,7 +41,7 @@ CONFIG_CASES: list[tuple[str, str, list[str]]] = [
         _cfg(_X) + "extras: 1\n",
         [
             "{f}:7: (top level).extras: unknown key (allowed: runtime, buses, axes, groups, "
-            "cams, gcode, opcua)"
+            "cams, gcode, opcua, hmi)"
         ],
     ),
     (

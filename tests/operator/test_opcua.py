@@ -2,9 +2,11 @@
 subprocess) -- running the same tests on one running machine: browsing, subscribing, every
 operator method, the security matrix, bad arguments.
 
-One server for the module (asyncua's start loads the standard address space: seconds on a
-loaded machine); the machine runs in simulated time paced to the wall clock by a thread
-(10 ticks, then 10 ms), so the cycle and the server run concurrently as in a real run.
+The server runs in the operator process (:class:`OperatorProcess`: the snapshot board in
+shared memory, the requests over pipes), as in ``motionplc run --opcua``. One server for the
+module (asyncua's start loads the standard address space: seconds on a loaded machine); the
+machine runs in simulated time paced to the wall clock by a thread (10 ticks, then 10 ms), so
+the cycle and the server run concurrently as in a real run.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from asyncua import ua  # noqa: E402
 
 from motionplc.config import build, load_config  # noqa: E402
 from motionplc.operator.desk import OperatorDesk  # noqa: E402
-from motionplc.operator.opcua import OpcUaServer  # noqa: E402
+from motionplc.operator.process import OperatorProcess  # noqa: E402
 from motionplc.operator.settings import hash_password  # noqa: E402
 from tests.operator.clients import O6Worker, run_ops  # noqa: E402
 
@@ -68,8 +70,9 @@ class Plant:
         self.machine = build(self.cfg)
         self.desk = OperatorDesk(self.machine, publish_every=5)
         self.desk.install()
-        self.server = OpcUaServer(self.desk, self.cfg.opcua)
-        self.endpoint = self.server.start()
+        self.server = OperatorProcess(self.desk, self.cfg.opcua).start()
+        assert self.server.endpoint is not None
+        self.endpoint = self.server.endpoint
         self.security = _client_certificate(tmp, self.server.certificate_path)
         self.tmp = tmp
         self.o6 = O6Worker()
@@ -119,7 +122,7 @@ class Plant:
         self.machine.close()
 
 
-def _client_certificate(tmp: Path, server_cert: Path | None) -> dict[str, str]:
+def _client_certificate(tmp: Path, server_cert: str | None) -> dict[str, str]:
     from asyncua.crypto.cert_gen import setup_self_signed_certificate
     from cryptography.x509.oid import ExtendedKeyUsageOID
 

@@ -61,12 +61,40 @@ def test_values_and_relative_paths(tmp_path: Path) -> None:
         ("opcua:\n  users:\n    bob: {password: x}\n", "opcua.users.bob.password"),
         ("opcua:\n  certificate: c.der\n", "certificate and private_key go together"),
         ("opcua:\n  listen: 1\n", "opcua.listen: unknown key"),
+        ("hmi:\n  port: -1\n", "m.yaml:8: hmi.port: "),
+        ("hmi:\n  interval: 0\n", "m.yaml:8: hmi.interval: "),
+        ("hmi:\n  users:\n    bob: {password_hash: secret}\n", "hmi.users.bob.password_hash"),
+        ("hmi:\n  theme: dark\n", "hmi.theme: unknown key"),
     ],
 )
 def test_bad_values_name_the_key(tmp_path: Path, block: str, message: str) -> None:
     with pytest.raises(ConfigError) as info:
         _load(tmp_path, block)
     assert any(message in e for e in info.value.errors), info.value.errors
+
+
+def test_hmi_defaults_and_the_opcua_users(tmp_path: Path) -> None:
+    f = tmp_path / "m.yaml"
+    f.write_text(BASE + "hmi: {}\n")
+    st = load_config(f).hmi
+    assert (st.host, st.port, st.users, st.anonymous, st.interval) == (
+        "127.0.0.1",
+        8480,
+        (),
+        True,
+        0.05,
+    )
+    h, k = hash_password("pw"), hash_password("other")
+    f.write_text(BASE + f"opcua:\n  users:\n    bob: {{password_hash: '{h}'}}\nhmi:\n  port: 0\n")
+    cfg = load_config(f)
+    assert cfg.hmi.users == cfg.opcua.users == (("bob", h),)  # the OPC UA users by default
+    f.write_text(
+        BASE
+        + f"opcua:\n  users:\n    bob: {{password_hash: '{h}'}}\n"
+        + f"hmi:\n  anonymous: false\n  users:\n    eve: {{password_hash: '{k}'}}\n"
+    )
+    st = load_config(f).hmi
+    assert st.users == (("eve", k),) and st.user_hash("bob") is None and not st.anonymous
 
 
 def test_password_hash_round_trip() -> None:
