@@ -932,6 +932,7 @@ class Interpreter:
         n_err = 0
         pct = 0
         shapes: set[str] = set()
+        open_sub: tuple[Any, int] | None = None  # (label, line) of the sub being defined
         try:
             while True:
                 here = src.pos
@@ -964,6 +965,18 @@ class Interpreter:
                         continue
                     if blk.o_keyword:
                         index.setdefault(blk.o_label, []).append((blk.o_keyword, here, no - 1))
+                        if blk.o_keyword == "SUB":
+                            if open_sub is not None:
+                                # LinuxCNC (interp_o_word.cc): "Nested subroutine definition"
+                                raise _Err(
+                                    f"O{blk.o_label}",
+                                    f"subroutine definition inside O{open_sub[0]} sub of line "
+                                    f"{open_sub[1]} (allowed: subroutines defined one after "
+                                    "another, not nested)",
+                                )
+                            open_sub = (blk.o_label, no)
+                        elif blk.o_keyword == "ENDSUB" and open_sub and open_sub[0] == blk.o_label:
+                            open_sub = None
                     if not blk.assigns and self._literal:
                         self._check_block(blk)
                 except _Err as exc:
@@ -1261,10 +1274,21 @@ class Interpreter:
             if code.startswith("#<", j):
                 k = code.find(">", j)
                 if k < 0 or not code.startswith("]", k + 1):
-                    raise _Err(name, "EXISTS needs [#<name>]")
+                    raise _Err(name, "EXISTS needs [#<name>] or [#number]")
                 nm = code[j + 2 : k].lower()
                 return float(self._named_exists(nm)), k + 2
-            raise _Err(name, "EXISTS needs [#<name>]")
+            if code.startswith("#", j):
+                # LinuxCNC (interp_read.cc read_parameter, check_exists): EXISTS[#n] is 1 for a
+                # parameter number in range, 0 outside it (the number itself may be #-valued)
+                v, k = self._value(code, j + 1, depth + 1)
+                if not code.startswith("]", k):
+                    raise _Err(name, "EXISTS needs [#<name>] or [#number]")
+                if self._dry:
+                    return 0.0, k + 1
+                if v != int(v):
+                    raise _Err(name, f"EXISTS[#{_fmt(v)}]: the parameter number is not an integer")
+                return float(1 <= v < _MAX_PARAM), k + 1
+            raise _Err(name, "EXISTS needs [#<name>] or [#number]")
         a, i = self._expr(code, i + 1, depth)
         if name == "ATAN":
             if not code.startswith("/[", i):
@@ -1735,6 +1759,12 @@ class Interpreter:
                     )
                 raise _Err(label, "unknown G code (allowed: the codes of the G-code reference)")
             g = _G_GROUP[t]
+            if g == 1 and g in groups and 800 in (t, groups[g]):
+                # LinuxCNC (interp_read.cc read_g): G80 beside another motion code on one
+                # line is dropped, the other code is the line's motion ("G80 G0" is a G0)
+                if t != 800:
+                    groups[g] = t
+                continue
             if g in groups:
                 raise _Err(
                     label,
@@ -1951,6 +1981,14 @@ class Interpreter:
                     b.word_text[axis_words[0]] if axis_words else "G2",
                     "axis word without a motion mode (allowed: after G0, G1, G2, G3 or a "
                     "canned cycle)",
+                )
+            rot = [c for c in axis_words if c in "ABC"]
+            if code in _CYCLES and rot and g0 not in (100, 280, 300, 920):
+                # LinuxCNC (interp_check.cc check_other_codes): "Cannot put an A in canned cycle"
+                raise _Err(
+                    b.word_text[rot[0]],
+                    f"{rot[0]} word in canned cycle {_g_label(code)} (allowed: the cycle's X Y Z "
+                    "R words; move the rotary axis before the cycle, or after G80)",
                 )
             if g0 == 530 and code not in (0, 10):
                 raise _Err("G53", "G53 needs G0 or G1 (allowed: G53 G0 / G53 G1)")
