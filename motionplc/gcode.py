@@ -237,6 +237,7 @@ WORDS: tuple[Word, ...] = (
     _w("X Y Z", "", "linear axes (those of the machine)"),
     _w("A B C", "", "rotary axes in degrees (those of the machine)"),
     _w("U V W", "", "linear axes (those of the machine)"),
+    _w("@ ^", "", "polar coordinates in G17: radius @ and angle ^ [deg] of X Y (G91: increments)"),
     _w("I J K", "", "arc centre offsets, G87 offsets"),
     _w("R", "", "arc radius, canned-cycle retract level, G10 L2 rotation (0 only)"),
     _w("P", "", "dwell time, turns, G10 system/tool, G64 tolerance, M62-M65 output"),
@@ -594,7 +595,7 @@ class _Source:
 _NUM = re.compile(r"\d+\.?\d*|\.\d+")
 _SIMPLE = re.compile(r"(?:[A-NP-Z][-+]?(?:\d+\.?\d*|\.\d+))+")
 _PAIRS = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
-_ALLOWED_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.+-*/#[]<>=_")
+_ALLOWED_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.+-*/#[]<>=_@^")
 _FUNCS = (
     "ABS",
     "ACOS",
@@ -1060,7 +1061,7 @@ class Interpreter:
                 val, i = self._value(code, i + 1, 0)
                 blk.assigns.append((key, val))
                 continue
-            if "A" <= ch <= "Z":
+            if "A" <= ch <= "Z" or ch in "@^":
                 if ch == "O":
                     raise _Err("O", "O-word not at the start of the line (allowed: o100 sub ...)")
                 j = i + 1
@@ -1809,6 +1810,16 @@ class Interpreter:
                         b.word_text[letter],
                         f"the machine has no {letter} axis (allowed: its axes {have})",
                     )
+            elif letter in "@^":
+                if "X" not in self.setup.axes or "Y" not in self.setup.axes:
+                    raise _Err(b.word_text[letter], "polar coordinates need X and Y axes")
+                for c in "XY":
+                    if c in b.words:
+                        raise _Err(
+                            b.word_text[letter],
+                            f"{letter} (polar coordinates) with a {c} word (allowed: @ ^ in "
+                            "place of X Y)",
+                        )
             elif letter not in "FSTHDIJKRPQL":
                 if letter == "E":
                     _exponent_error(b)
@@ -1945,7 +1956,15 @@ class Interpreter:
             self.ijk_absolute = g[4] == 901
         if 10 in g:
             self.retract_r = g[10] == 990
-        axis_words = [c for c in AXES if c in w]
+        axis_words = [c for c in AXES if c in w] + [c for c in "@^" if c in w]
+        if ("@" in w or "^" in w) and (self.plane != "XY" or g0 in (100, 280, 300, 530, 920)):
+            c = "@" if "@" in w else "^"
+            raise _Err(
+                b.word_text[c],
+                f"{c} (polar coordinates) "
+                + ("outside the G17 plane" if self.plane != "XY" else f"with {_g_label(g0)}")
+                + " (allowed: in G17, with G0, G1 or a canned cycle)",
+            )
         if g0 in (100, 280, 281, 300, 301, 920, 921, 922, 923):
             if (
                 motion_code is not None
@@ -2216,12 +2235,47 @@ class Interpreter:
         for k, c in enumerate(AXES):
             if c in w:
                 target[k] = self._machine(k, w[c], g53)
+        if "@" in w or "^" in w:
+            if code not in (0, 10):
+                c = "@" if "@" in w else "^"
+                raise _Err(
+                    b.word_text[c],
+                    f"{c} (polar coordinates) with an arc is not supported (allowed: with G0, "
+                    "G1 or a canned cycle)",
+                )
+            kx, ky = self.setup.axes["X"], self.setup.axes["Y"]
+            px, py = self._polar(b, self._prog(kx) / self.unit, self._prog(ky) / self.unit)
+            target[kx] = px * self.unit + self._offset(kx)
+            target[ky] = py * self.unit + self._offset(ky)
         if code == 0:
             self._line("rapid", target, b, "G0")
         elif code == 10:
             self._line("linear", target, b, "G1")
         else:
             self._arc(b, code, target, used)
+
+    def _polar(self, b: _Block, x: float, y: float) -> tuple[float, float]:
+        """The X Y end [program units] of a line with polar words from the program position
+        ``x, y``, as LinuxCNC's find_ends: G90 @ radius ^ angle from the origin (the missing
+        one kept from the current position); G91 @ added to the radius, ^ to the angle."""
+        w = b.words
+        word = b.word_text["@" if "@" in w else "^"]
+        at_origin = x == 0.0 and y == 0.0
+        if not self.incremental:
+            if "@" in w and "^" in w:
+                r, th = w["@"], math.radians(w["^"])
+            elif "@" in w:
+                if at_origin:
+                    raise _Err(word, "@ without ^ at the origin (allowed: an angle ^ there)")
+                r, th = w["@"], math.atan2(y, x)
+            else:
+                r, th = math.hypot(x, y), math.radians(w["^"])
+            return r * math.cos(th), r * math.sin(th)
+        if at_origin:
+            raise _Err(word, "G91 polar motion at the origin is indeterminate (allowed: G90 there)")
+        r = math.hypot(x, y) + w.get("@", 0.0)
+        th = math.atan2(y, x) + math.radians(w.get("^", 0.0))
+        return r * math.cos(th), r * math.sin(th)
 
     def _feed(self, b: _Block, word: str) -> tuple[float, float | None]:
         """(linear speed [m/s] or 0 for G93, the G93 duration [s] or None)."""
@@ -2607,15 +2661,23 @@ class Interpreter:
         if self.cycle_il is None:
             self.cycle_il = current_cc
         old_cc = self.cycle_il
+        r_inc = th_inc = 0.0  # polar increments (G17 only: checked in _run_block)
         if not self.incremental:
             aa_inc = bb_inc = 0.0
             rr = cyc["R"]
             cc = zraw
             aa = w[la] if la in w else prog(ka) / conv[0]
             bb = w[lb] if lb in w else prog(kb) / conv[1]
+            if "@" in w or "^" in w:  # LinuxCNC convert_cycle_xy
+                x0, y0 = prog(ka) / conv[0], prog(kb) / conv[1]
+                rad = w["@"] if "@" in w else math.hypot(x0, y0)
+                th = math.radians(w["^"]) if "^" in w else math.atan2(y0, x0)
+                aa, bb = rad * math.cos(th), rad * math.sin(th)
         else:
             aa_inc = w.get(la, 0.0)
             bb_inc = w.get(lb, 0.0)
+            r_inc = w.get("@", 0.0)
+            th_inc = math.radians(w.get("^", 0.0))
             rr = cyc["R"] + old_cc
             cc = rr + zraw
             aa = prog(ka) / conv[0]
@@ -2645,6 +2707,14 @@ class Interpreter:
             for rep in range(repeats, 0, -1):
                 aa += aa_inc
                 bb += bb_inc
+                if r_inc or th_inc:  # LinuxCNC CYCLE_MACRO: about the program origin
+                    if aa == 0.0 and bb == 0.0:
+                        raise _Err(
+                            word, "G91 polar motion at the origin is indeterminate (allowed: G90)"
+                        )
+                    rad = math.hypot(aa, bb) + r_inc
+                    th = math.atan2(bb, aa) + th_inc
+                    aa, bb = rad * math.cos(th), rad * math.sin(th)
                 if rep == repeats and current_cc > rr:
                     go("rapid", aa, bb, current_cc)
                     go("rapid", aa, bb, rr)

@@ -296,3 +296,31 @@ def test_exists_of_numbered_parameters_like_linuxcnc() -> None:
 def test_a_nested_subroutine_definition_is_refused_like_linuxcnc() -> None:
     text = "F100\nO1 sub\nG1 X0\n  O2 sub\n  G1 Y0\n  O2 endsub\nO1 endsub\nO1 call\nM30\n"
     assert "t.ngc:4: O2: subroutine definition inside O1 sub of line 2" in error_of(text)
+
+
+def test_polar_coordinates_like_linuxcnc() -> None:
+    # LinuxCNC's find_ends: G90 @ radius ^ angle about the program origin, the missing one from
+    # the current position; G91 @ adds to the radius, ^ to the angle (nc_files/spiral.ngc)
+    text = "G21 G17 G0 X10 Y0\nG1 @5 F100\nG1 ^90\nG91 G1 @1\nG1 ^-90\nM2\n"
+    got = ends_mm(text)
+    assert got == [[10, 0, 0], [5, 0, 0], pytest.approx([0, 5, 0]), pytest.approx([0, 6, 0]),
+                   pytest.approx([6, 0, 0])]  # fmt: skip
+    # a canned cycle repeated about the origin (nc_files/hole-circle.ngc): six holes 60 deg apart
+    holes = [
+        m.end[:2]
+        for m in moves("G20 G17 G90 G0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\nM2\n")
+        if m.kind == "linear"
+    ]
+    assert len(holes) == 6
+    for k, (x, y) in enumerate(holes, start=1):
+        assert (x, y) == pytest.approx(
+            (
+                1.5 * 0.0254 * math.cos(math.radians(60 * k)),
+                1.5 * 0.0254 * math.sin(math.radians(60 * k)),
+            ),
+            abs=1e-12,
+        )
+    assert "@1: @ (polar coordinates) with a X word" in error_of("G0 X1 @1\n")
+    assert "outside the G17 plane" in error_of("G18 G0 @1 ^2\n")
+    assert "with an arc is not supported" in error_of("G2 @1 ^1 R1 F1\n")
+    assert "@ without ^ at the origin" in error_of("G0 X0 Y0\nG0 @1\n")
