@@ -241,6 +241,7 @@ WORDS: tuple[Word, ...] = (
     _w("X Y Z", "", "linear axes (those of the machine)"),
     _w("A B C", "", "rotary axes in degrees (those of the machine)"),
     _w("U V W", "", "linear axes (those of the machine)"),
+    _w("@ ^", "", "polar coordinates in G17: radius @ and angle ^ [deg] of X Y (G91: increments)"),
     _w("I J K", "", "arc centre offsets, G87 offsets"),
     _w("R", "", "arc radius, canned-cycle retract level, G10 L2 rotation (0 only)"),
     _w("P", "", "dwell time, turns, G10 system/tool, G64 tolerance, M62-M65 output"),
@@ -598,7 +599,7 @@ class _Source:
 _NUM = re.compile(r"\d+\.?\d*|\.\d+")
 _SIMPLE = re.compile(r"(?:[A-NP-Z][-+]?(?:\d+\.?\d*|\.\d+))+")
 _PAIRS = re.compile(r"([A-Z])([-+]?(?:\d+\.?\d*|\.\d+))")
-_ALLOWED_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.+-*/#[]<>=_")
+_ALLOWED_CHARS = frozenset("ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789.+-*/#[]<>=_@^")
 _FUNCS = (
     "ABS",
     "ACOS",
@@ -959,6 +960,7 @@ class Interpreter:
         n_err = 0
         pct = 0
         shapes: set[str] = set()
+        open_sub: tuple[Any, int] | None = None  # (label, line) of the sub being defined
         try:
             while True:
                 here = src.pos
@@ -991,6 +993,18 @@ class Interpreter:
                         continue
                     if blk.o_keyword:
                         index.setdefault(blk.o_label, []).append((blk.o_keyword, here, no - 1))
+                        if blk.o_keyword == "SUB":
+                            if open_sub is not None:
+                                # LinuxCNC (interp_o_word.cc): "Nested subroutine definition"
+                                raise _Err(
+                                    f"O{blk.o_label}",
+                                    f"subroutine definition inside O{open_sub[0]} sub of line "
+                                    f"{open_sub[1]} (allowed: subroutines defined one after "
+                                    "another, not nested)",
+                                )
+                            open_sub = (blk.o_label, no)
+                        elif blk.o_keyword == "ENDSUB" and open_sub and open_sub[0] == blk.o_label:
+                            open_sub = None
                     if not blk.assigns and self._literal:
                         self._check_block(blk)
                 except _Err as exc:
@@ -1130,7 +1144,7 @@ class Interpreter:
                     val, i = self._value(code, i + 1, 0)
                     items.append(("#", key, val))
                     continue
-                if "A" <= ch <= "Z":
+                if "A" <= ch <= "Z" or ch in "@^":
                     if ch == "O":
                         raise _Err(
                             "O", "O-word not at the start of the line (allowed: o100 sub ...)"
@@ -1288,11 +1302,18 @@ class Interpreter:
             if code.startswith("#<", j):
                 k = code.find(">", j)
                 if k < 0 or not code.startswith("]", k + 1):
-                    raise _Err(name, "EXISTS needs [#<name>]")
+                    raise _Err(name, "EXISTS needs [#<name>] or [#number]")
                 nm = code[j + 2 : k].lower()
                 exists = self._named_exists
                 return (lambda: float(exists(nm))), k + 2
-            raise _Err(name, "EXISTS needs [#<name>]")
+            if code.startswith("#", j):
+                # LinuxCNC (interp_read.cc read_parameter, check_exists): EXISTS[#n] is 1 for a
+                # parameter number in range, 0 outside it (the number itself may be #-valued)
+                v, k = self._value(code, j + 1, depth + 1)
+                if not code.startswith("]", k):
+                    raise _Err(name, "EXISTS needs [#<name>] or [#number]")
+                return (lambda: self._exists_number(_ev(v))), k + 1
+            raise _Err(name, "EXISTS needs [#<name>] or [#number]")
         a, i = self._expr(code, i + 1, depth)
         if name == "ATAN":
             if not code.startswith("/[", i):
@@ -1301,6 +1322,13 @@ class Interpreter:
             return (lambda: math.degrees(math.atan2(_ev(a), _ev(b)))), i
         fn = self._apply
         return (lambda: fn(name, _ev(a))), i
+
+    def _exists_number(self, v: float) -> float:
+        if self._dry:
+            return 0.0
+        if v != int(v):
+            raise _Err("EXISTS", f"EXISTS[#{_fmt(v)}]: the parameter number is not an integer")
+        return float(1 <= v < _MAX_PARAM)
 
     def _apply(self, name: str, a: float) -> float:
         try:
@@ -1921,6 +1949,12 @@ class Interpreter:
                     )
                 raise _Err(label, "unknown G code (allowed: the codes of the G-code reference)")
             g = _G_GROUP[t]
+            if g == 1 and g in groups and 800 in (t, groups[g]):
+                # LinuxCNC (interp_read.cc read_g): G80 beside another motion code on one
+                # line is dropped, the other code is the line's motion ("G80 G0" is a G0)
+                if t != 800:
+                    groups[g] = t
+                continue
             if g in groups:
                 raise _Err(
                     label,
@@ -1965,6 +1999,16 @@ class Interpreter:
                         b.word_text[letter],
                         f"the machine has no {letter} axis (allowed: its axes {have})",
                     )
+            elif letter in "@^":
+                if "X" not in self.setup.axes or "Y" not in self.setup.axes:
+                    raise _Err(b.word_text[letter], "polar coordinates need X and Y axes")
+                for c in "XY":
+                    if c in b.words:
+                        raise _Err(
+                            b.word_text[letter],
+                            f"{letter} (polar coordinates) with a {c} word (allowed: @ ^ in "
+                            "place of X Y)",
+                        )
             elif letter not in "FSTHDIJKRPQL":
                 if letter == "E":
                     _exponent_error(b)
@@ -2101,7 +2145,15 @@ class Interpreter:
             self.ijk_absolute = g[4] == 901
         if 10 in g:
             self.retract_r = g[10] == 990
-        axis_words = [c for c in AXES if c in w]
+        axis_words = [c for c in AXES if c in w] + [c for c in "@^" if c in w]
+        if ("@" in w or "^" in w) and (self.plane != "XY" or g0 in (100, 280, 300, 530, 920)):
+            c = "@" if "@" in w else "^"
+            raise _Err(
+                b.word_text[c],
+                f"{c} (polar coordinates) "
+                + ("outside the G17 plane" if self.plane != "XY" else f"with {_g_label(g0)}")
+                + " (allowed: in G17, with G0, G1 or a canned cycle)",
+            )
         if g0 in (100, 280, 281, 300, 301, 920, 921, 922, 923):
             if (
                 motion_code is not None
@@ -2137,6 +2189,14 @@ class Interpreter:
                     b.word_text[axis_words[0]] if axis_words else "G2",
                     "axis word without a motion mode (allowed: after G0, G1, G2, G3 or a "
                     "canned cycle)",
+                )
+            rot = [c for c in axis_words if c in "ABC"]
+            if code in _CYCLES and rot and g0 not in (100, 280, 300, 920):
+                # LinuxCNC (interp_check.cc check_other_codes): "Cannot put an A in canned cycle"
+                raise _Err(
+                    b.word_text[rot[0]],
+                    f"{rot[0]} word in canned cycle {_g_label(code)} (allowed: the cycle's X Y Z "
+                    "R words; move the rotary axis before the cycle, or after G80)",
                 )
             if g0 == 530 and code not in (0, 10):
                 raise _Err("G53", "G53 needs G0 or G1 (allowed: G53 G0 / G53 G1)")
@@ -2364,12 +2424,47 @@ class Interpreter:
         for k, c in enumerate(AXES):
             if c in w:
                 target[k] = self._machine(k, w[c], g53)
+        if "@" in w or "^" in w:
+            if code not in (0, 10):
+                c = "@" if "@" in w else "^"
+                raise _Err(
+                    b.word_text[c],
+                    f"{c} (polar coordinates) with an arc is not supported (allowed: with G0, "
+                    "G1 or a canned cycle)",
+                )
+            kx, ky = self.setup.axes["X"], self.setup.axes["Y"]
+            px, py = self._polar(b, self._prog(kx) / self.unit, self._prog(ky) / self.unit)
+            target[kx] = px * self.unit + self._offset(kx)
+            target[ky] = py * self.unit + self._offset(ky)
         if code == 0:
             self._line("rapid", target, b, "G0")
         elif code == 10:
             self._line("linear", target, b, "G1")
         else:
             self._arc(b, code, target, used)
+
+    def _polar(self, b: _Block, x: float, y: float) -> tuple[float, float]:
+        """The X Y end [program units] of a line with polar words from the program position
+        ``x, y``, as LinuxCNC's find_ends: G90 @ radius ^ angle from the origin (the missing
+        one kept from the current position); G91 @ added to the radius, ^ to the angle."""
+        w = b.words
+        word = b.word_text["@" if "@" in w else "^"]
+        at_origin = x == 0.0 and y == 0.0
+        if not self.incremental:
+            if "@" in w and "^" in w:
+                r, th = w["@"], math.radians(w["^"])
+            elif "@" in w:
+                if at_origin:
+                    raise _Err(word, "@ without ^ at the origin (allowed: an angle ^ there)")
+                r, th = w["@"], math.atan2(y, x)
+            else:
+                r, th = math.hypot(x, y), math.radians(w["^"])
+            return r * math.cos(th), r * math.sin(th)
+        if at_origin:
+            raise _Err(word, "G91 polar motion at the origin is indeterminate (allowed: G90 there)")
+        r = math.hypot(x, y) + w.get("@", 0.0)
+        th = math.atan2(y, x) + math.radians(w.get("^", 0.0))
+        return r * math.cos(th), r * math.sin(th)
 
     def _feed(self, b: _Block, word: str) -> tuple[float, float | None]:
         """(linear speed [m/s] or 0 for G93, the G93 duration [s] or None)."""
@@ -2755,15 +2850,23 @@ class Interpreter:
         if self.cycle_il is None:
             self.cycle_il = current_cc
         old_cc = self.cycle_il
+        r_inc = th_inc = 0.0  # polar increments (G17 only: checked in _run_block)
         if not self.incremental:
             aa_inc = bb_inc = 0.0
             rr = cyc["R"]
             cc = zraw
             aa = w[la] if la in w else prog(ka) / conv[0]
             bb = w[lb] if lb in w else prog(kb) / conv[1]
+            if "@" in w or "^" in w:  # LinuxCNC convert_cycle_xy
+                x0, y0 = prog(ka) / conv[0], prog(kb) / conv[1]
+                rad = w["@"] if "@" in w else math.hypot(x0, y0)
+                th = math.radians(w["^"]) if "^" in w else math.atan2(y0, x0)
+                aa, bb = rad * math.cos(th), rad * math.sin(th)
         else:
             aa_inc = w.get(la, 0.0)
             bb_inc = w.get(lb, 0.0)
+            r_inc = w.get("@", 0.0)
+            th_inc = math.radians(w.get("^", 0.0))
             rr = cyc["R"] + old_cc
             cc = rr + zraw
             aa = prog(ka) / conv[0]
@@ -2793,6 +2896,14 @@ class Interpreter:
             for rep in range(repeats, 0, -1):
                 aa += aa_inc
                 bb += bb_inc
+                if r_inc or th_inc:  # LinuxCNC CYCLE_MACRO: about the program origin
+                    if aa == 0.0 and bb == 0.0:
+                        raise _Err(
+                            word, "G91 polar motion at the origin is indeterminate (allowed: G90)"
+                        )
+                    rad = math.hypot(aa, bb) + r_inc
+                    th = math.atan2(bb, aa) + th_inc
+                    aa, bb = rad * math.cos(th), rad * math.sin(th)
                 if rep == repeats and current_cc > rr:
                     go("rapid", aa, bb, current_cc)
                     go("rapid", aa, bb, rr)

@@ -14,6 +14,8 @@ G64's P, and the end position::
     python tools/bench_gcode.py                       # the table (about 10 min on this host)
     python tools/bench_gcode.py --quick               # smaller programs, a short real-time run
     python tools/bench_gcode.py --rt-segments 10000   # the issue's 10,000-segment real-time run
+    python tools/bench_gcode.py --interpret largest   # lines/s of interpret + map on the largest
+                                                      # real program (tests/gcode/thirdparty)
 
 Programs are in mm (G21), F in mm/min; the machine is the gantry's axes and group on ideal
 drives, one 1 ms task (``RT_CONFIG``): the kernel's own work, no bus. ``G64/G61 <= 1`` must hold
@@ -368,7 +370,21 @@ def main() -> int:
     ap.add_argument("--rt-idle", type=int, default=2000, help="idle cycles before and after")
     ap.add_argument("--only", default="", help="comma-separated program names")
     ap.add_argument("--out", default=None, help="keep the programs in this directory")
+    ap.add_argument(
+        "--interpret",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="only interpret + map FILE on mill3 (lines per second; 'largest': the largest "
+        "third-party program; tools/bench_gcode_interp.py --file)",
+    )
     args = ap.parse_args()
+    if args.interpret:
+        from tools.bench_gcode_interp import file_figures, largest_program
+
+        for f in args.interpret:
+            print(file_figures(largest_program() if f == "largest" else Path(f).resolve()))
+        return 0
     scale = 0.2 if args.quick else args.scale
     tmp = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="bench_gcode_"))
     tmp.mkdir(parents=True, exist_ok=True)

@@ -11,6 +11,8 @@
 3. **Corpus**: every program of tests/gcode/corpus validated on both mills (counts).
 
     python tools/bench_gcode_interp.py --lines 150000 --run-segments 150000
+    python tools/bench_gcode_interp.py --file largest     # a real program: the largest one of
+                                                          # tests/gcode/thirdparty (or a path)
 """
 
 from __future__ import annotations
@@ -62,7 +64,7 @@ def tiny_segments(n: int, seed: int = 1) -> str:
 
 def interpret_and_map(path: Path, cfg: object, traced: bool) -> tuple[int, float, int]:
     """(group moves, CPU seconds, peak traced bytes (0 untraced)) of one streaming pass."""
-    setup = setup_from_config(cfg, "xyz")  # type: ignore[arg-type]
+    setup = setup_from_config(cfg, cfg.groups[0].name)  # type: ignore[attr-defined]
     from motionplc.gcode import GcodeProgram
 
     prog = GcodeProgram(str(path), setup)
@@ -79,6 +81,39 @@ def interpret_and_map(path: Path, cfg: object, traced: bool) -> tuple[int, float
         peak = tracemalloc.get_traced_memory()[1]
         tracemalloc.stop()
     return n, dt, peak
+
+
+THIRDPARTY = ROOT / "tests" / "gcode" / "thirdparty"
+
+
+def largest_program() -> Path:
+    """The largest third-party program that validates on mill3 (tests/gcode/thirdparty)."""
+    rows = (ln.split("\t") for ln in (THIRDPARTY / "expected.tsv").read_text().splitlines())
+    ok = [THIRDPARTY / r[0] for r in rows if r[1].startswith("ok")]
+    return max(ok, key=lambda p: p.stat().st_size)
+
+
+def file_figures(path: Path, cfg_path: Path = MILL3, repeat: int = 3) -> str:
+    """Interpret + map of a real program on ``cfg_path`` (the best of ``repeat`` passes, CPU
+    time; the file is validated first, as ``motionplc run`` does, timed apart)."""
+    cfg = load_config(cfg_path)
+    setup = setup_from_config(cfg, cfg.groups[0].name)
+    t0 = time.process_time()
+    load_gcode(path, setup=setup)
+    t_val = time.process_time() - t0
+    n_lines = len(path.read_bytes().splitlines())
+    best, n = float("inf"), 0
+    for _ in range(repeat):
+        n, dt, _ = interpret_and_map(path, cfg, False)
+        best = min(best, dt)
+    _, _, peak = interpret_and_map(path, cfg, True)
+    name = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+    return (
+        f"{name} ({path.stat().st_size / 1e6:.2f} MB, {n_lines} lines) on "
+        f"{cfg_path.stem}: validate {t_val:.2f} s CPU; interpret + map {n} group moves in "
+        f"{best:.2f} s CPU = {n_lines / best:,.0f} lines/s ({best / n_lines * 1e4:.3f} s per "
+        f"10000 lines), peak traced memory {peak / 1e6:.2f} MB"
+    )
 
 
 def _untraced(snapshot: tracemalloc.Snapshot) -> int:
@@ -137,7 +172,18 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--lines", type=int, default=150_000)
     ap.add_argument("--run-segments", type=int, default=20_000)
+    ap.add_argument(
+        "--file",
+        action="append",
+        default=[],
+        help="interpret + map this program only (repeatable; 'largest': the largest "
+        "third-party program of tests/gcode/thirdparty)",
+    )
     args = ap.parse_args(argv)
+    if args.file:
+        for f in args.file:
+            print(file_figures(largest_program() if f == "largest" else Path(f).resolve()))  # noqa: T201
+        return 0
     cfg = load_config(MILL3)
     with tempfile.TemporaryDirectory() as tmp:
         big = Path(tmp) / "tiny.ngc"

@@ -340,3 +340,66 @@ def test_zero_length_moves_are_skipped_without_memory_per_move() -> None:
 def test_a_number_with_an_exponent_is_named_as_such(line: str, expected: str) -> None:
     """issue 30: ``F1e15`` read as 'E15: unknown word'; the message names the exponent."""
     assert expected in error_of(f"G21\n{line}\n")
+
+
+# -- found by the third-party corpus (tests/gcode/thirdparty) --------------------------------
+def test_g80_beside_another_motion_code_is_dropped_like_linuxcnc() -> None:
+    # LinuxCNC's read_g: "G80 G0" / "G0 G80" on one line is a G0 (CAM preambles, e.g. the
+    # trajectory planner's quick-tests/zero_length_move.ngc: "G90 G17 G40 G80 G00 G20")
+    assert ends_mm("G21 G90 G80 G0 X1\nG0 G80 Y2\nM2\n") == [[1, 0, 0], [1, 2, 0]]
+    assert ends_mm("G21 F60 G80 G81 X1 Y1 Z-1 R1\nG80\nM2\n")[-1] == [1, 1, 1]
+    assert "G0 and G1 on one line are of the same modal group" in error_of("G0 G1 X1 F9\n")
+
+
+def test_a_rotary_word_in_a_canned_cycle_is_refused_like_linuxcnc() -> None:
+    # LinuxCNC tests/interp/bad/a-in-canned-cycle*.ngc: "Cannot put an a in canned cycle"
+    for text in ("G81 X0 Y0 Z-1 R0 F12\nA90\n", "G81 X0 Y0 Z-1 R0 A90 F12\n"):
+        assert "A90: A word in canned cycle G81" in error_of("G21\n" + text, XYZA)
+    last = moves("G21 F12 G81 X0 Y0 Z-1 R0\nG80\nG0 A90\nM2\n", XYZA)[-1]
+    assert last.end[3] == pytest.approx(math.pi / 2)
+
+
+def test_exists_of_numbered_parameters_like_linuxcnc() -> None:
+    # LinuxCNC tests/interp/exists: EXISTS[#n] is 1 for 1 <= n < 5602, the number may be
+    # #-valued; the reference's canon output is (1, 0, 1) then (1, 0, 0)
+    text = (
+        "#<a>=999\nG0 X EXISTS[#1] Y EXISTS[#99999] Z EXISTS[#<a>]\n"
+        "#1=2\n#2=99999\nG0 X EXISTS[##1] Y EXISTS[##2] Z EXISTS[###1]\nM2\n"
+    )
+    assert ends_mm("G21\n" + text) == [[1, 0, 1], [1, 0, 0]]
+    assert "EXISTS needs [#<name>] or [#number]" in error_of("G0 X EXISTS[1]\n")
+    assert "EXISTS needs [#<name>] or [#number]" in error_of("G0 X EXISTS[#1+#2]\n")
+    assert "parameter number out of range" in error_of("#2=99999\nG0 X EXISTS[###2]\n")
+
+
+def test_a_nested_subroutine_definition_is_refused_like_linuxcnc() -> None:
+    text = "F100\nO1 sub\nG1 X0\n  O2 sub\n  G1 Y0\n  O2 endsub\nO1 endsub\nO1 call\nM30\n"
+    assert "t.ngc:4: O2: subroutine definition inside O1 sub of line 2" in error_of(text)
+
+
+def test_polar_coordinates_like_linuxcnc() -> None:
+    # LinuxCNC's find_ends: G90 @ radius ^ angle about the program origin, the missing one from
+    # the current position; G91 @ adds to the radius, ^ to the angle (nc_files/spiral.ngc)
+    text = "G21 G17 G0 X10 Y0\nG1 @5 F100\nG1 ^90\nG91 G1 @1\nG1 ^-90\nM2\n"
+    got = ends_mm(text)
+    assert got == [[10, 0, 0], [5, 0, 0], pytest.approx([0, 5, 0]), pytest.approx([0, 6, 0]),
+                   pytest.approx([6, 0, 0])]  # fmt: skip
+    # a canned cycle repeated about the origin (nc_files/hole-circle.ngc): six holes 60 deg apart
+    holes = [
+        m.end[:2]
+        for m in moves("G20 G17 G90 G0 X1.5 Y0 Z0\nG91 G81 R.1 Z-.5 ^60 L6 F10\nM2\n")
+        if m.kind == "linear"
+    ]
+    assert len(holes) == 6
+    for k, (x, y) in enumerate(holes, start=1):
+        assert (x, y) == pytest.approx(
+            (
+                1.5 * 0.0254 * math.cos(math.radians(60 * k)),
+                1.5 * 0.0254 * math.sin(math.radians(60 * k)),
+            ),
+            abs=1e-12,
+        )
+    assert "@1: @ (polar coordinates) with a X word" in error_of("G0 X1 @1\n")
+    assert "outside the G17 plane" in error_of("G18 G0 @1 ^2\n")
+    assert "with an arc is not supported" in error_of("G2 @1 ^1 R1 F1\n")
+    assert "@ without ^ at the origin" in error_of("G0 X0 Y0\nG0 @1\n")
