@@ -77,6 +77,18 @@ PROGRAM_METHODS: dict[str, tuple[tuple[str, str, str], ...]] = {
 }
 
 
+def of_kind(kind: str, x: Any) -> bool:
+    """Is ``x`` a value of an argument kind of the method tables ("bool", "int", "float",
+    "str")? (A bool is not an int here.)"""
+    if kind == "bool":
+        return isinstance(x, bool)
+    if kind == "int":
+        return isinstance(x, int) and not isinstance(x, bool)
+    if kind == "float":
+        return isinstance(x, (int, float)) and not isinstance(x, bool)
+    return isinstance(x, str)
+
+
 # ------------------------------------------------------------------------------ snapshot
 @dataclass(frozen=True, slots=True)
 class AxisView:

@@ -37,6 +37,7 @@ from motionplc.operator.desk import (
     GROUP_METHODS,
     PROGRAM_METHODS,
     Request,
+    of_kind,
     state_name,
 )
 from motionplc.operator.settings import HmiSettings, check_password
@@ -68,16 +69,6 @@ def snapshot_json(snap: Any) -> dict[str, Any]:
     for g in d["groups"]:
         g["state_name"] = state_name("group", g["state"])
     return d
-
-
-def _kind_ok(kind: str, x: Any) -> bool:
-    if kind == "bool":
-        return isinstance(x, bool)
-    if kind == "int":
-        return isinstance(x, int) and not isinstance(x, bool)
-    if kind == "float":
-        return isinstance(x, (int, float)) and not isinstance(x, bool)
-    return isinstance(x, str)
 
 
 class HmiServer:
@@ -198,7 +189,7 @@ class HmiServer:
                 text = f"{method} takes {len(params)} arguments, got {len(args)}"
                 return JSONResponse({"ok": False, "text": text}, 400)
             for (pname, kind, _), v in zip(params, args, strict=True):
-                if not _kind_ok(kind, v):
+                if not of_kind(kind, v):
                     text = f"{pname} must be {kind}, got {v!r}"
                     return JSONResponse({"ok": False, "text": text}, 400)
             loop = asyncio.get_running_loop()

@@ -42,6 +42,7 @@ from motionplc.operator.desk import (
     OperatorDesk,
     Request,
     Snapshot,
+    of_kind,
 )
 from motionplc.operator.settings import OpcUaSettings, check_password
 
@@ -702,7 +703,7 @@ class OpcUaServer:
             args = []
             for k, ((pname, kind, _), v) in enumerate(zip(params, variants, strict=True)):
                 x = v.Value if isinstance(v, ua.Variant) else v
-                if not _type_ok(kind, x):
+                if not of_kind(kind, x):
                     res.InputArgumentResults[k] = ua.StatusCode(ua.StatusCodes.BadTypeMismatch)
                     res.StatusCode = ua.StatusCode(ua.StatusCodes.BadInvalidArgument)
                     text = f"{pname} must be {kind}, got {x!r}"
@@ -834,16 +835,6 @@ def _outs(eid: int, text: str, cycle: int) -> list[Any]:
         ua.Variant(text, ua.VariantType.String),
         ua.Variant(int(cycle), ua.VariantType.Int64),
     ]
-
-
-def _type_ok(kind: str, x: Any) -> bool:
-    if kind == "bool":
-        return isinstance(x, bool)
-    if kind == "int":
-        return isinstance(x, int) and not isinstance(x, bool)
-    if kind == "float":
-        return isinstance(x, (int, float)) and not isinstance(x, bool)
-    return isinstance(x, str)
 
 
 def _status_of(eid: int) -> int:

@@ -6,6 +6,30 @@ from __future__ import annotations
 
 from motionplc.schema.nodes import Bool, Choice, Integer, Key, ListOf, MapOf, Number, Obj, String
 
+
+def _listen(default_port: str) -> tuple[Key, Key]:
+    """The ``host`` and ``port`` keys of a server of the operator process."""
+    return (
+        Key(
+            "host",
+            String(
+                what="an IP address or host name",
+                default_text="127.0.0.1",
+                description="The address to listen on (loopback unless given).",
+            ),
+        ),
+        Key(
+            "port",
+            Integer(
+                lo=0,
+                hi=65535,
+                default_text=default_port,
+                description="The TCP port (0: a free one, printed at the start).",
+            ),
+        ),
+    )
+
+
 SECURITY_MODES = ("None", "Sign", "SignAndEncrypt")
 POLICIES = ("Basic256Sha256", "Aes128Sha256RsaOaep", "Aes256Sha256RsaPss")
 
@@ -34,23 +58,7 @@ OPCUA = Obj(
     "methods. Anonymous sessions read and subscribe; a user of `users` on a Sign or "
     "SignAndEncrypt channel may also call the methods.",
     keys=(
-        Key(
-            "host",
-            String(
-                what="an IP address or host name",
-                default_text="127.0.0.1",
-                description="The address to listen on (loopback unless given).",
-            ),
-        ),
-        Key(
-            "port",
-            Integer(
-                lo=0,
-                hi=65535,
-                default_text="4840",
-                description="The TCP port (0: a free one, printed at the start).",
-            ),
-        ),
+        *_listen("4840"),
         Key(
             "security",
             ListOf(
@@ -136,23 +144,7 @@ HMI = Obj(
     "following errors, the group paths, the program's line and the cycle statistics; the "
     "operator methods behind a login with the same users and password hashes as OPC UA.",
     keys=(
-        Key(
-            "host",
-            String(
-                what="an IP address or host name",
-                default_text="127.0.0.1",
-                description="The address to listen on (loopback unless given).",
-            ),
-        ),
-        Key(
-            "port",
-            Integer(
-                lo=0,
-                hi=65535,
-                default_text="8480",
-                description="The TCP port (0: a free one, printed at the start).",
-            ),
-        ),
+        *_listen("8480"),
         Key(
             "users",
             MapOf(
